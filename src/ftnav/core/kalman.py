@@ -1,0 +1,197 @@
+"""Batched linear-Gaussian kernel: predict, Joseph update, information form.
+
+Every function is pure and works on arrays with arbitrary leading batch axes:
+vectors are ``(..., n)`` and matrices ``(..., n, n)``, so one call advances B Monte
+Carlo runs (or B runs x N local filters) in lock-step.  Nothing here imports from
+the rest of ftnav.
+
+Notation (spec §0): ``x`` state mean, ``P`` covariance, ``F`` transition matrix
+(Φ), ``Q`` process-noise covariance (already mapped through Γ), ``H`` measurement
+matrix, ``R`` measurement-noise covariance, ``Y = P⁻¹`` information matrix and
+``y = P⁻¹ x`` information vector, ``nu = z − H x⁻`` innovation,
+``S = H P⁻ Hᵀ + R`` its covariance and ``nis = nuᵀ S⁻¹ nu``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ftnav.core.linalg import flat, predict_kernel, spd_inv, spd_solve, update_kernel
+
+__all__ = [
+    "Gaussian",
+    "Update",
+    "symmetrize",
+    "mT",
+    "mv",
+    "predict",
+    "update",
+    "nis",
+    "to_information",
+    "from_information",
+    "information_predict",
+    "spd_inverse",
+]
+
+
+class Gaussian(NamedTuple):
+    """Mean ``x`` (..., n) and covariance ``P`` (..., n, n)."""
+
+    x: np.ndarray
+    P: np.ndarray
+
+
+class Update(NamedTuple):
+    """Result of a measurement update (spec §0, §3.1).
+
+    Attributes
+    ----------
+    x : (..., n) posterior mean.
+    P : (..., n, n) posterior covariance (Joseph form, symmetrized).
+    innovation : (..., m) ``z − H x⁻``.
+    S : (..., m, m) innovation covariance ``H P⁻ Hᵀ + R``.
+    nis : (...,) normalized innovation squared ``νᵀ S⁻¹ ν``.
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+    innovation: np.ndarray
+    S: np.ndarray
+    nis: np.ndarray
+
+
+def mT(A: np.ndarray) -> np.ndarray:
+    """Transpose of the last two axes."""
+    return np.swapaxes(A, -1, -2)
+
+
+def mv(A: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Batched matrix-vector product ``A x`` for ``A (..., m, n)``, ``x (..., n)``."""
+    return (A @ x[..., None])[..., 0]
+
+
+def symmetrize(P: np.ndarray) -> np.ndarray:
+    """Return ``½(P + Pᵀ)`` (spec §0, numerics)."""
+    return 0.5 * (P + mT(P))
+
+
+def predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> Gaussian:
+    """Kalman time update ``x⁻ = F x``, ``P⁻ = F P Fᵀ + Q`` (spec §1.3 step 1).
+
+    Parameters
+    ----------
+    x : (..., n) posterior mean at k−1.
+    P : (..., n, n) posterior covariance at k−1.
+    F : (..., n, n) transition matrix Φ_k (broadcast against the batch).
+    Q : (..., n, n) process-noise covariance Γ Q_k Γᵀ.
+    """
+    n = x.shape[-1]
+    batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], F.shape[:-2], Q.shape[:-2])
+    xf = flat(x, batch, (n,))
+    x_out, P_out = np.empty_like(xf), np.empty((xf.shape[0], n, n))
+    predict_kernel(xf, flat(P, batch, (n, n)), flat(F, batch, (n, n), True),
+                   flat(Q, batch, (n, n), True),
+                   x_out, P_out)
+    return Gaussian(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)))
+
+
+def predict_reference(x, P, F, Q) -> Gaussian:
+    """Plain NumPy form of :func:`predict` (the test oracle of the compiled one)."""
+    return Gaussian(mv(F, x), symmetrize(F @ P @ mT(F) + Q))
+
+
+def update(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray
+) -> Update:
+    """Kalman measurement update in Joseph form (spec §0).
+
+    ``K = P Hᵀ S⁻¹``, ``x⁺ = x + K ν``,
+    ``P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ``, then symmetrized.  Solves with ``S``
+    instead of forming ``S⁻¹``.
+
+    Parameters
+    ----------
+    x : (..., n) prior mean.
+    P : (..., n, n) prior covariance.
+    z : (..., m) measurement.
+    H : (..., m, n) measurement matrix.
+    R : (..., m, m) measurement-noise covariance.
+    """
+    n, m = x.shape[-1], z.shape[-1]
+    batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
+                                R.shape[:-2])
+    xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
+    Hf, Rf = flat(H, batch, (m, n), True), flat(R, batch, (m, m), True)
+    M = xf.shape[0]
+    x_out, P_out = np.empty((M, n)), np.empty((M, n, n))
+    nu, S, q = np.empty((M, m)), np.empty((M, m, m)), np.empty(M)
+    ok = update_kernel(xf, Pf, zf, Hf, Rf, x_out, P_out, nu, S, q)
+    if not ok.all():  # S not numerically SPD: LU fallback, never a silent wrong answer
+        bad = ~ok
+        Hb = Hf[bad] if Hf.shape[0] > 1 else Hf[0]
+        Rb = Rf[bad] if Rf.shape[0] > 1 else Rf[0]
+        ref = update_reference(xf[bad], Pf[bad], zf[bad], Hb, Rb)
+        x_out[bad], P_out[bad], nu[bad], S[bad], q[bad] = ref
+    return Update(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)),
+                  nu.reshape(batch + (m,)), S.reshape(batch + (m, m)), q.reshape(batch))
+
+
+def update_reference(x, P, z, H, R) -> Update:
+    """Plain NumPy form of :func:`update` (LU solves; the compiled kernel's oracle)."""
+    nu = z - mv(H, x)
+    PHt = P @ mT(H)
+    S = symmetrize(H @ PHt + R)
+    # K = P Hᵀ S⁻¹  <=>  Kᵀ = S⁻¹ H P (S and P symmetric)
+    K = mT(np.linalg.solve(S, mT(PHt)))
+    x_post = x + mv(K, nu)
+    n = x.shape[-1]
+    A = np.eye(n) - K @ H
+    P_post = symmetrize(A @ P @ mT(A) + K @ R @ mT(K))
+    return Update(x_post, P_post, nu, S, nis(nu, S))
+
+
+
+
+def nis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """Normalized innovation squared ``νᵀ S⁻¹ ν`` (spec §3.1), shape (...)."""
+    return np.einsum("...i,...i->...", nu, spd_solve(S, nu[..., None])[..., 0])
+
+
+def spd_inverse(P: np.ndarray) -> np.ndarray:
+    """Inverse of a symmetric positive-definite matrix, symmetrized."""
+    return spd_inv(P)
+
+
+def to_information(x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Covariance form to information form: ``Y = P⁻¹``, ``y = P⁻¹ x`` (spec §0)."""
+    Y = spd_inverse(P)
+    return mv(Y, x), Y
+
+
+def from_information(y: np.ndarray, Y: np.ndarray) -> Gaussian:
+    """Information form to covariance form: ``P = Y⁻¹``, ``x = P y`` (spec §0)."""
+    P = spd_inverse(Y)
+    return Gaussian(mv(P, y), P)
+
+
+def information_predict(
+    y: np.ndarray, Y: np.ndarray, F: np.ndarray, Q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Information-form time update valid for singular ``Y`` (spec §1.5, ZR note).
+
+    With ``M = F⁻ᵀ Y F⁻¹`` the prior information is ``Y⁻ = (I + M Q)⁻¹ M``
+    (equal to ``(F Y⁻¹ Fᵀ + Q)⁻¹`` when ``Y`` is invertible) and
+    ``y⁻ = (I + M Q)⁻¹ F⁻ᵀ y``.  Works for ``Y = 0`` (no information) and for a
+    singular ``Q``; needs ``F`` invertible, which holds for any discretized
+    continuous-time model.
+    """
+    n = y.shape[-1]
+    Finv = np.linalg.inv(F)
+    FinvT = mT(Finv)
+    M = FinvT @ Y @ Finv
+    A = np.eye(n) + M @ Q
+    Y_prior = symmetrize(np.linalg.solve(A, M))
+    y_prior = np.linalg.solve(A, mv(FinvT, y)[..., None])[..., 0]
+    return y_prior, Y_prior

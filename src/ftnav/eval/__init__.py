@@ -1,0 +1,1 @@
+"""Evaluation: error, consistency (NEES) and fault-detection metrics (spec §11)."""

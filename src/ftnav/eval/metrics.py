@@ -1,0 +1,391 @@
+"""Monte Carlo evaluation metrics (spec §11).
+
+Pure NumPy functions on arrays with a leading Monte Carlo run axis ``B``:
+
+* :func:`error_stats` -- per-axis RMSE (per run, run-averaged and ensemble) and
+  max ``|e|`` over an evaluation window ``W``.
+* :func:`nees`, :func:`nees_stats`, :func:`chi2_band` -- normalized estimation
+  error squared ``eps_k = e_kᵀ P_k⁻¹ e_k``, its run average ``eps_bar_k`` with the
+  two-sided chi-square band ``[chi2_{Mn}(0.025), chi2_{Mn}(0.975)] / M`` and the
+  time-averaged ANEES.
+* :func:`detection_stats` -- detection probability, missed-detection and
+  false-alarm rates, detection delay and recovery time of one detector on one
+  subsystem against ground-truth fault windows ``[t_on, t_off)``.
+
+Nothing here loops over runs; loops run over fault windows only.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+from scipy.stats import chi2
+
+from ftnav.core.linalg import spd_solve
+
+__all__ = [
+    "ErrorStats",
+    "NeesStats",
+    "DetectionStats",
+    "error_stats",
+    "nees",
+    "nees_stats",
+    "chi2_band",
+    "detection_stats",
+]
+
+
+# ---------------------------------------------------------------------------
+# Estimation error
+# ---------------------------------------------------------------------------
+
+
+class ErrorStats(NamedTuple):
+    """Per-axis error statistics over an evaluation window (spec §11).
+
+    Attributes
+    ----------
+    rmse : (n,) mean over the ``B`` runs of the per-run RMSE, same unit as the error.
+    rmse_per_run : (B, n) per-run RMSE ``sqrt(mean_{k in W} e_{j,k}^2)``.
+    ensemble_rmse : (n,) ``sqrt`` of the mean of ``e^2`` over runs and window epochs.
+    max_abs : (n,) maximum ``|e|`` over runs and window epochs.
+    """
+
+    rmse: np.ndarray
+    rmse_per_run: np.ndarray
+    ensemble_rmse: np.ndarray
+    max_abs: np.ndarray
+
+
+def error_stats(err: np.ndarray, window: np.ndarray) -> ErrorStats:
+    """RMSE and max absolute error per axis over an evaluation window (spec §11).
+
+    Parameters
+    ----------
+    err : (B, K, n) array
+        Estimate minus truth for ``B`` Monte Carlo runs, ``K`` epochs and ``n``
+        axes (any consistent unit, e.g. m, m/s, rad).
+    window : (K,) bool array
+        Epochs belonging to the evaluation window ``W``.
+
+    Returns
+    -------
+    ErrorStats
+        See :class:`ErrorStats`.  If ``window`` selects no epoch, every field is
+        filled with ``np.nan`` (same shapes); callers should check
+        ``window.any()`` first.
+    """
+    err = np.asarray(err, dtype=float)
+    window = np.asarray(window, dtype=bool)
+    if err.ndim != 3:
+        raise ValueError(f"err must have shape (B, K, n), got {err.shape}")
+    B, K, n = err.shape
+    if window.shape != (K,):
+        raise ValueError(f"window must have shape ({K},), got {window.shape}")
+    if not window.any():
+        nan_n = np.full(n, np.nan)
+        return ErrorStats(nan_n, np.full((B, n), np.nan), nan_n.copy(), nan_n.copy())
+
+    e = err[:, window, :]  # (B, Kw, n)
+    sq = e * e
+    rmse_per_run = np.sqrt(sq.mean(axis=1))
+    return ErrorStats(
+        rmse=rmse_per_run.mean(axis=0),
+        rmse_per_run=rmse_per_run,
+        ensemble_rmse=np.sqrt(sq.mean(axis=(0, 1))),
+        max_abs=np.abs(e).max(axis=(0, 1)),
+    )
+
+
+# ---------------------------------------------------------------------------
+# Consistency (NEES)
+# ---------------------------------------------------------------------------
+
+
+class NeesStats(NamedTuple):
+    """NEES consistency summary over an evaluation window (spec §11).
+
+    Attributes
+    ----------
+    anees : float
+        Mean NEES over runs and window epochs (expected ``n`` if consistent).
+    band : tuple of float
+        Two-sided 95% band for the run-averaged NEES at one epoch,
+        ``chi2.ppf([0.025, 0.975], M n) / M``.
+    in_band_fraction : float
+        Fraction of window epochs whose run-averaged NEES lies inside ``band``
+        (expect about 0.95).
+    nees_mean : (K,) array
+        Run-averaged NEES ``eps_bar_k`` at every epoch (all epochs, not only ``W``).
+    """
+
+    anees: float
+    band: tuple[float, float]
+    in_band_fraction: float
+    nees_mean: np.ndarray
+
+
+def nees(err: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """Normalized estimation error squared ``eps = eᵀ P⁻¹ e`` (spec §11).
+
+    Uses a linear solve, never an explicit inverse.
+
+    Parameters
+    ----------
+    err : (..., n) array
+        Estimate minus truth.
+    P : (..., n, n) array
+        Filter covariance of the estimate (SPD); leading axes broadcast with ``err``.
+
+    Returns
+    -------
+    (...,) array
+        Dimensionless NEES; ``~ chi2(n)`` for a consistent filter.
+    """
+    err = np.asarray(err, dtype=float)
+    P = np.asarray(P, dtype=float)
+    if P.shape[-2:] != (err.shape[-1], err.shape[-1]):
+        raise ValueError(f"P shape {P.shape} incompatible with err shape {err.shape}")
+    batch = np.broadcast_shapes(err.shape[:-1], P.shape[:-2])
+    n = err.shape[-1]
+    e = np.broadcast_to(err, (*batch, n))
+    x = spd_solve(np.broadcast_to(P, (*batch, n, n)), e[..., None])[..., 0]
+    return np.einsum("...i,...i->...", e, x)
+
+
+def chi2_band(dof_total: int, runs: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Two-sided chi-square band for a run-averaged statistic (spec §11).
+
+    If ``M eps_bar ~ chi2(M n)``, the band is
+    ``[chi2_{Mn}((1-c)/2), chi2_{Mn}((1+c)/2)] / M``.
+
+    Parameters
+    ----------
+    dof_total : int
+        Total degrees of freedom ``M n`` (runs times state dimension).
+    runs : int
+        Number of Monte Carlo runs ``M`` used for the average.
+    confidence : float, optional
+        Two-sided coverage ``c`` (default 0.95).
+
+    Returns
+    -------
+    tuple of float
+        ``(lower, upper)`` bounds for the run-averaged statistic.
+    """
+    if runs <= 0 or dof_total <= 0:
+        raise ValueError("dof_total and runs must be positive")
+    if not 0.0 < confidence < 1.0:
+        raise ValueError("confidence must lie in (0, 1)")
+    alpha = 1.0 - confidence
+    lo, hi = chi2.ppf([alpha / 2.0, 1.0 - alpha / 2.0], dof_total) / runs
+    return float(lo), float(hi)
+
+
+def nees_stats(nees_values: np.ndarray, n: int, window: np.ndarray) -> NeesStats:
+    """Run-averaged NEES, ANEES and chi-square band coverage (spec §11).
+
+    Parameters
+    ----------
+    nees_values : (B, K) array
+        NEES per run and epoch (e.g. from :func:`nees`); ``M = B`` runs.
+    n : int
+        State (error) dimension of each NEES sample.
+    window : (K,) bool array
+        Epochs of the evaluation window ``W``.
+
+    Returns
+    -------
+    NeesStats
+        ``anees`` and ``in_band_fraction`` are ``nan`` if ``window`` is empty;
+        ``nees_mean`` and ``band`` are always computed.
+    """
+    v = np.asarray(nees_values, dtype=float)
+    window = np.asarray(window, dtype=bool)
+    if v.ndim != 2:
+        raise ValueError(f"nees_values must have shape (B, K), got {v.shape}")
+    B, K = v.shape
+    if window.shape != (K,):
+        raise ValueError(f"window must have shape ({K},), got {window.shape}")
+    band = chi2_band(B * n, B)
+    nees_mean = v.mean(axis=0)
+    if not window.any():
+        return NeesStats(float("nan"), band, float("nan"), nees_mean)
+    w = nees_mean[window]
+    inside = (w >= band[0]) & (w <= band[1])
+    return NeesStats(
+        anees=float(v[:, window].mean()),
+        band=band,
+        in_band_fraction=float(inside.mean()),
+        nees_mean=nees_mean,
+    )
+
+
+# ---------------------------------------------------------------------------
+# Fault detection
+# ---------------------------------------------------------------------------
+
+
+class DetectionStats(NamedTuple):
+    """Fault-detection performance of one detector on one subsystem (spec §11).
+
+    Attributes
+    ----------
+    rate : float
+        Per-epoch detection probability ``Pd`` = alarmed fault epochs / fault
+        epochs, pooled over runs; ``nan`` if there are no fault epochs.
+    event_rate : float
+        Detected events / events (``1 - missed_rate``); ``nan`` if no events.
+    missed_rate : float
+        Events with no alarm inside ``[t_on, t_off)`` / events; ``nan`` if no events.
+    false_alarm_rate : float
+        Alarmed clean epochs / clean epochs, pooled over runs, where clean epochs
+        lie outside every window and outside the grace period
+        ``[t_off, t_off + G)`` after each window; ``nan`` if none.
+    false_alarms_per_hour : float
+        ``false_alarm_rate * 3600 / dt`` (alarms per hour of clean operation).
+    mean_delay_s, median_delay_s, p95_delay_s : float
+        Mean, median and 95th percentile (linear interpolation) of the detection
+        delay ``t_first_alarm - t_on`` in s over detected events of all runs;
+        ``nan`` if nothing was detected.
+    mean_recovery_s : float
+        Mean over events of all runs of the time in s from ``t_off`` until the
+        flag is first False at an epoch ``>= t_off``; if it never clears, the
+        time ``(times[-1] + dt) - t_off`` is used; ``nan`` if no events.
+    events : int
+        Number of fault events times number of runs.
+    """
+
+    rate: float
+    event_rate: float
+    missed_rate: float
+    false_alarm_rate: float
+    false_alarms_per_hour: float
+    mean_delay_s: float
+    median_delay_s: float
+    p95_delay_s: float
+    mean_recovery_s: float
+    events: int
+
+
+def _merge_windows(windows: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Sort ``[t_on, t_off)`` windows and merge overlapping ones."""
+    merged: list[list[float]] = []
+    for t_on, t_off in sorted((float(a), float(b)) for a, b in windows):
+        if t_off <= t_on:
+            continue  # empty window
+        if merged and t_on < merged[-1][1]:
+            merged[-1][1] = max(merged[-1][1], t_off)
+        else:
+            merged.append([t_on, t_off])
+    return [(a, b) for a, b in merged]
+
+
+def _ratio(num: float, den: float) -> float:
+    return float(num) / float(den) if den > 0 else float("nan")
+
+
+def detection_stats(
+    flags: np.ndarray,
+    times: np.ndarray,
+    windows: Sequence[tuple[float, float]],
+    grace: float,
+) -> DetectionStats:
+    """Detection delay, Pd, missed-detection, false-alarm and recovery metrics (spec §11).
+
+    Parameters
+    ----------
+    flags : (B, K) bool array
+        Alarm flag of the detector per Monte Carlo run and epoch.
+    times : (K,) array
+        Epoch times in s, uniformly spaced with ``dt = times[1] - times[0]``
+        (``dt = 1.0`` if ``K == 1``).
+    windows : sequence of (t_on, t_off)
+        Ground-truth fault windows ``[t_on, t_off)`` in s of THIS subsystem, the
+        same for every run.  Overlapping windows are merged into one event;
+        windows containing no epoch are ignored.
+    grace : float
+        Grace period ``G`` in s after each ``t_off`` excluded from false-alarm
+        counting (spec default 10 s).
+
+    Returns
+    -------
+    DetectionStats
+        See :class:`DetectionStats`.
+
+    Notes
+    -----
+    Epoch ``k`` is a fault epoch if ``t_on <= times[k] < t_off`` for some window.
+    The delay of an event uses the first alarmed epoch inside its window,
+    ``times[k_first] - t_on``; an event with no alarm inside it is missed.
+    """
+    flags = np.asarray(flags, dtype=bool)
+    times = np.asarray(times, dtype=float)
+    if flags.ndim != 2:
+        raise ValueError(f"flags must have shape (B, K), got {flags.shape}")
+    B, K = flags.shape
+    if times.shape != (K,):
+        raise ValueError(f"times must have shape ({K},), got {times.shape}")
+    dt = float(times[1] - times[0]) if K > 1 else 1.0
+    t_end = float(times[-1]) + dt if K > 0 else 0.0
+
+    fault = np.zeros(K, dtype=bool)
+    graced = np.zeros(K, dtype=bool)
+    delays: list[np.ndarray] = []
+    recoveries: list[np.ndarray] = []
+    n_events = 0
+    n_detected = 0
+    for t_on, t_off in _merge_windows(windows):
+        in_win = (times >= t_on) & (times < t_off)
+        graced |= (times >= t_off) & (times < t_off + grace)
+        if not in_win.any():
+            continue
+        fault |= in_win
+        n_events += 1
+
+        # Detection: first alarm inside the window, vectorized over runs.
+        alarmed = flags[:, in_win]  # (B, Kw)
+        detected = alarmed.any(axis=1)
+        first = np.argmax(alarmed, axis=1)
+        n_detected += int(detected.sum())
+        delays.append(times[in_win][first[detected]] - t_on)
+
+        # Recovery: first epoch at/after t_off where the flag is False.
+        after = times >= t_off
+        cleared = ~flags[:, after]  # (B, Ka)
+        if cleared.shape[1] == 0:
+            rec = np.full(B, t_end - t_off)
+        else:
+            first_clear = np.argmax(cleared, axis=1)
+            rec = np.where(cleared.any(axis=1), times[after][first_clear] - t_off, t_end - t_off)
+        recoveries.append(rec)
+
+    clean = ~fault & ~graced
+    rate = _ratio(flags[:, fault].sum(), B * fault.sum())
+    fa_rate = _ratio(flags[:, clean].sum(), B * clean.sum())
+
+    events = n_events * B
+    event_rate = _ratio(n_detected, events)
+    missed_rate = 1.0 - event_rate if events > 0 else float("nan")
+
+    d = np.concatenate(delays) if delays else np.empty(0)
+    if d.size:
+        mean_d, med_d, p95_d = float(d.mean()), float(np.median(d)), float(np.percentile(d, 95))
+    else:
+        mean_d = med_d = p95_d = float("nan")
+    mean_rec = float(np.concatenate(recoveries).mean()) if recoveries else float("nan")
+
+    return DetectionStats(
+        rate=rate,
+        event_rate=event_rate,
+        missed_rate=missed_rate,
+        false_alarm_rate=fa_rate,
+        false_alarms_per_hour=fa_rate * 3600.0 / dt,
+        mean_delay_s=mean_d,
+        median_delay_s=med_d,
+        p95_delay_s=p95_d,
+        mean_recovery_s=mean_rec,
+        events=events,
+    )

@@ -1,0 +1,310 @@
+"""Carlson federated Kalman filter with adaptive information sharing (spec §1-§2).
+
+Modes (spec §1.5):
+
+* ``fusion-reset`` (FR): fuse every epoch; every ``reset_interval`` epochs reset
+  each healthy local filter to ``x̂_g``, ``P_g/β_i`` and the master to
+  ``P_g/β_m``; local filters propagate with ``Q/β_i``.  Equals the centralized
+  filter when the reset interval is 1 (spec §1.6).
+* ``no-reset`` (NR): the initial sharing only; locals stay independent.
+* ``zero-reset`` (ZR): the master holds all information; locals are information
+  filters over the common state that are zeroed after each reset (fusion).
+
+Fault factors ``r_i`` (spec §1.8): a filter flagged at epoch k is fused with its
+prior (time update only) at k, gets ``β_i = 0`` from the sharing at the end of
+k and runs standalone (``Q_i = Q``) on its own measurements; a recovery flagged
+at epoch k re-admits it at the next sharing, so it is fused again from k+1
+(with reset interval 1).  ``no-reset`` re-admits a recovered filter at once.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from ftnav.core import kalman as kf
+from ftnav.core.sharing import information_content, sharing_coefficients
+from ftnav.fdi.chi2 import DetectorState
+from ftnav.fusion.local import (
+    NoiseState,
+    StateTest,
+    StepOutput,
+    detect,
+    initial_noise,
+    local_update,
+    make_detector,
+    predicted_noise,
+    residual_statistic,
+    select,
+    valid_measurement,
+    vb_variant,
+)
+from ftnav.fusion.system import LinearSystem
+from ftnav.sim.scenario import Method
+
+__all__ = ["FederatedFilter", "FederatedState"]
+
+
+class FederatedState(NamedTuple):
+    """Full state of the federated filter (nothing hidden in the object).
+
+    ``x``/``P`` hold each local filter's posterior after the sharing (in ZR the
+    information vector and matrix).  ``share`` is the β each local was last
+    reset with (its Q scaling), ``active`` whether it is fused next epoch.
+    """
+
+    x: tuple[np.ndarray, ...]
+    P: tuple[np.ndarray, ...]
+    master: kf.Gaussian | None
+    xg: np.ndarray
+    Pg: np.ndarray
+    share: np.ndarray
+    active: np.ndarray
+    noise: tuple[NoiseState | None, ...]
+    detector: DetectorState | None
+    propagator: tuple[kf.Gaussian, ...] | None
+
+
+class FederatedFilter:
+    """Federated filter with the spec §2 sharing rules and fault factors.
+
+    Parameters
+    ----------
+    system : linear system (local filters carry ``[x_c; x_si]``).
+    method : settings: ``mode``, ``reset_interval``, ``sharing``, ``betas``,
+        ``master_share``, ``trace_mode``, ``detector`` and its settings,
+        ``prior``, ``adaptive_noise``.
+    """
+
+    def __init__(self, system: LinearSystem, method: Method):
+        name = f"methods[{method.name}]"
+        if method.mode == "rescale":
+            raise ValueError(f"{name}.mode: 'rescale' is provided by the distributed architecture")
+        if method.mode == "zero-reset":
+            if system.has_private:
+                raise ValueError(f"{name}.mode: zero-reset needs full-state local filters "
+                                 "(a sensor has private states)")
+            if method.adaptive_noise != "none":
+                raise ValueError(f"{name}.adaptive_noise: not available with zero-reset "
+                                 "(local filters have no prior)")
+            if method.detector == "state-chi2":
+                raise ValueError(f"{name}.detector: 'state-chi2' needs local priors; "
+                                 "zero-reset locals have none")
+        N = system.n_sensors
+        if method.sharing == "fixed" and len(method.betas) != N:
+            raise ValueError(f"{name}.betas: expected {N} values, got {len(method.betas)}")
+        self.system = system
+        self.method = method
+        self.N = N
+        self.nc = system.n_common
+        self.locals = [system.local(i) for i in range(N)]
+        self.detector = make_detector(method)
+        self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
+            else None
+        self.variant = vb_variant(method)
+        self.vb_on = [self.variant is not None and (not method.vb_sensors
+                                                    or s.name in method.vb_sensors)
+                      for s in system.sensors]
+        self.scale = None if method.trace_mode == "raw" else 1.0 / np.sqrt(
+            np.diag(system.model.P0))
+        self.info = information_content([s.H for s in system.sensors],
+                                        [s.R for s in system.sensors], self.scale)
+        self.zr = method.mode == "zero-reset"
+        self.beta_m = 0.0 if self.zr else float(method.master_share)
+        self.global_prior = method.prior == "global" or self.zr
+
+    @property
+    def n_filters(self) -> int:
+        return self.N
+
+    def _sharing(self, P_common: np.ndarray, r: np.ndarray) -> np.ndarray:
+        m = self.method
+        return sharing_coefficients(m.sharing, P_common, r, master_share=self.beta_m,
+                                    betas=np.asarray(m.betas), info=self.info, scale=self.scale)
+
+    def init(self, batch: int) -> FederatedState:
+        B, nc = batch, self.nc
+        x0c, P0c = self.system.model.x0, self.system.model.P0
+        r = np.ones((B, self.N))
+        share = self._sharing(np.broadcast_to(P0c, (B, self.N, nc, nc)), r)
+        xs, Ps = [], []
+        for i, lm in enumerate(self.locals):
+            if self.zr:
+                xs.append(np.zeros((B, nc)))
+                Ps.append(np.zeros((B, nc, nc)))
+                continue
+            P = np.broadcast_to(lm.P0, (B,) + lm.P0.shape).copy()
+            P[:, :nc, :nc] = P0c / share[:, i, None, None]
+            xs.append(np.broadcast_to(lm.x0, (B, lm.n)).copy())
+            Ps.append(P)
+        master = None
+        if self.zr or self.beta_m > 0:
+            bm = 1.0 if self.zr else self.beta_m
+            master = kf.Gaussian(np.broadcast_to(x0c, (B, nc)).copy(),
+                                 np.broadcast_to(P0c / bm, (B, nc, nc)).copy())
+        noise = tuple(initial_noise(s.R, B) if on else None
+                      for s, on in zip(self.system.sensors, self.vb_on, strict=True))
+        det = self.detector.init(B, self.N) if self.detector else None
+        prop = tuple(kf.Gaussian(x, P) for x, P in zip(xs, Ps, strict=True)) \
+            if self.state_test else None
+        return FederatedState(tuple(xs), tuple(Ps), master,
+                              np.broadcast_to(x0c, (B, nc)).copy(),
+                              np.broadcast_to(P0c, (B, nc, nc)).copy(),
+                              share, np.ones((B, self.N), dtype=bool), noise, det, prop)
+
+    # ------------------------------------------------------------------------------
+    def step(self, state: FederatedState, k: int, z, available, oracle):
+        """Advance one epoch (spec §1.3): predict, update, test, fuse, share."""
+        m, nc, N = self.method, self.nc, self.N
+        F, Q = self.system.transition(k)
+        B = state.xg.shape[0]
+        xg_pr, Pg_pr = kf.predict(state.xg, state.Pg, F, Q)
+        usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
+                          strict=True)
+        usable, nan = np.stack(usable, 1), np.stack(nan, 1)
+
+        priors, posts, noise, R_hat, stat, props = [], [], [], [], [], []
+        for i, (lm, s) in enumerate(zip(self.locals, self.system.sensors, strict=True)):
+            use = usable[:, i]
+            if self.zr:
+                y, Y = kf.information_predict(state.x[i], state.P[i], F, Q)
+                HtRinv = np.linalg.solve(s.R, lm.H).T
+                Y_post = np.where(use[:, None, None], Y + HtRinv @ lm.H, Y)
+                y_post = np.where(use[:, None], y + kf.mv(HtRinv, np.where(
+                    use[:, None], z[i], 0.0)), y)
+                priors.append((y, Y))
+                posts.append((y_post, Y_post))
+                noise.append(None)
+                R_hat.append(np.broadcast_to(np.diag(s.R), (B, s.dim)))
+            else:
+                sharing_local = state.active[:, i] & (state.share[:, i] > 0)
+                scale = np.where(sharing_local, 1.0 / np.where(sharing_local,
+                                                               state.share[:, i], 1.0), 1.0)
+                Fi, Qi = self.system.local_transition(i, k, scale)
+                x_pr, P_pr = kf.predict(state.x[i], state.P[i], Fi, Qi)
+                up = local_update(x_pr, P_pr, z[i], use, lm.H, s.R, state.noise[i],
+                                  variant=self.variant if self.vb_on[i] else None,
+                                  rho=m.vb_rho, iterations=m.vb_iterations)
+                priors.append((x_pr, P_pr))
+                posts.append((up.x, up.P))
+                noise.append(up.noise)
+                R_hat.append(np.diagonal(up.R, axis1=-2, axis2=-1))
+                if self.state_test is not None:
+                    props.append(kf.predict(*state.propagator[i], Fi, Qi))
+            stat.append(self._residual(i, xg_pr, Pg_pr, priors[i], z[i], use, state.noise[i])
+                        if self.global_prior or self.zr else
+                        (up.nis if not self.zr else None))
+        stat = np.stack(stat, 1)
+        dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
+        tested = usable
+        if self.state_test is not None:
+            res = [self.state_test.statistic(k, *posts[i], *props[i]) for i in range(N)]
+            stat = np.stack([r[0] for r in res], 1)
+            dof = np.stack([r[1] for r in res], 1)
+            tested = np.stack([r[2] for r in res], 1)
+        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle)
+        flag = np.zeros((B, N), dtype=bool) if det_out is None else det_out.flag
+
+        # ---- fusion over the active set (spec §1.3 step 3) --------------------------
+        newly = state.active & flag
+        if self.zr:
+            Pm_pr = kf.predict(state.master.x, state.master.P, F, Q)
+            ym, Ym = kf.to_information(*Pm_pr)
+            Yg, yg = Ym.copy(), ym.copy()
+            for i in range(N):
+                y_i = select(newly[:, i], priors[i][0], posts[i][0])
+                Y_i = select(newly[:, i], priors[i][1], posts[i][1])
+                Yg += np.where(state.active[:, i, None, None], Y_i, 0.0)
+                yg += np.where(state.active[:, i, None], y_i, 0.0)
+            xg, Pg = kf.from_information(yg, Yg)
+            any_source = np.ones(B, dtype=bool)
+        else:
+            Yg = np.zeros((B, nc, nc))
+            yg = np.zeros((B, nc))
+            P_common = []
+            for i in range(N):
+                xi = select(newly[:, i], priors[i][0], posts[i][0])[:, :nc]
+                Pi = select(newly[:, i], priors[i][1], posts[i][1])[:, :nc, :nc]
+                P_common.append(posts[i][1][:, :nc, :nc])
+                Yi = kf.spd_inverse(Pi)
+                Yg += np.where(state.active[:, i, None, None], Yi, 0.0)
+                yg += np.where(state.active[:, i, None], kf.mv(Yi, xi), 0.0)
+            master = None
+            if state.master is not None:
+                master = kf.predict(state.master.x, state.master.P, F, Q / self.beta_m)
+                ym, Ym = kf.to_information(*master)
+                Yg += Ym
+                yg += ym
+            any_source = state.active.any(1) | (state.master is not None)
+            Ysafe = np.where(any_source[:, None, None], Yg, np.eye(nc))
+            xf, Pf = kf.from_information(np.where(any_source[:, None], yg, 0.0), Ysafe)
+            xg, Pg = select(any_source, xf, xg_pr), select(any_source, Pf, Pg_pr)
+
+        # ---- sharing / reset (spec §1.2, §1.5, §1.8) ---------------------------------
+        r = ~flag
+        reset_epoch = m.mode != "no-reset" and k % m.reset_interval == 0
+        active_next = r.copy() if (reset_epoch or m.mode == "no-reset") else state.active & r
+        xs = [p[0] for p in posts]
+        Ps = [p[1] for p in posts]
+        share = state.share
+        new_master = None
+        if self.zr:
+            if reset_epoch:
+                xs = [np.zeros_like(x) for x in xs]
+                Ps = [np.zeros_like(P) for P in Ps]
+                new_master = kf.Gaussian(xg, Pg)
+            else:
+                new_master = Pm_pr
+            beta_report = np.zeros((B, N))
+        elif reset_epoch:
+            share = self._sharing(np.stack(P_common, 1), r.astype(float))
+            for i in range(N):
+                xs[i], Ps[i] = self._reset(xs[i], Ps[i], xg, Pg, share[:, i], active_next[:, i])
+            if state.master is not None:
+                new_master = kf.Gaussian(xg.copy(), Pg / self.beta_m)
+            beta_report = np.where(active_next, share, 0.0)
+        else:
+            new_master = master
+            beta_report = np.where(active_next, share, 0.0)
+
+        prop = None
+        if self.state_test is not None:
+            prop = tuple(kf.Gaussian(*self.state_test.restart(k, xs[i], Ps[i], *props[i]))
+                         for i in range(N))
+        out = StepOutput(xg, Pg, beta_report, det_out, tuple(R_hat), nan)
+        return FederatedState(tuple(xs), tuple(Ps), new_master, xg, Pg, share, active_next,
+                              tuple(noise), det_state, prop), out
+
+    # ------------------------------------------------------------------------------
+    def _residual(self, i, xg_pr, Pg_pr, prior, z, use, noise):
+        """NIS of sensor i against the fused (global) prior (spec §3.1 option)."""
+        lm, s = self.locals[i], self.system.sensors[i]
+        nc = self.nc
+        R = predicted_noise(noise, s.R, self.method.vb_rho)
+        if lm.n == nc:
+            return residual_statistic(xg_pr, Pg_pr, z, use, lm.H, R)
+        x_pr, P_pr = prior
+        x = np.concatenate([xg_pr, x_pr[:, nc:]], 1)
+        P = P_pr.copy()
+        P[:, :nc, :nc] = Pg_pr
+        P[:, :nc, nc:] = 0.0
+        P[:, nc:, :nc] = 0.0
+        return residual_statistic(x, P, z, use, lm.H, R)
+
+    def _reset(self, x, P, xg, Pg, beta, where):
+        """Reset common block to ``x̂_g``, ``P_g/β`` (spec §1.2); cross block per §1.7."""
+        nc = self.nc
+        b = np.where(where, beta, 1.0)[:, None, None]
+        P_new_cc = Pg / b
+        x_new = x.copy()
+        x_new[:, :nc] = xg
+        P_new = P.copy()
+        if P.shape[-1] > nc:
+            L_old = np.linalg.cholesky(P[:, :nc, :nc])
+            L_new = np.linalg.cholesky(P_new_cc)
+            P_cs = L_new @ np.linalg.solve(L_old, P[:, :nc, nc:])
+            P_new[:, :nc, nc:] = P_cs
+            P_new[:, nc:, :nc] = kf.mT(P_cs)
+        P_new[:, :nc, :nc] = P_new_cc
+        return select(where, x_new, x), select(where, P_new, P)

@@ -1,0 +1,149 @@
+"""Linear multi-sensor system as the filters see it (spec §1.1, §1.7).
+
+The *augmented* state is ``[x_c; x_s1; x_s2; ...]``: the ``n_c`` common states
+followed by each sensor's private states (if any).  The centralized and the
+distributed filters work on the augmented state; local filter ``i`` of the
+federated filter carries ``[x_c; x_si]`` and fuses only ``x_c``.
+
+A model may be time-varying: :meth:`LinearSystem.transition` receives the step
+index ``k`` (1-based) and returns the matrices for the step ``k−1 → k``.  This
+class is the constant case; linearized INS error models provide the same
+interface.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import block_diag
+
+from ftnav.sim.scenario import LinearModel, Scenario, Sensor
+
+__all__ = ["LinearSystem", "LocalModel"]
+
+
+@dataclass(frozen=True, slots=True)
+class LocalModel:
+    """Model of one local filter over ``[x_c; x_si]`` (dimension ``n_c + p_i``)."""
+
+    H: np.ndarray  # (m, n_c + p)
+    R: np.ndarray  # (m, m)
+    x0: np.ndarray  # (n_c + p,)
+    P0: np.ndarray  # (n_c + p, n_c + p)
+    F_private: np.ndarray  # (p, p)
+    Q_private: np.ndarray  # (p, p)
+    aug_index: np.ndarray  # positions of the local states inside the augmented state
+
+    @property
+    def n(self) -> int:
+        return int(self.x0.shape[0])
+
+
+@dataclass(frozen=True)
+class LinearSystem:
+    """Constant linear system built from a scenario's model and sensors."""
+
+    model: LinearModel
+    sensors: tuple[Sensor, ...]
+
+    def __post_init__(self):
+        # constant model: build the block matrices once
+        blocks = []
+        for i in range(len(self.sensors)):
+            lm = self.local(i)
+            blocks.append((block_diag(self.model.F, lm.F_private),
+                           block_diag(self.model.Q, lm.Q_private)))
+        object.__setattr__(self, "_blocks", tuple(blocks))
+        aug = {}
+        for true in (False, True):
+            Q = self.model.Q_true if true else self.model.Q
+            aug[true] = (block_diag(self.model.F, *self._private_blocks("F")),
+                         block_diag(Q, *self._private_blocks("Q")))
+        object.__setattr__(self, "_aug", aug)
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario) -> LinearSystem:
+        return cls(scenario.model, scenario.sensors)
+
+    @property
+    def n_common(self) -> int:
+        return self.model.n
+
+    @property
+    def n_sensors(self) -> int:
+        return len(self.sensors)
+
+    def _private_blocks(self, attr: str) -> list[np.ndarray]:
+        return [getattr(s.private, attr) for s in self.sensors if s.private is not None]
+
+    @property
+    def n_aug(self) -> int:
+        return self.n_common + sum(len(s.private.names) for s in self.sensors if s.private)
+
+    @property
+    def has_private(self) -> bool:
+        return any(s.private is not None for s in self.sensors)
+
+    # -- common / augmented matrices ---------------------------------------------
+    def transition(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Common-state ``(F, Q)`` for the step ``k−1 → k`` (filter's assumed Q)."""
+        return self.model.F, self.model.Q
+
+    def augmented_transition(self, k: int, true: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Augmented ``(F, Q)``; ``true=True`` gives the simulator's ``Q_true``."""
+        return self._aug[true]
+
+    def augmented_initial(self) -> tuple[np.ndarray, np.ndarray]:
+        """Augmented ``(x0, P0)``."""
+        x0 = np.concatenate([self.model.x0, *self._private_blocks("x0")])
+        return x0, block_diag(self.model.P0, *self._private_blocks("P0"))
+
+    def augmented_H(self, i: int) -> np.ndarray:
+        """Sensor i's measurement matrix over the augmented state, (m, n_aug)."""
+        s = self.sensors[i]
+        H = np.zeros((s.dim, self.n_aug))
+        H[:, : self.n_common] = s.H
+        if s.private is not None:
+            idx = self.local(i).aug_index[self.n_common :]
+            H[:, idx] = s.private.H
+        return H
+
+    def local(self, i: int) -> LocalModel:
+        """Local filter i's model over ``[x_c; x_si]``."""
+        s = self.sensors[i]
+        nc = self.n_common
+        offset = nc
+        for j in range(i):
+            if self.sensors[j].private is not None:
+                offset += len(self.sensors[j].private.names)
+        if s.private is None:
+            p = 0
+            H, x0, P0 = s.H, self.model.x0, self.model.P0
+            Fp = Qp = np.zeros((0, 0))
+        else:
+            p = len(s.private.names)
+            H = np.hstack([s.H, s.private.H])
+            x0 = np.concatenate([self.model.x0, s.private.x0])
+            P0 = block_diag(self.model.P0, s.private.P0)
+            Fp, Qp = s.private.F, s.private.Q
+        index = np.concatenate([np.arange(nc), np.arange(offset, offset + p)]).astype(int)
+        return LocalModel(H, s.R, x0, P0, Fp, Qp, index)
+
+    def _local_blocks(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+        return self._blocks[i]
+
+    def local_transition(self, i: int, k: int, common_scale=None) -> tuple[np.ndarray, np.ndarray]:
+        """Local ``(F_i, Q_i)``; the common block of Q is multiplied by ``common_scale``.
+
+        ``common_scale`` (B,) is ``1/β_i`` for a sharing local filter (spec §1.2)
+        and 1 for a standalone one; the private process noise is never shared.
+        """
+        Fi, Qi = self._local_blocks(i, k)
+        if common_scale is None:
+            return Fi, Qi
+        nc = self.n_common
+        mask = np.zeros_like(Qi)
+        mask[:nc, :nc] = 1.0
+        scale = np.asarray(common_scale, dtype=float)[..., None, None]
+        return Fi, Qi * (1.0 + mask * (scale - 1.0))

@@ -1,0 +1,1 @@
+"""Boundary I/O: scenario files (TOML) validated into the frozen objects of ftnav.sim."""
