@@ -1,0 +1,183 @@
+"""Command-line interface: ``ftnav run | list | schema``.
+
+Bad input (a malformed scenario, an unknown built-in, an impossible option)
+prints one line ``ftnav: error: <field>: <reason>`` on stderr and exits with
+status 2; it never prints a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+__all__ = ["main"]
+
+
+class UsageError(Exception):
+    """Bad command-line input; reported on one line with exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, status 2, no usage dump
+        raise UsageError(message.replace("\n", " "))
+
+
+def _positive_int(name):
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: expected an integer, got {text!r}") \
+                from None
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{name}: must be >= 1, got {value}")
+        return value
+    return parse
+
+
+def _seed(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--seed: expected an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"--seed: must be >= 0, got {value}")
+    return value
+
+
+def _parser() -> _Parser:
+    p = _Parser(prog="ftnav", description="Fault-tolerant multi-sensor navigation fusion.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    r = sub.add_parser("run", help="run a scenario's methods over Monte Carlo runs")
+    r.add_argument("scenario", help="built-in scenario name (see `ftnav list`) or a TOML path")
+    r.add_argument("--runs", type=_positive_int("--runs"), default=100,
+                   help="Monte Carlo runs (default 100)")
+    r.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
+    r.add_argument("--out", type=Path, default=None,
+                   help="output folder (default results/<scenario name>)")
+    r.add_argument("--save-estimates", action="store_true",
+                   help="also write estimates.nc (NetCDF) with every estimate")
+    r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
+    sub.add_parser("list", help="list built-in scenarios and their methods")
+    s = sub.add_parser("schema", help="print the JSON schema of scenario files")
+    s.add_argument("--out", type=Path, default=None, help="write to a file instead")
+    return p
+
+
+def _resolve(spec: str):
+    from ftnav.io.scenario_file import load_scenario
+    from ftnav.scenarios import builtin_names, builtin_path
+
+    if spec in builtin_names():
+        return load_scenario(builtin_path(spec))
+    path = Path(spec)
+    if path.suffix == ".toml" or path.exists():
+        return load_scenario(path)
+    raise UsageError(f"scenario: {spec!r} is neither a built-in scenario "
+                     f"({', '.join(builtin_names())}) nor a TOML file")
+
+
+def _cmd_list() -> int:
+    from ftnav.io.scenario_file import load_scenario
+    from ftnav.scenarios import builtin_names, builtin_path
+
+    for name in builtin_names():
+        sc = load_scenario(builtin_path(name))
+        print(f"{name}: {sc.description}")
+        print(f"  {sc.steps} epochs x {sc.dt} s, states {', '.join(sc.model.states)}; sensors "
+              f"{', '.join(sc.sensor_names)}; {len(sc.faults)} fault(s)")
+        for m in sc.methods:
+            detail = m.architecture
+            if m.architecture == "federated":
+                detail += f" {m.mode}/{m.reset_interval} {m.sharing}"
+            if m.detector != "none":
+                detail += f", detector {m.detector}"
+            print(f"    {m.name:28s} {detail}")
+    print("architectures: centralized | federated | distributed")
+    print("sharing rules: equal | fixed | information | trace | eigen-trace | frobenius | "
+          "inverse-trace")
+    print("detectors: none | residual-chi2 | state-chi2 | oracle")
+    return 0
+
+
+def _cmd_schema(out: Path | None) -> int:
+    from ftnav.io.scenario_file import scenario_json_schema
+
+    text = json.dumps(scenario_json_schema(), indent=2)
+    if out is None:
+        print(text)
+    else:
+        Path(out).write_text(text + "\n")
+    return 0
+
+
+def _cmd_run(args) -> int:
+    from tqdm import tqdm
+
+    from ftnav.eval.evaluate import evaluate, metrics_to_json
+    from ftnav.eval.montecarlo import run_scenario
+    from ftnav.io.results import write_estimates, write_metrics
+    from ftnav.report.claims import check_claims
+    from ftnav.report.summary import markdown_report, results_table
+
+    sc = _resolve(args.scenario)
+    out = args.out if args.out is not None else Path("results") / sc.name
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"--out: cannot create {str(out)!r}: {e.strerror}") from None
+    passes = 2 if sc.faults else 1
+    total = len(sc.methods) * sc.steps * passes
+    t0 = time.perf_counter()
+    with tqdm(total=total, disable=True if args.quiet else None, unit="epoch",
+              desc=f"{sc.name} x{args.runs}", file=sys.stderr, mininterval=0.5) as bar:
+        result = run_scenario(sc, args.runs, args.seed, progress=bar.update)
+    elapsed = time.perf_counter() - t0
+    metrics = evaluate(result)
+    claims = check_claims(result, metrics)
+    figures = []
+    if not args.no_figures:
+        from ftnav.plot.figures import save_all
+
+        figures = [p.name for p in save_all(result, out)]
+    write_metrics(metrics_to_json(result, metrics, claims), out / "metrics.json")
+    (out / "report.md").write_text(markdown_report(result, metrics, claims, figures))
+    written = ["metrics.json", "report.md", *figures]
+    if args.save_estimates:
+        written += [p.name for p in write_estimates(result, out)]
+    print(f"{sc.name}: {args.runs} runs, seed {args.seed}, {len(sc.methods)} methods, "
+          f"{elapsed:.1f} s")
+    print(results_table(result, metrics))
+    for c in claims:
+        verdict = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c["holds"]]
+        print(f"[{verdict}] {c['source']}: {c['claim']}")
+    print(f"Results written to {out}/: {', '.join(written)}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``ftnav`` command; returns the exit status."""
+    from ftnav.io.scenario_file import ScenarioError
+
+    try:
+        args = _parser().parse_args(argv)
+        if args.command == "list":
+            return _cmd_list()
+        if args.command == "schema":
+            return _cmd_schema(args.out)
+        return _cmd_run(args)
+    except (UsageError, ScenarioError, ValueError) as e:
+        msg = " ".join(str(e).split("\n"))
+        print(f"ftnav: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("ftnav: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,446 @@
+"""Figures of a Monte Carlo scenario result (paper 000 Fig. 3 / Fig. 4 analogues and more).
+
+Every function takes a :class:`ftnav.eval.montecarlo.ScenarioResult` and returns a
+:class:`matplotlib.figure.Figure`.  Figures are built as plain ``Figure`` objects
+(no ``pyplot`` global state), so they render with the non-interactive Agg canvas
+and are safe to use from scripts, tests and worker processes; save them with
+``fig.savefig(path)``.
+
+Time axis: epoch ``k = 1..steps`` is drawn at ``t_k = k·dt`` seconds
+(:attr:`ftnav.sim.scenario.Scenario.times`).  Fault windows ``[start, end)`` are
+shaded on every time axis.
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+from collections.abc import Sequence
+
+import matplotlib
+import numpy as np
+from matplotlib import ticker
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from ftnav.eval.montecarlo import MethodResult, ScenarioResult
+from ftnav.sim.scenario import Scenario
+
+__all__ = ["error_figure", "fault_flag_figure", "save_all", "sharing_figure"]
+
+#: Long names of common one-letter state names, for titles.
+_STATE_NAMES = {
+    "s": "displacement",
+    "p": "position",
+    "x": "position",
+    "v": "velocity",
+    "a": "acceleration",
+}
+
+#: Shading colours of successive fault windows.
+_FAULT_COLOURS = ("tab:red", "tab:orange", "tab:purple", "tab:brown", "tab:pink", "tab:olive")
+
+_DPI = 120
+
+
+# ---------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------
+
+
+class _PlainLogFormatter(ticker.LogFormatter):
+    """Log-axis tick labels as plain numbers ("0.3", "2", "100") where labelled."""
+
+    def __call__(self, x, pos=None):
+        return f"{x:g}" if super().__call__(x, pos) else ""
+
+
+def _method_styles(names: Sequence[str]) -> dict[str, dict]:
+    """Colour and line style per method from the tab20 palette.
+
+    The dark shade of each of the 10 tab20 hues is used first, then the light
+    shades (dashed), so up to 10 methods get clearly distinct colours and up to
+    20 stay distinguishable.
+    """
+    cmap = matplotlib.colormaps["tab20"]
+    order = list(range(0, 20, 2)) + list(range(1, 20, 2))
+    styles = {}
+    for i, name in enumerate(names):
+        j = i % 20
+        styles[name] = {
+            "color": cmap(order[j]),
+            "linestyle": "-" if j < 10 else "--",
+        }
+    return styles
+
+
+def _sensor_colours(names: Sequence[str]) -> dict[str, tuple]:
+    """One tab10 colour per sensor."""
+    cmap = matplotlib.colormaps["tab10"]
+    return {name: cmap(i % 10) for i, name in enumerate(names)}
+
+
+def _fault_label(fault) -> str:
+    return f"fault: {fault.sensor} {fault.kind} [{fault.start:g}, {fault.end:g}) s"
+
+
+def _shade_faults(ax: Axes, scenario: Scenario, injected: bool = True) -> list:
+    """Shade each fault window on ``ax``; returns one legend handle per fault.
+
+    With ``injected=False`` the windows are only outlined (hatched), for runs in
+    which the fault was removed, so the eye can still compare the same interval.
+    """
+    handles = []
+    for i, f in enumerate(scenario.faults):
+        c = _FAULT_COLOURS[i % len(_FAULT_COLOURS)]
+        if injected:
+            kw = {"facecolor": c, "alpha": 0.15, "edgecolor": "none"}
+            label = _fault_label(f)
+        else:
+            kw = {"facecolor": "none", "edgecolor": c, "alpha": 0.3, "hatch": "/",
+                  "linewidth": 0.0}
+            label = _fault_label(f) + " (not injected)"
+        ax.axvspan(f.start, f.end, zorder=0, **kw)
+        handles.append(Patch(label=label, **kw))
+    return handles
+
+
+def _select(pool: dict[str, MethodResult], methods: Sequence[str] | None) -> list[str]:
+    """Method names to draw, in scenario order, checked against ``pool``."""
+    if methods is None:
+        return list(pool)
+    unknown = [m for m in methods if m not in pool]
+    if unknown:
+        raise ValueError(f"methods: unknown method(s) {unknown}; available: {list(pool)}")
+    return list(methods)
+
+
+def _new_axes(n: int, axes: Sequence[Axes] | None, ncols: int, *, figsize, sharex=True,
+              sharey=False) -> tuple[Figure, list[Axes]]:
+    """A grid of ``n`` axes in a new constrained-layout figure, or the given ``axes``."""
+    if axes is not None:
+        axes = list(np.ravel(axes))
+        if len(axes) != n:
+            raise ValueError(f"axes: expected {n} axes, got {len(axes)}")
+        return axes[0].figure, axes
+    nrows = math.ceil(n / ncols)
+    fig = Figure(figsize=figsize, layout="constrained")
+    grid = fig.subplots(nrows, ncols, sharex=sharex, sharey=sharey, squeeze=False).ravel()
+    for extra in grid[n:]:
+        extra.remove()
+    kept = list(grid[:n])
+    for ax in kept:  # shared x hides tick labels above removed cells: show them again
+        if not _below_is_filled(ax, kept):
+            ax.xaxis.set_tick_params(labelbottom=True)
+    return fig, kept
+
+
+def _label_grid(axs: Sequence[Axes], ylabel: str, every: bool) -> None:
+    """Time label on the bottom row and ``ylabel`` on the left column (or on every axes)."""
+    for ax in axs:
+        spec = ax.get_subplotspec()
+        if every or spec is None or spec.is_last_row() or not _below_is_filled(ax, axs):
+            ax.set_xlabel("time [s]")
+        if every or spec is None or spec.is_first_col():
+            ax.set_ylabel(ylabel)
+
+
+def _below_is_filled(ax: Axes, axs: Sequence[Axes]) -> bool:
+    """Whether some axes of ``axs`` sits directly below ``ax`` in its grid."""
+    spec = ax.get_subplotspec()
+    for other in axs:
+        o = other.get_subplotspec()
+        if o is not None and o.colspan == spec.colspan and o.rowspan.start == spec.rowspan.stop:
+            return True
+    return False
+
+
+def _grid_size(ncols: int, nrows: int) -> tuple[float, float]:
+    """Figure size of a grid of panels, with room for the legend on the right."""
+    return max(5.0 * ncols, 7.0) + 2.5, 3.0 * nrows + 1.2
+
+
+def _grid_cols(n: int) -> int:
+    return 1 if n == 1 else 2 if n <= 4 else 3
+
+
+def _state_label(scenario: Scenario, state: int) -> str:
+    name = scenario.model.states[state]
+    return _STATE_NAMES.get(name, name)
+
+
+# ---------------------------------------------------------------------------
+# figures
+# ---------------------------------------------------------------------------
+
+
+def error_figure(
+    result: ScenarioResult,
+    fault_free: bool = False,
+    state: int = 0,
+    methods: list[str] | None = None,
+    axes: Sequence[Axes] | None = None,
+) -> Figure:
+    """Estimation error of one state vs time: paper 000 Fig. 3 / Fig. 4 analogue.
+
+    Top panel: the error ``x̂ − x`` of run 0 for each method.  Bottom panel: the
+    ensemble RMS error over runs, ``sqrt(mean_b e_b(t)²)``, on a log axis.
+
+    Parameters
+    ----------
+    result : ScenarioResult
+        Output of :func:`ftnav.eval.montecarlo.run_scenario`.
+    fault_free : bool, default False
+        Draw the fault-free twin (``result.fault_free``, Fig. 3 condition)
+        instead of the run with faults (Fig. 4).  When no twin was computed the
+        faulty results are drawn and the title says so.
+    state : int, default 0
+        Index of the common state (e.g. 0 = displacement).
+    methods : list of str, optional
+        Methods to draw, in this order (default: all).
+    axes : sequence of two Axes, optional
+        Draw into these (top, bottom) axes instead of a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    sc = result.scenario
+    n_common = sc.model.n
+    if not 0 <= state < n_common:
+        raise ValueError(f"state: must be in [0, {n_common}), got {state}")
+    if fault_free and result.fault_free:
+        pool, sim, injected = result.fault_free, result.fault_free_simulation, False
+        condition = "no fault"
+        fig_no = 3
+    elif fault_free:
+        pool, sim = result.results, result.simulation
+        injected = bool(sc.faults)
+        condition = ("no fault" if not sc.faults
+                     else "fault-free twin not computed, showing run WITH faults")
+        fig_no = 3
+    else:
+        pool, sim, injected = result.results, result.simulation, True
+        condition = "with fault" if sc.faults else "no fault in scenario"
+        fig_no = 4
+    names = _select(pool, methods)
+    styles = _method_styles(names)
+    t = sc.times
+    label = _state_label(sc, state)
+
+    fig, (ax_run, ax_rms) = _new_axes(2, axes, 1, figsize=(10.0, 7.0))
+    truth = sim.truth[:, :, state]
+    # earlier methods are drawn wider, so methods giving identical curves (common
+    # without faults) show as nested bands instead of hiding each other
+    widths = np.linspace(2.4 if len(names) > 1 else 1.0, 0.7, len(names))
+    for name, lw in zip(names, widths, strict=True):
+        err = pool[name].x[:, :, state] - truth
+        rms = np.sqrt(np.mean(err**2, axis=0))
+        ax_run.plot(t, err[0], lw=lw, label=name, **styles[name])
+        ax_rms.plot(t, rms, lw=lw, label=name, **styles[name])
+    fault_handles = _shade_faults(ax_run, sc, injected)
+    _shade_faults(ax_rms, sc, injected)
+
+    ax_run.axhline(0.0, color="0.5", lw=0.6, zorder=1)
+    ax_run.set_title(f"{label} error, run 0", fontsize="medium")
+    ax_run.set_ylabel(f"{label} error [state units]")
+    ax_rms.set_yscale("log")
+    ax_rms.yaxis.set_major_formatter(_PlainLogFormatter(labelOnlyBase=False))
+    ax_rms.yaxis.set_minor_formatter(_PlainLogFormatter(labelOnlyBase=False,
+                                                        minor_thresholds=(1.2, 0.5)))
+    ax_rms.set_title(f"{label} RMS error over {result.runs} runs", fontsize="medium")
+    ax_rms.set_ylabel(f"{label} RMS error [state units]")
+    ax_rms.set_xlabel("time [s]")
+    for ax in (ax_run, ax_rms):
+        ax.grid(True, which="major", lw=0.4, alpha=0.6)
+        ax.set_xlim(0.0, t[-1])
+    ax_rms.grid(True, which="minor", axis="y", lw=0.3, alpha=0.3)
+
+    if axes is None:
+        fig.suptitle(f"Paper 000 Fig. {fig_no} analogue: {label} error, {condition}\n"
+                     f"scenario '{sc.name}', {result.runs} runs, seed {result.seed}")
+        handles, labels = ax_run.get_legend_handles_labels()
+        handles += fault_handles
+        labels += [h.get_label() for h in fault_handles]
+        fig.legend(handles, labels, loc="outside right upper", fontsize="small",
+                   title="method", title_fontsize="small", frameon=False)
+    else:
+        ax_run.legend(handles=ax_run.get_legend_handles_labels()[0] + fault_handles,
+                      fontsize="x-small", ncols=2)
+    return fig
+
+
+def sharing_figure(
+    result: ScenarioResult,
+    methods: list[str] | None = None,
+    axes: Sequence[Axes] | None = None,
+) -> Figure:
+    """Federated sharing coefficients β_i vs time, one subplot per method.
+
+    Solid lines: mean over runs of β_i per sensor; dotted lines: run 0.
+    Methods without sharing coefficients (centralized, distributed) are skipped.
+
+    Parameters
+    ----------
+    result : ScenarioResult
+        Output of :func:`ftnav.eval.montecarlo.run_scenario`.
+    methods : list of str, optional
+        Methods to consider (default: all); those without β are skipped.
+    axes : sequence of Axes, optional
+        One axes per drawn method, instead of a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        If no selected method has sharing coefficients.
+    """
+    sc = result.scenario
+    names = [m for m in _select(result.results, methods)
+             if result.results[m].beta is not None]
+    if not names:
+        raise ValueError("sharing_figure: no selected method has sharing coefficients (beta)")
+    t = sc.times
+    colours = _sensor_colours(sc.sensor_names)
+    ncols = _grid_cols(len(names))
+    nrows = math.ceil(len(names) / ncols)
+    fig, axs = _new_axes(len(names), axes, ncols,
+                         figsize=_grid_size(ncols, nrows), sharey=True)
+    fault_handles: list = []
+    for ax, name in zip(axs, names, strict=True):
+        beta = result.results[name].beta
+        for i, s in enumerate(sc.sensor_names):
+            ax.plot(t, beta[:, :, i].mean(axis=0), color=colours[s], lw=1.2, label=s)
+            ax.plot(t, beta[0, :, i], color=colours[s], lw=0.9, ls=":")
+        fault_handles = _shade_faults(ax, sc)
+        ax.set_title(name, fontsize="medium")
+        ax.set_xlim(0.0, t[-1])
+        ax.set_ylim(bottom=0.0)
+        ax.grid(True, lw=0.4, alpha=0.6)
+    _label_grid(axs, "sharing coefficient β [-]", every=axes is not None)
+    handles = [Line2D([], [], color=colours[s], lw=1.2, label=f"{s} (mean over runs)")
+               for s in sc.sensor_names]
+    handles.append(Line2D([], [], color="0.3", lw=0.9, ls=":", label="run 0"))
+    handles += fault_handles
+    if axes is None:
+        fig.suptitle(f"Federated sharing coefficients β_i per sensor\n"
+                     f"scenario '{sc.name}', {result.runs} runs")
+        fig.legend(handles=handles, loc="outside right upper", fontsize="small",
+                   frameon=False)
+    else:
+        axs[0].legend(handles=handles, fontsize="x-small")
+    return fig
+
+
+def fault_flag_figure(
+    result: ScenarioResult,
+    methods: list[str] | None = None,
+    axes: Sequence[Axes] | None = None,
+) -> Figure:
+    """Fraction of runs flagging each sensor vs time, one subplot per method.
+
+    The true detectable fault windows of each sensor (outages excluded) are
+    drawn as a dashed 0/1 step line in the sensor's colour over a shaded band.
+    A method whose detector never fires shows flat lines at 0.
+
+    Parameters
+    ----------
+    result : ScenarioResult
+        Output of :func:`ftnav.eval.montecarlo.run_scenario`.
+    methods : list of str, optional
+        Methods to consider (default: all); those without a detector are skipped.
+    axes : sequence of Axes, optional
+        One axes per drawn method, instead of a new figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        If no selected method has fault flags.
+    """
+    sc = result.scenario
+    names = [m for m in _select(result.results, methods)
+             if result.results[m].flag is not None]
+    if not names:
+        raise ValueError("fault_flag_figure: no selected method has fault flags")
+    t = sc.times
+    colours = _sensor_colours(sc.sensor_names)
+    ncols = _grid_cols(len(names))
+    nrows = math.ceil(len(names) / ncols)
+    fig, axs = _new_axes(len(names), axes, ncols,
+                         figsize=_grid_size(ncols, nrows), sharey=True)
+    detectable = [f for f in sc.faults if f.kind != "outage"]
+    faulty = [s for s in sc.sensor_names if any(f.sensor == s for f in detectable)]
+    # earlier sensors drawn wider, so coinciding flat lines stay visible as nested bands
+    widths = np.linspace(2.6 if len(sc.sensor_names) > 1 else 1.3, 1.0, len(sc.sensor_names))
+    for ax, name in zip(axs, names, strict=True):
+        frac = result.results[name].flag.mean(axis=0)  # (K, N)
+        for f in detectable:
+            ax.axvspan(f.start, f.end, ymax=1.0, color=colours[f.sensor], alpha=0.13,
+                       lw=0.0, zorder=0)
+            ax.hlines(1.0, f.start, f.end, color=colours[f.sensor], lw=3.0, alpha=0.5,
+                      zorder=1)
+        for i, s in enumerate(sc.sensor_names):
+            ax.step(t, frac[:, i], where="mid", color=colours[s], lw=widths[i], zorder=2)
+        ax.set_title(name, fontsize="medium")
+        ax.set_xlim(0.0, t[-1])
+        ax.set_ylim(-0.03, 1.05)
+        ax.grid(True, lw=0.4, alpha=0.6)
+    _label_grid(axs, "fraction of runs flagging [-]", every=axes is not None)
+    handles = [Line2D([], [], color=colours[s], lw=w, label=f"{s}: fraction flagged")
+               for s, w in zip(sc.sensor_names, widths, strict=True)]
+    handles += [Patch(facecolor=colours[s], alpha=0.3, label=f"{s}: true fault window")
+                for s in faulty]
+    if axes is None:
+        fig.suptitle(f"Fault flags (after hysteresis): fraction of runs flagging each sensor\n"
+                     f"scenario '{sc.name}', {result.runs} runs")
+        fig.legend(handles=handles, loc="outside right upper", fontsize="small",
+                   frameon=False)
+    else:
+        axs[0].legend(handles=handles, fontsize="x-small")
+    return fig
+
+
+def save_all(result: ScenarioResult, out_dir: str | pathlib.Path) -> list[pathlib.Path]:
+    """Write the standard figures of a result as PNG files (dpi 120).
+
+    Files: ``error_no_fault.png`` (Fig. 3 analogue), ``error_fault.png``
+    (Fig. 4 analogue), ``sharing.png`` (only if some method has β) and
+    ``fault_flags.png`` (only if some method has fault flags).
+
+    Parameters
+    ----------
+    result : ScenarioResult
+        Output of :func:`ftnav.eval.montecarlo.run_scenario`.
+    out_dir : str or pathlib.Path
+        Output folder, created if missing.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files written, in the order above.
+    """
+    out = pathlib.Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    figures: list[tuple[str, Figure]] = [
+        ("error_no_fault.png", error_figure(result, fault_free=True)),
+        ("error_fault.png", error_figure(result, fault_free=False)),
+    ]
+    if any(r.beta is not None for r in result.results.values()):
+        figures.append(("sharing.png", sharing_figure(result)))
+    if any(r.flag is not None for r in result.results.values()):
+        figures.append(("fault_flags.png", fault_flag_figure(result)))
+    paths = []
+    for fname, fig in figures:
+        path = out / fname
+        fig.savefig(path, dpi=_DPI)
+        paths.append(path)
+    return paths
