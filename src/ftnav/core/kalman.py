@@ -18,7 +18,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ftnav.core.linalg import flat, predict_kernel, spd_inv, spd_solve, update_kernel
+from ftnav.core.linalg import (
+    flat,
+    fuse_kernel,
+    predict_kernel,
+    spd_inv,
+    spd_solve,
+    update_kernel,
+)
 
 __all__ = [
     "Gaussian",
@@ -195,3 +202,46 @@ def information_predict(
     Y_prior = symmetrize(np.linalg.solve(A, M))
     y_prior = np.linalg.solve(A, mv(FinvT, y)[..., None])[..., 0]
     return y_prior, Y_prior
+
+
+def fuse(
+    x: np.ndarray,
+    P: np.ndarray,
+    weight: np.ndarray,
+    y0: np.ndarray | None = None,
+    Y0: np.ndarray | None = None,
+) -> Gaussian:
+    """Information fusion ``P_g = (Y0 + Σ w_i P_i⁻¹)⁻¹``, ``x_g = P_g (y0 + Σ w_i P_i⁻¹ x_i)``.
+
+    Spec §1.3 step 3 (paper 000 eq. 2) with ``w_i ∈ {0, 1}`` selecting the active
+    set, and an optional prior information ``(y0, Y0)`` (the master filter or
+    the distributed centre, spec §6.1).
+
+    Parameters
+    ----------
+    x : (..., N, n) local estimates.   P : (..., N, n, n) their covariances.
+    weight : (..., N) weights (0 leaves a filter out).
+    y0, Y0 : (..., n), (..., n, n) information added to the sum (default 0).
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If the total information is not positive definite (nothing fused).
+    """
+    N, n = x.shape[-2:]
+    batch = np.broadcast_shapes(x.shape[:-2], P.shape[:-3], weight.shape[:-1])
+    xf, Pf = flat(x, batch, (N, n)), flat(P, batch, (N, n, n))
+    wf = flat(weight, batch, (N,))
+    M = xf.shape[0]
+    Y0f = np.zeros((M, n, n)) if Y0 is None else flat(Y0, batch, (n, n))
+    y0f = np.zeros((M, n)) if y0 is None else flat(y0, batch, (n,))
+    x_out, P_out = np.empty((M, n)), np.empty((M, n, n))
+    ok = fuse_kernel(xf, Pf, wf, Y0f, y0f, x_out, P_out)
+    if not ok.all():  # fall back to LU; raises if the information is singular
+        bad = ~ok
+        Yi = np.linalg.inv(Pf[bad])
+        Y = Y0f[bad] + np.einsum("bk,bkij->bij", wf[bad], Yi)
+        y = y0f[bad] + np.einsum("bk,bkij,bkj->bi", wf[bad], Yi, xf[bad])
+        P_out[bad] = symmetrize(np.linalg.inv(Y))
+        x_out[bad] = mv(P_out[bad], y)
+    return Gaussian(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)))

@@ -232,3 +232,82 @@ def flat(a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...],
         return np.ascontiguousarray(a, dtype=np.float64).reshape((1,) + core)
     return np.ascontiguousarray(np.broadcast_to(a, batch + core), dtype=np.float64).reshape(
         (-1,) + core)
+
+
+@numba.njit(cache=True, nogil=True)
+def _chol(A, L):  # pragma: no cover - compiled
+    n = A.shape[0]
+    for j in range(n):
+        s = A[j, j]
+        for p in range(j):
+            s -= L[j, p] * L[j, p]
+        if not s > 0.0:
+            return False
+        d = np.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for p in range(j):
+                s -= L[i, p] * L[j, p]
+            L[i, j] = s / d
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _chol_inv(L, out):  # pragma: no cover - compiled
+    n = L.shape[0]
+    col = np.empty(n)
+    for c in range(n):
+        for i in range(n):
+            s = 1.0 if i == c else 0.0
+            for p in range(i):
+                s -= L[i, p] * col[p]
+            col[i] = s / L[i, i]
+        for i in range(n - 1, -1, -1):
+            s = col[i]
+            for p in range(i + 1, n):
+                s -= L[p, i] * col[p]
+            col[i] = s / L[i, i]
+        for i in range(n):
+            out[i, c] = col[i]
+
+
+@numba.njit(cache=True, nogil=True)
+def fuse_kernel(x, P, w, Y0, y0, x_out, P_out):  # pragma: no cover - compiled
+    """``Y = Y0 + Σ w_i P_i⁻¹``, ``y = y0 + Σ w_i P_i⁻¹ x_i``, ``P = Y⁻¹``, ``x = P y``."""
+    M, N, n = x.shape
+    ok = np.ones(M, dtype=np.bool_)
+    L = np.empty((n, n))
+    Pi = np.empty((n, n))
+    Y = np.empty((n, n))
+    y = np.empty(n)
+    for b in range(M):
+        for i in range(n):
+            y[i] = y0[b, i]
+            for j in range(n):
+                Y[i, j] = Y0[b, i, j]
+        for k in range(N):
+            if w[b, k] == 0.0:
+                continue
+            if not _chol(P[b, k], L):
+                ok[b] = False
+                break
+            _chol_inv(L, Pi)
+            for i in range(n):
+                s = 0.0
+                for j in range(n):
+                    Y[i, j] += w[b, k] * 0.5 * (Pi[i, j] + Pi[j, i])
+                    s += Pi[i, j] * x[b, k, j]
+                y[i] += w[b, k] * s
+        if not ok[b] or not _chol(Y, L):
+            ok[b] = False
+            continue
+        _chol_inv(L, Pi)
+        for i in range(n):
+            s = 0.0
+            for j in range(n):
+                v = 0.5 * (Pi[i, j] + Pi[j, i])
+                P_out[b, i, j] = v
+                s += v * y[j]
+            x_out[b, i] = s
+    return ok

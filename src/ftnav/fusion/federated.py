@@ -43,7 +43,11 @@ from ftnav.fusion.local import (
 from ftnav.fusion.system import LinearSystem
 from ftnav.sim.scenario import Method
 
-__all__ = ["FederatedFilter", "FederatedState"]
+__all__ = ["FederatedFilter", "FederatedState", "MIN_SHARE"]
+
+#: Smallest positive sharing coefficient: a local reset with P_g/β for β below it
+#: loses accuracy roughly as (machine epsilon)/β.
+MIN_SHARE = 1e-6
 
 
 class FederatedState(NamedTuple):
@@ -119,9 +123,22 @@ class FederatedFilter:
         return self.N
 
     def _sharing(self, P_common: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """β of the rule, a positive share raised to at least :data:`MIN_SHARE`.
+
+        The adaptive rules can drive a healthy filter's β geometrically to 0 (e.g.
+        inverse-trace when sensors observe different subspaces); ``P_g/β`` then
+        overflows.  Raising it to the floor (the others renormalized, Σβ + β_m = 1)
+        keeps its measurements in the fusion; a zero β (fault, fixed 0) stays 0.
+        """
         m = self.method
-        return sharing_coefficients(m.sharing, P_common, r, master_share=self.beta_m,
+        beta = sharing_coefficients(m.sharing, P_common, r, master_share=self.beta_m,
                                     betas=np.asarray(m.betas), info=self.info, scale=self.scale)
+        tiny = (beta > 0) & (beta < MIN_SHARE)
+        if not tiny.any():
+            return beta
+        rest = np.where(tiny, 0.0, beta)
+        budget = 1.0 - self.beta_m - MIN_SHARE * tiny.sum(-1, keepdims=True)
+        return np.where(tiny, MIN_SHARE, rest * (budget / rest.sum(-1, keepdims=True)))
 
     def init(self, batch: int) -> FederatedState:
         B, nc = batch, self.nc
@@ -135,7 +152,7 @@ class FederatedFilter:
                 Ps.append(np.zeros((B, nc, nc)))
                 continue
             P = np.broadcast_to(lm.P0, (B,) + lm.P0.shape).copy()
-            P[:, :nc, :nc] = P0c / share[:, i, None, None]
+            P[:, :nc, :nc] = P0c / np.where(share[:, i] > 0, share[:, i], 1.0)[:, None, None]
             xs.append(np.broadcast_to(lm.x0, (B, lm.n)).copy())
             Ps.append(P)
         master = None
@@ -151,7 +168,8 @@ class FederatedFilter:
         return FederatedState(tuple(xs), tuple(Ps), master,
                               np.broadcast_to(x0c, (B, nc)).copy(),
                               np.broadcast_to(P0c, (B, nc, nc)).copy(),
-                              share, np.ones((B, self.N), dtype=bool), noise, det, prop)
+                              share, np.ones((B, self.N), dtype=bool) if self.zr else share > 0,
+                              noise, det, prop)
 
     # ------------------------------------------------------------------------------
     def step(self, state: FederatedState, k: int, z, available, oracle):
@@ -159,7 +177,10 @@ class FederatedFilter:
         m, nc, N = self.method, self.nc, self.N
         F, Q = self.system.transition(k)
         B = state.xg.shape[0]
-        xg_pr, Pg_pr = kf.predict(state.xg, state.Pg, F, Q)
+        # the fused prior: needed by global-prior tests and when every local is isolated
+        need_prior = self.global_prior or not state.active.any(1).all() and \
+            state.master is None
+        xg_pr, Pg_pr = kf.predict(state.xg, state.Pg, F, Q) if need_prior else (None, None)
         usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
                           strict=True)
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
@@ -220,31 +241,27 @@ class FederatedFilter:
             xg, Pg = kf.from_information(yg, Yg)
             any_source = np.ones(B, dtype=bool)
         else:
-            Yg = np.zeros((B, nc, nc))
-            yg = np.zeros((B, nc))
-            P_common = []
-            for i in range(N):
-                xi = select(newly[:, i], priors[i][0], posts[i][0])[:, :nc]
-                Pi = select(newly[:, i], priors[i][1], posts[i][1])[:, :nc, :nc]
-                P_common.append(posts[i][1][:, :nc, :nc])
-                Yi = kf.spd_inverse(Pi)
-                Yg += np.where(state.active[:, i, None, None], Yi, 0.0)
-                yg += np.where(state.active[:, i, None], kf.mv(Yi, xi), 0.0)
-            master = None
+            xc = np.stack([select(newly[:, i], priors[i][0], posts[i][0])[:, :nc]
+                           for i in range(N)], 1)
+            Pc = np.stack([select(newly[:, i], priors[i][1], posts[i][1])[:, :nc, :nc]
+                           for i in range(N)], 1)
+            P_common = [posts[i][1][:, :nc, :nc] for i in range(N)]
+            master = y0 = Y0 = None
             if state.master is not None:
                 master = kf.predict(state.master.x, state.master.P, F, Q / self.beta_m)
-                ym, Ym = kf.to_information(*master)
-                Yg += Ym
-                yg += ym
+                y0, Y0 = kf.to_information(*master)
             any_source = state.active.any(1) | (state.master is not None)
-            Ysafe = np.where(any_source[:, None, None], Yg, np.eye(nc))
-            xf, Pf = kf.from_information(np.where(any_source[:, None], yg, 0.0), Ysafe)
+            if not any_source.all():  # every local isolated: output the global prior
+                Y0 = np.where(any_source[:, None, None], 0.0 if Y0 is None else Y0, np.eye(nc))
+            xf, Pf = kf.fuse(xc, Pc, state.active.astype(float), y0, Y0)
             xg, Pg = select(any_source, xf, xg_pr), select(any_source, Pf, Pg_pr)
 
         # ---- sharing / reset (spec §1.2, §1.5, §1.8) ---------------------------------
         r = ~flag
         reset_epoch = m.mode != "no-reset" and k % m.reset_interval == 0
         active_next = r.copy() if (reset_epoch or m.mode == "no-reset") else state.active & r
+        if m.mode == "no-reset":
+            active_next &= state.share > 0
         xs = [p[0] for p in posts]
         Ps = [p[1] for p in posts]
         share = state.share
@@ -259,6 +276,7 @@ class FederatedFilter:
             beta_report = np.zeros((B, N))
         elif reset_epoch:
             share = self._sharing(np.stack(P_common, 1), r.astype(float))
+            active_next &= share > 0  # a zero share is not reset (P_g/0) nor fused
             for i in range(N):
                 xs[i], Ps[i] = self._reset(xs[i], Ps[i], xg, Pg, share[:, i], active_next[:, i])
             if state.master is not None:

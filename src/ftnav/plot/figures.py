@@ -82,6 +82,11 @@ def _sensor_colours(names: Sequence[str]) -> dict[str, tuple]:
     return {name: cmap(i % 10) for i, name in enumerate(names)}
 
 
+def _sensor_widths(n: int) -> np.ndarray:
+    """Line widths per sensor, decreasing, so coinciding lines show as nested bands."""
+    return np.linspace(2.6, 1.0, n) if n > 1 else np.array([1.3])
+
+
 def _fault_label(fault) -> str:
     return f"fault: {fault.sensor} {fault.kind} [{fault.start:g}, {fault.end:g}) s"
 
@@ -312,19 +317,22 @@ def sharing_figure(
     fig, axs = _new_axes(len(names), axes, ncols,
                          figsize=_grid_size(ncols, nrows), sharey=True)
     fault_handles: list = []
+    widths = _sensor_widths(len(sc.sensor_names))
     for ax, name in zip(axs, names, strict=True):
         beta = result.results[name].beta
         for i, s in enumerate(sc.sensor_names):
-            ax.plot(t, beta[:, :, i].mean(axis=0), color=colours[s], lw=1.2, label=s)
+            ax.plot(t, beta[:, :, i].mean(axis=0), color=colours[s], lw=widths[i], label=s)
             ax.plot(t, beta[0, :, i], color=colours[s], lw=0.9, ls=":")
         fault_handles = _shade_faults(ax, sc)
         ax.set_title(name, fontsize="medium")
         ax.set_xlim(0.0, t[-1])
-        ax.set_ylim(bottom=0.0)
         ax.grid(True, lw=0.4, alpha=0.6)
+    top = max(float(np.nanmax(result.results[m].beta, initial=0.0)) for m in names)
+    for ax in axs:  # after all lines: set_ylim turns autoscaling off
+        ax.set_ylim(0.0, 1.05 * top if top > 0.0 else 1.0)
     _label_grid(axs, "sharing coefficient β [-]", every=axes is not None)
-    handles = [Line2D([], [], color=colours[s], lw=1.2, label=f"{s} (mean over runs)")
-               for s in sc.sensor_names]
+    handles = [Line2D([], [], color=colours[s], lw=w, label=f"{s} (mean over runs)")
+               for s, w in zip(sc.sensor_names, widths, strict=True)]
     handles.append(Line2D([], [], color="0.3", lw=0.9, ls=":", label="run 0"))
     handles += fault_handles
     if axes is None:
@@ -379,8 +387,7 @@ def fault_flag_figure(
                          figsize=_grid_size(ncols, nrows), sharey=True)
     detectable = [f for f in sc.faults if f.kind != "outage"]
     faulty = [s for s in sc.sensor_names if any(f.sensor == s for f in detectable)]
-    # earlier sensors drawn wider, so coinciding flat lines stay visible as nested bands
-    widths = np.linspace(2.6 if len(sc.sensor_names) > 1 else 1.3, 1.0, len(sc.sensor_names))
+    widths = _sensor_widths(len(sc.sensor_names))
     for ax, name in zip(axs, names, strict=True):
         frac = result.results[name].flag.mean(axis=0)  # (K, N)
         for f in detectable:
