@@ -113,7 +113,8 @@ def main():
                for r in range(args.peer_runs))
 
     print(f"seed000 model, {sc.steps} epochs, fusion-reset every epoch, inverse-trace sharing")
-    print(f"ftnav    : {args.runs} runs batched in {t_ft:.2f} s (best of 3) -> {per_run_ft:.2f} ms per run "
+    print(f"ftnav    : {args.runs} runs batched in {t_ft:.2f} s (best of 3) -> "
+          f"{per_run_ft:.2f} ms per run "
           f"(peak traced memory {peak / 2**20:.0f} MiB)")
     print(f"FilterPy : {args.peer_runs} runs one by one in {t_peer:.2f} s -> "
           f"{per_run_peer:.1f} ms per run")

@@ -142,7 +142,7 @@ class DistributedFilter:
 
         yg, Yg = kf.to_information(xg_pr, Pg_pr)
         xs, Ps, noise, R_hat = [], [], [], []
-        for i, s in enumerate(self.system.sensors):
+        for i in range(N):
             up = self._update(i, priors[i], z[i], use[:, i], state.noise[i])
             H = self.H[i]
             if m.increment == "direct":

@@ -63,14 +63,16 @@ def simulate(scenario: Scenario, runs: int, seed: int, first_run: int = 0) -> Si
     # one draw per run: initial state, process noise, measurement noise
     size = n + K * n + K * sum(dims)
     draws = np.stack([run_generator(seed, first_run + b).standard_normal(size) for b in range(B)])
-    x = x0 + draws[:, :n] @ _cholesky_psd(P0).T
+    # einsum keeps a fixed summation order per element, so run i is bit-identical
+    # whatever the batch size (BLAS blocking would depend on it)
+    x = x0 + np.einsum("ij,bj->bi", _cholesky_psd(P0), draws[:, :n])
     w = draws[:, n: n + K * n].reshape(B, K, n)
     v_all = draws[:, n + K * n:].reshape(B, K, sum(dims))
 
     truth = np.empty((B, K, n))
     for k in range(1, K + 1):
         F, Q = system.augmented_transition(k, true=True)
-        x = x @ F.T + w[:, k - 1] @ _cholesky_psd(Q).T
+        x = np.einsum("ij,bj->bi", F, x) + np.einsum("ij,bj->bi", _cholesky_psd(Q), w[:, k - 1])
         truth[:, k - 1] = x
 
     t = scenario.times
@@ -80,8 +82,9 @@ def simulate(scenario: Scenario, runs: int, seed: int, first_run: int = 0) -> Si
     start = 0
     for i, s in enumerate(scenario.sensors):
         H = system.augmented_H(i)
-        zi_ideal = truth @ H.T
-        noise = v_all[:, :, start: start + s.dim] @ np.linalg.cholesky(s.R_true).T
+        zi_ideal = np.einsum("ij,bkj->bki", H, truth)
+        noise = np.einsum("ij,bkj->bki", np.linalg.cholesky(s.R_true),
+                          v_all[:, :, start: start + s.dim])
         start += s.dim
         avail = np.broadcast_to(s.available(K), (B, K)).copy()
         for f in scenario.faults:
