@@ -34,7 +34,7 @@ def vb_update(
     *,
     iterations: int = 3,
     variant: str = "sarkka",
-) -> tuple[Update, np.ndarray, np.ndarray]:
+) -> tuple[Update, np.ndarray, np.ndarray, np.ndarray]:
     """VB measurement update (spec §7.2; ``variant="literal"``: paper 002 eq. 30, §7.3).
 
     Parameters
@@ -52,6 +52,9 @@ def vb_update(
     update : :class:`~ftnav.core.kalman.Update` of the final iteration; its
         ``innovation``, ``S`` and ``nis`` refer to the prior with the final R̂.
     alpha, beta : (..., m) posterior parameters.
+    R : (..., m, m) the noise the returned posterior used: ``diag(β⁽ᴺ⁻¹⁾/α)`` for
+        ``"sarkka"`` (one fixed-point step behind the returned ``β/α``), ``β/α`` for
+        ``"literal"``; a plain KF with this R reproduces the update (spec §6.4).
     """
     alpha_post = alpha + 0.5
     n = x.shape[-1]
@@ -79,4 +82,4 @@ def vb_update(
             res = z - mv(H, x_post)
             hph = np.diagonal(H @ P_post @ mT(H), axis1=-2, axis2=-1)
             beta_iter = beta + 0.5 * res**2 + 0.5 * hph
-    return Update(x_post, P_post, nu, S, nis(nu, S)), alpha_post, beta_iter
+    return Update(x_post, P_post, nu, S, nis(nu, S)), alpha_post, beta_iter, R

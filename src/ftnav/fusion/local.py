@@ -95,11 +95,12 @@ def local_update(
         new_noise = None
     else:
         a, b = vbk.vb_predict(noise.alpha, noise.beta, rho)
-        up, a_post, b_post = vbk.vb_update(x, P, z0, H, a, b, iterations=iterations,
-                                           variant=variant)
+        up, a_post, b_post, R_post = vbk.vb_update(x, P, z0, H, a, b, iterations=iterations,
+                                                   variant=variant)
         # no measurement: the noise posterior is only forgotten (spec §7.2 predict)
         new_noise = NoiseState(select(use, a_post, a), select(use, b_post, b))
-        Rused = vbk.noise_estimate(new_noise.alpha, new_noise.beta)
+        # the noise the posterior was computed with (what a CKF needs to reproduce it)
+        Rused = select(use, R_post, vbk.noise_estimate(a, b))
     return LocalUpdate(
         select(use, up.x, x), select(use, up.P, P), np.where(use, up.nis, 0.0), Rused, new_noise
     )
