@@ -18,27 +18,33 @@ __all__ = ["spd_solve", "spd_inv"]
 
 
 @numba.njit(cache=True, nogil=True)
+def _chol(A, L):  # pragma: no cover - compiled
+    n = A.shape[0]
+    for j in range(n):
+        s = A[j, j]
+        for p in range(j):
+            s -= L[j, p] * L[j, p]
+        if not s > 0.0:
+            return False
+        d = np.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for p in range(j):
+                s -= L[i, p] * L[j, p]
+            L[i, j] = s / d
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
 def _chol_solve(A, B, out):  # pragma: no cover - compiled
     M, n, _ = A.shape
     k = B.shape[2]
     L = np.empty((n, n))
     ok = np.ones(M, dtype=np.bool_)
     for b in range(M):
-        for j in range(n):
-            s = A[b, j, j]
-            for p in range(j):
-                s -= L[j, p] * L[j, p]
-            if not s > 0.0:
-                ok[b] = False
-                break
-            d = np.sqrt(s)
-            L[j, j] = d
-            for i in range(j + 1, n):
-                s = A[b, i, j]
-                for p in range(j):
-                    s -= L[i, p] * L[j, p]
-                L[i, j] = s / d
-        if not ok[b]:
+        if not _chol(A[b], L):
+            ok[b] = False
             continue
         for c in range(k):
             for i in range(n):  # forward: L y = b
@@ -148,21 +154,8 @@ def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):  # pragm
                 v = 0.5 * (S_out[b, r, c] + S_out[b, c, r])
                 S_out[b, r, c] = v
                 S_out[b, c, r] = v
-        for j in range(m):  # Cholesky of S
-            s = S_out[b, j, j]
-            for p in range(j):
-                s -= L[j, p] * L[j, p]
-            if not s > 0.0:
-                ok[b] = False
-                break
-            d = np.sqrt(s)
-            L[j, j] = d
-            for i in range(j + 1, m):
-                s = S_out[b, i, j]
-                for p in range(j):
-                    s -= L[i, p] * L[j, p]
-                L[i, j] = s / d
-        if not ok[b]:
+        if not _chol(S_out[b], L):
+            ok[b] = False
             continue
         # K = P Hᵀ S⁻¹ : solve S Kᵀ = (P Hᵀ)ᵀ row by row
         for i in range(n):
@@ -232,25 +225,6 @@ def flat(a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...],
         return np.ascontiguousarray(a, dtype=np.float64).reshape((1,) + core)
     return np.ascontiguousarray(np.broadcast_to(a, batch + core), dtype=np.float64).reshape(
         (-1,) + core)
-
-
-@numba.njit(cache=True, nogil=True)
-def _chol(A, L):  # pragma: no cover - compiled
-    n = A.shape[0]
-    for j in range(n):
-        s = A[j, j]
-        for p in range(j):
-            s -= L[j, p] * L[j, p]
-        if not s > 0.0:
-            return False
-        d = np.sqrt(s)
-        L[j, j] = d
-        for i in range(j + 1, n):
-            s = A[i, j]
-            for p in range(j):
-                s -= L[i, p] * L[j, p]
-            L[i, j] = s / d
-    return True
 
 
 @numba.njit(cache=True, nogil=True)
