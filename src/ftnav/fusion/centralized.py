@@ -24,6 +24,7 @@ from ftnav.fusion.local import (
     predicted_noise,
     residual_statistic,
     valid_measurement,
+    vb_enabled,
     vb_variant,
 )
 from ftnav.fusion.system import LinearSystem
@@ -62,10 +63,7 @@ class CentralizedFilter:
         self.detector = make_detector(method)
         self.variant = vb_variant(method)
         self.H = [system.augmented_H(i) for i in range(system.n_sensors)]
-        self.vb_on = [
-            self.variant is not None and (not method.vb_sensors or s.name in method.vb_sensors)
-            for s in system.sensors
-        ]
+        self.vb_on = vb_enabled(method, system.sensors)
 
     @property
     def n_filters(self) -> int:

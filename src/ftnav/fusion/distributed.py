@@ -37,6 +37,7 @@ from ftnav.fusion.local import (
     predicted_noise,
     residual_statistic,
     valid_measurement,
+    vb_enabled,
     vb_variant,
 )
 from ftnav.fusion.system import LinearSystem
@@ -85,9 +86,7 @@ class DistributedFilter:
         self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
             else None
         self.variant = vb_variant(method)
-        self.vb_on = [self.variant is not None and (not method.vb_sensors
-                                                    or s.name in method.vb_sensors)
-                      for s in system.sensors]
+        self.vb_on = vb_enabled(method, system.sensors)
         self.gamma = method.rescale_factor if method.mode == "rescale" else 1.0
 
     @property

@@ -38,6 +38,7 @@ from ftnav.fusion.local import (
     residual_statistic,
     select,
     valid_measurement,
+    vb_enabled,
     vb_variant,
 )
 from ftnav.fusion.system import LinearSystem
@@ -107,9 +108,7 @@ class FederatedFilter:
         self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
             else None
         self.variant = vb_variant(method)
-        self.vb_on = [self.variant is not None and (not method.vb_sensors
-                                                    or s.name in method.vb_sensors)
-                      for s in system.sensors]
+        self.vb_on = vb_enabled(method, system.sensors)
         self.scale = None if method.trace_mode == "raw" else 1.0 / np.sqrt(
             np.diag(system.model.P0))
         self.info = information_content([s.H for s in system.sensors],

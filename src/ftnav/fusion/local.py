@@ -58,6 +58,12 @@ def vb_variant(method: Method) -> str | None:
     return {"none": None, "vb": "sarkka", "vb-literal": "literal"}[method.adaptive_noise]
 
 
+def vb_enabled(method: Method, sensors) -> list[bool]:
+    """Per sensor: does its local filter adapt R (``adaptive_noise`` and ``vb_sensors``)."""
+    on = method.adaptive_noise != "none"
+    return [on and (not method.vb_sensors or s.name in method.vb_sensors) for s in sensors]
+
+
 def initial_noise(R: np.ndarray, batch: int, alpha0: float = 1.0) -> NoiseState:
     """VB prior with ``β₀/α₀`` equal to the nominal diagonal R (spec §7.2 [A])."""
     m = R.shape[0]
