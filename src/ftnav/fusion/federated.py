@@ -213,8 +213,7 @@ class FederatedFilter:
                 if self.state_test is not None:
                     props.append(kf.predict(*state.propagator[i], Fi, Qi))
             stat.append(self._residual(i, xg_pr, Pg_pr, priors[i], z[i], use, state.noise[i])
-                        if self.global_prior or self.zr else
-                        (up.nis if not self.zr else None))
+                        if self.global_prior else up.nis)  # global_prior covers zero-reset
         stat = np.stack(stat, 1)
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
         tested = usable
