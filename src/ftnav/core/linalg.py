@@ -7,6 +7,13 @@ spends most of its time in call overhead (measured in
 triangular solves run in one compiled loop over the batch.  A matrix that is not
 numerically positive definite falls back to LU (``numpy.linalg.solve``), so the
 result is never silently wrong.
+
+Every public kernel splits the batch into chunks that run on numba's thread
+pool (``prange``); each chunk runs the serial ``_*_rows`` loop with its own
+scratch buffers.  Monte Carlo runs are independent, so the result does not
+depend on the number of threads (``NUMBA_NUM_THREADS``, or
+``numba.set_num_threads``); numba's default ``workqueue`` threading layer must
+not be entered from two Python threads at once.
 """
 
 from __future__ import annotations
@@ -14,10 +21,24 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["spd_solve", "spd_inv"]
+__all__ = ["spd_solve", "spd_inv", "predict_kernel", "update_kernel", "fuse_kernel", "flat"]
+
+#: compile options of every kernel: cached, GIL released, NumPy error model
+#: (no zero-division checks; a failed Cholesky is detected explicitly instead)
+_JIT = dict(cache=True, nogil=True, error_model="numpy")
 
 
-@numba.njit(cache=True, nogil=True)
+#: smallest batch worth the thread pool (below it the serial loop runs directly)
+PARALLEL_MIN = 64
+
+
+def _n_chunks(M: int) -> int:
+    """Chunks of a batch of M for the thread pool (a few per thread); 0 = run serially."""
+    threads = numba.get_num_threads()
+    return 0 if M < PARALLEL_MIN or threads == 1 else min(M, 4 * threads)
+
+
+@numba.njit(**_JIT)
 def _chol(A, L):  # pragma: no cover - compiled
     n = A.shape[0]
     for j in range(n):
@@ -36,13 +57,12 @@ def _chol(A, L):  # pragma: no cover - compiled
     return True
 
 
-@numba.njit(cache=True, nogil=True)
-def _chol_solve(A, B, out):  # pragma: no cover - compiled
-    M, n, _ = A.shape
+@numba.njit(**_JIT)
+def _chol_solve_rows(lo, hi, A, B, out, ok):  # pragma: no cover - compiled
+    n = A.shape[1]
     k = B.shape[2]
     L = np.empty((n, n))
-    ok = np.ones(M, dtype=np.bool_)
-    for b in range(M):
+    for b in range(lo, hi):
         if not _chol(A[b], L):
             ok[b] = False
             continue
@@ -57,6 +77,23 @@ def _chol_solve(A, B, out):  # pragma: no cover - compiled
                 for p in range(i + 1, n):
                     s -= L[p, i] * out[b, p, c]
                 out[b, i, c] = s / L[i, i]
+
+
+@numba.njit(parallel=True, **_JIT)
+def _chol_solve_par(C, A, B, out, ok):  # pragma: no cover - compiled
+    M = A.shape[0]
+    for c in numba.prange(C):
+        _chol_solve_rows(c * M // C, (c + 1) * M // C, A, B, out, ok)
+
+
+def _chol_solve(A, B, out):
+    M = A.shape[0]
+    ok = np.ones(M, dtype=np.bool_)
+    C = _n_chunks(M)
+    if C:
+        _chol_solve_par(C, A, B, out, ok)
+    else:
+        _chol_solve_rows(0, M, A, B, out, ok)
     return ok
 
 
@@ -89,12 +126,11 @@ def spd_inv(A: np.ndarray) -> np.ndarray:
     return 0.5 * (X + np.swapaxes(X, -1, -2))
 
 
-@numba.njit(cache=True, nogil=True)
-def predict_kernel(x, P, F, Q, x_out, P_out):  # pragma: no cover - compiled
-    """``x⁻ = F x``, ``P⁻ = F P Fᵀ + Q`` symmetrized, for flat batches (M, n[, n])."""
-    M, n = x.shape
+@numba.njit(**_JIT)
+def _predict_rows(lo, hi, x, P, F, Q, x_out, P_out):  # pragma: no cover - compiled
+    n = x.shape[1]
     FP = np.empty((n, n))
-    for b in range(M):
+    for b in range(lo, hi):
         f = b if F.shape[0] > 1 else 0
         g = b if Q.shape[0] > 1 else 0
         for i in range(n):
@@ -117,12 +153,31 @@ def predict_kernel(x, P, F, Q, x_out, P_out):  # pragma: no cover - compiled
                 P_out[b, j, i] = v
 
 
-@numba.njit(cache=True, nogil=True)
-def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):  # pragma: no cover
-    """Joseph-form update for flat batches; returns False where S is not SPD."""
-    M, n = x.shape
+@numba.njit(parallel=True, **_JIT)
+def _predict_kernel_par(C, x, P, F, Q, x_out, P_out):  # pragma: no cover - compiled
+    M = x.shape[0]
+    for c in numba.prange(C):
+        _predict_rows(c * M // C, (c + 1) * M // C, x, P, F, Q, x_out, P_out)
+
+
+def predict_kernel(x, P, F, Q, x_out, P_out):
+    """``x⁻ = F x``, ``P⁻ = F P Fᵀ + Q`` symmetrized, for flat batches (M, n[, n]).
+
+    ``F`` and ``Q`` have a leading axis of M or of 1 (shared by the batch).
+    """
+    M = x.shape[0]
+    C = _n_chunks(M)
+    if C:
+        _predict_kernel_par(C, x, P, F, Q, x_out, P_out)
+    else:
+        _predict_rows(0, M, x, P, F, Q, x_out, P_out)
+
+
+@numba.njit(**_JIT)
+def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
+                 ok):  # pragma: no cover - compiled
+    n = x.shape[1]
     m = z.shape[1]
-    ok = np.ones(M, dtype=np.bool_)
     PHt = np.empty((n, m))
     L = np.empty((m, m))
     K = np.empty((n, m))
@@ -130,7 +185,7 @@ def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):  # pragm
     AP = np.empty((n, n))
     KR = np.empty((n, m))
     w = np.empty(m)
-    for b in range(M):
+    for b in range(lo, hi):
         h = b if H.shape[0] > 1 else 0
         e = b if R.shape[0] > 1 else 0
         for i in range(n):
@@ -211,6 +266,26 @@ def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):  # pragm
                 # lower triangle only, mirrored: the symmetrized Joseph covariance
                 P_out[b, i, j] = s
                 P_out[b, j, i] = s
+
+
+@numba.njit(parallel=True, **_JIT)
+def _update_kernel_par(C, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
+                       ok):  # pragma: no cover - compiled
+    M = x.shape[0]
+    for c in numba.prange(C):
+        _update_rows(c * M // C, (c + 1) * M // C, x, P, z, H, R, x_out, P_out, nu_out,
+                     S_out, nis_out, ok)
+
+
+def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):
+    """Joseph-form update for flat batches; returns False where S is not SPD."""
+    M = x.shape[0]
+    ok = np.ones(M, dtype=np.bool_)
+    C = _n_chunks(M)
+    if C:
+        _update_kernel_par(C, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out, ok)
+    else:
+        _update_rows(0, M, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out, ok)
     return ok
 
 
@@ -227,61 +302,107 @@ def flat(a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...],
         (-1,) + core)
 
 
-@numba.njit(cache=True, nogil=True)
-def _chol_inv(L, out):  # pragma: no cover - compiled
+@numba.njit(**_JIT)
+def _tri_inv(L, out):  # pragma: no cover - compiled
+    """Inverse of the lower-triangular Cholesky factor ``L`` (lower triangle of ``out``)."""
     n = L.shape[0]
-    col = np.empty(n)
-    for c in range(n):
-        for i in range(n):
-            s = 1.0 if i == c else 0.0
-            for p in range(i):
-                s -= L[i, p] * col[p]
-            col[i] = s / L[i, i]
-        for i in range(n - 1, -1, -1):
-            s = col[i]
-            for p in range(i + 1, n):
-                s -= L[p, i] * col[p]
-            col[i] = s / L[i, i]
-        for i in range(n):
-            out[i, c] = col[i]
+    for j in range(n):
+        d = 1.0 / L[j, j]
+        out[j, j] = d
+        for i in range(j + 1, n):
+            s = 0.0
+            for p in range(j, i):
+                s += L[i, p] * out[p, j]
+            out[i, j] = -s / L[i, i]
 
 
-@numba.njit(cache=True, nogil=True)
-def fuse_kernel(x, P, w, Y0, y0, x_out, P_out):  # pragma: no cover - compiled
-    """``Y = Y0 + Σ w_i P_i⁻¹``, ``y = y0 + Σ w_i P_i⁻¹ x_i``, ``P = Y⁻¹``, ``x = P y``."""
-    M, N, n = x.shape
-    ok = np.ones(M, dtype=np.bool_)
+@numba.njit(**_JIT)
+def _add_inverse(Li, w, x, Y, y, u):  # pragma: no cover - compiled
+    """``Y += w Lᵢᵀ Lᵢ`` (lower triangle) and ``y += w Lᵢᵀ Lᵢ x`` for ``Lᵢ = L⁻¹``.
+
+    ``u`` is an (n,) work buffer (no allocation inside the batch loop).
+    """
+    n = Li.shape[0]
+    for p in range(n):
+        s = 0.0
+        for j in range(p + 1):
+            s += Li[p, j] * x[j]
+        u[p] = s
+    for i in range(n):
+        s = 0.0
+        for p in range(i, n):
+            s += Li[p, i] * u[p]
+        y[i] += w * s
+        for j in range(i + 1):
+            s = 0.0
+            for p in range(i, n):
+                s += Li[p, i] * Li[p, j]
+            Y[i, j] += w * s
+
+
+@numba.njit(**_JIT)
+def _fuse_rows(lo, hi, x, P, w, Y0, y0, x_out, P_out, ok):  # pragma: no cover - compiled
+    N, n = x.shape[1:]
     L = np.empty((n, n))
-    Pi = np.empty((n, n))
+    Li = np.zeros((n, n))
     Y = np.empty((n, n))
     y = np.empty(n)
-    for b in range(M):
+    u = np.empty(n)
+    for b in range(lo, hi):
         for i in range(n):
             y[i] = y0[b, i]
-            for j in range(n):
-                Y[i, j] = Y0[b, i, j]
+            for j in range(i + 1):
+                Y[i, j] = 0.5 * (Y0[b, i, j] + Y0[b, j, i])
         for k in range(N):
             if w[b, k] == 0.0:
                 continue
             if not _chol(P[b, k], L):
                 ok[b] = False
                 break
-            _chol_inv(L, Pi)
-            for i in range(n):
-                s = 0.0
-                for j in range(n):
-                    Y[i, j] += w[b, k] * 0.5 * (Pi[i, j] + Pi[j, i])
-                    s += Pi[i, j] * x[b, k, j]
-                y[i] += w[b, k] * s
-        if not ok[b] or not _chol(Y, L):
+            _tri_inv(L, Li)
+            _add_inverse(Li, w[b, k], x[b, k], Y, y, u)
+        if not ok[b]:
+            continue
+        for i in range(n):
+            for j in range(i):
+                Y[j, i] = Y[i, j]
+        if not _chol(Y, L):
             ok[b] = False
             continue
-        _chol_inv(L, Pi)
+        _tri_inv(L, Li)
+        for i in range(n):
+            for j in range(i + 1):
+                s = 0.0
+                for p in range(i, n):
+                    s += Li[p, i] * Li[p, j]
+                P_out[b, i, j] = s
+                P_out[b, j, i] = s
         for i in range(n):
             s = 0.0
             for j in range(n):
-                v = 0.5 * (Pi[i, j] + Pi[j, i])
-                P_out[b, i, j] = v
-                s += v * y[j]
+                s += P_out[b, i, j] * y[j]
             x_out[b, i] = s
+
+
+@numba.njit(parallel=True, **_JIT)
+def _fuse_kernel_par(C, x, P, w, Y0, y0, x_out, P_out, ok):  # pragma: no cover - compiled
+    M = x.shape[0]
+    for c in numba.prange(C):
+        _fuse_rows(c * M // C, (c + 1) * M // C, x, P, w, Y0, y0, x_out, P_out, ok)
+
+
+def fuse_kernel(x, P, w, Y0, y0, x_out, P_out):
+    """``Y = Y0 + Σ w_i P_i⁻¹``, ``y = y0 + Σ w_i P_i⁻¹ x_i``, ``P = Y⁻¹``, ``x = P y``.
+
+    Each inverse is ``L⁻ᵀ L⁻¹`` from the Cholesky factor (one triangular
+    inversion, lower triangle only); the result is symmetric by construction.
+    Returns False where a ``P_i`` or the total information is not SPD.
+    """
+    M = x.shape[0]
+    ok = np.ones(M, dtype=np.bool_)
+    C = _n_chunks(M)
+    if C:
+        _fuse_kernel_par(C, x, P, w, Y0, y0, x_out, P_out, ok)
+    else:
+        _fuse_rows(0, M, x, P, w, Y0, y0, x_out, P_out, ok)
     return ok

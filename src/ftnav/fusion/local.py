@@ -198,7 +198,7 @@ def detect(
     tested: np.ndarray,
     oracle: np.ndarray,
 ) -> tuple[DetectorState | None, DetectorOutput | None]:
-    """Run the method's detector for one epoch; ``oracle`` (N,) are the true fault flags."""
+    """Run the method's detector for one epoch; ``oracle`` (N,) or (B, N): true fault flags."""
     if detector is not None:
         return detector.step(state, statistic, dof, tested)
     if method.detector == "oracle":

@@ -31,7 +31,8 @@ class Simulation(NamedTuple):
     truth : (B, K, n_aug) true augmented state at t_1..t_K.
     z : per sensor (B, K, m_i) measurements (garbage where not available).
     available : (B, K, N) bool, a measurement exists (schedule and outages).
-    oracle : (K, N) bool, true detectable fault windows per sensor.
+    oracle : (K, N) bool, true detectable fault windows per sensor (or (K, B, N)
+        per run, for a batch that concatenates simulations).
     noise_free : per sensor (B, K, m_i) ideal measurements H x (for analysis).
     """
 
