@@ -10,8 +10,14 @@ thread count for its own duration.
 from __future__ import annotations
 
 import os
+import sys
+from pathlib import Path
 
 import numba
 
+# helper modules next to the tests (e.g. tests/reference/pyins_peer.py) are importable
+sys.path.insert(0, str(Path(__file__).parent / "reference"))
+
 if os.environ.get("PYTEST_XDIST_WORKER"):
     numba.set_num_threads(1)
+

@@ -1,4 +1,4 @@
-"""Command-line interface: ``ftnav run | list | schema``.
+"""Command-line interface: ``ftnav run | list | schema | trajectory``.
 
 Bad input (a malformed scenario, an unknown built-in, an impossible option)
 prints one line ``ftnav: error: <field>: <reason>`` on stderr and exits with
@@ -62,6 +62,13 @@ def _parser() -> _Parser:
                    help="also write estimates.nc (NetCDF) with every estimate")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    t = sub.add_parser("trajectory", help="generate a flight's truth and IMU increments")
+    t.add_argument("profile", help="built-in profile (seed001, seed002) or a profile TOML path")
+    t.add_argument("--out", type=Path, required=True, help="output folder")
+    t.add_argument("--imu", default=None,
+                   help="IMU error preset (ideal increments if omitted), e.g. seed001")
+    t.add_argument("--seed", type=_seed, default=1, help="random seed of the IMU errors")
+    t.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
     sub.add_parser("list", help="list built-in scenarios and their methods")
     s = sub.add_parser("schema", help="print the JSON schema of scenario files")
     s.add_argument("--out", type=Path, default=None, help="write to a file instead")
@@ -159,6 +166,43 @@ def _cmd_run(args) -> int:
     return 0
 
 
+def _cmd_trajectory(args) -> int:
+    from ftnav.io.profile_file import resolve_profile
+    from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
+    from ftnav.sim.trajectory import generate
+
+    profile = resolve_profile(args.profile)
+    errors = None
+    if args.imu is not None:
+        from ftnav.sim.imu import imu_preset
+
+        errors = imu_preset(args.imu)
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"--out: cannot create {str(out)!r}: {e.strerror}") from None
+    traj = generate(profile)
+    dtheta, dv = traj.dtheta, traj.dv
+    if errors is not None:
+        from ftnav.sim.imu import simulate_imu_errors
+
+        dtheta, dv, _ = simulate_imu_errors(dtheta, dv, traj.dt, errors, seed=args.seed)
+    written = [write_truth_csv(traj, out / "truth.csv").name,
+               write_imu_csv(traj.t[1:], dtheta, dv, out / "imu.csv").name]
+    if not args.no_figure:
+        from ftnav.plot.navigation import trajectory_figure
+
+        fig = trajectory_figure(traj, title=f"{profile.name}: {profile.duration:g} s")
+        fig.savefig(out / "trajectory.png", dpi=110)
+        written.append("trajectory.png")
+    imu = f"IMU errors '{args.imu}', seed {args.seed}" if errors is not None else "ideal IMU"
+    print(f"{profile.name}: {profile.duration:g} s at {profile.imu_rate:g} Hz, "
+          f"{len(profile.segments)} segments, {imu}")
+    print(f"Written to {out}/: {', '.join(written)}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``ftnav`` command; returns the exit status."""
     from ftnav.io.scenario_file import ScenarioError
@@ -169,6 +213,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_list()
         if args.command == "schema":
             return _cmd_schema(args.out)
+        if args.command == "trajectory":
+            return _cmd_trajectory(args)
         return _cmd_run(args)
     except (UsageError, ScenarioError, ValueError) as e:
         msg = " ".join(str(e).split("\n"))

@@ -607,14 +607,8 @@ def parse_scenario(data: Mapping[str, Any], origin: str = "<scenario>") -> Scena
     return spec._built
 
 
-def load_scenario(source: str | Path) -> Scenario:
-    """Read, validate and build the scenario in the TOML file ``source``.
-
-    Raises
-    ------
-    ScenarioError : unreadable file, TOML syntax error (message names the file),
-        or an invalid scenario (message ``<field path>: <reason>``).
-    """
+def read_toml(source: str | Path) -> dict[str, Any]:
+    """Read a TOML file; every problem is a one-line :class:`ScenarioError` naming the file."""
     path = Path(source)
     name = str(source)
     try:
@@ -622,7 +616,7 @@ def load_scenario(source: str | Path) -> Scenario:
     except FileNotFoundError:
         raise ScenarioError(name, "file not found", name) from None
     except IsADirectoryError:
-        raise ScenarioError(name, "is a directory, not a scenario file", name) from None
+        raise ScenarioError(name, "is a directory, not a TOML file", name) from None
     except OSError as exc:
         raise ScenarioError(name, f"cannot read file ({exc.strerror or exc})", name) from None
     try:
@@ -630,7 +624,7 @@ def load_scenario(source: str | Path) -> Scenario:
     except UnicodeDecodeError as exc:
         raise ScenarioError(name, f"not valid UTF-8 text (byte {exc.start})", name) from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         msg = _one_line(str(exc))
         where = re.fullmatch(r"(.*?)\s*\(at line (\d+), column (\d+)\)", msg)
@@ -641,7 +635,17 @@ def load_scenario(source: str | Path) -> Scenario:
         else:
             reason = f"TOML syntax error: {msg}"
         raise ScenarioError(name, reason, name) from None
-    return parse_scenario(data, origin=name)
+
+
+def load_scenario(source: str | Path) -> Scenario:
+    """Read, validate and build the scenario in the TOML file ``source``.
+
+    Raises
+    ------
+    ScenarioError : unreadable file, TOML syntax error (message names the file),
+        or an invalid scenario (message ``<field path>: <reason>``).
+    """
+    return parse_scenario(read_toml(source), origin=str(source))
 
 
 def scenario_json_schema() -> dict[str, Any]:

@@ -40,10 +40,6 @@ def radii(L, h):
     return RN * (1.0 - E2) / w + h, RN + h
 
 
-def _g0(s2):
-    return _GE * (1.0 + _K * s2) / np.sqrt(1.0 - E2 * s2)
-
-
 def gravity(L, h):
     """Normal gravity magnitude g(L, h) (m/s², positive), spec §8.1.
 
@@ -51,7 +47,8 @@ def gravity(L, h):
     the navigation-frame vector is ``g^n = [0, 0, −g]``.
     """
     s2 = np.sin(L) ** 2
-    return _g0(s2) * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)
+    g0 = _GE * (1.0 + _K * s2) / np.sqrt(1.0 - E2 * s2)
+    return g0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)
 
 
 def gravity_gradient(L, h):
@@ -60,7 +57,7 @@ def gravity_gradient(L, h):
     c = np.cos(L)
     s2 = s * s
     w = 1.0 - E2 * s2
-    g0 = _g0(s2)
+    g0 = _GE * (1.0 + _K * s2) / np.sqrt(w)
     # d g0 / d(s²), then chain rule d(s²)/dL = 2 s c
     dg0 = _GE * (_K * np.sqrt(w) + (1.0 + _K * s2) * 0.5 * E2 / np.sqrt(w)) / w
     bracket = 1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2

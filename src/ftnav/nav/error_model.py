@@ -1,0 +1,361 @@
+"""Linearized SINS error models: the 18-state model of spec §8.3 and a 15-state variant.
+
+Frames, units and signs follow ``docs/conventions.md`` (spec §0): ENU navigation
+frame, errors are **computed − true**, the attitude error φ is defined by
+``C̃_b^n = (I − [φ×]) C_b^n``, position ``[L, λ, h]`` in rad, rad, m.
+
+States (spec §8.3)::
+
+    18: [φ_E, φ_N, φ_U, δv_E, δv_N, δv_U, δL, δλ, δh,
+         ε_bx, ε_by, ε_bz, ε_rx, ε_ry, ε_rz, ∇_x, ∇_y, ∇_z]
+    15: [φ_E, φ_N, φ_U, δv_E, δv_N, δv_U, δL, δλ, δh,
+         ε_x, ε_y, ε_z, ∇_x, ∇_y, ∇_z]
+
+18 states: ε_b gyro random-constant drift, ε_r gyro first-order Gauss-Markov drift
+(σ_g, T_g), ∇ accelerometer first-order Gauss-Markov bias (σ_a, T_a).
+
+15 states (PSINS ``etm.m``/``kfinit.m`` style, a design choice of ftnav): ε is one
+gyro bias and ∇ one accelerometer bias, each modelled as a **random walk**
+``ε̇ = w_ε``, ``∇̇ = w_∇`` whose PSDs ``gyro_bias_rw_psd`` and ``accel_bias_rw_psd``
+default to 0, i.e. a pure random constant exactly as in PSINS ``etm.m`` (zero rows
+of F).  The Markov parameters are not used by the 15-state model; a positive
+random-walk PSD lets a 15-state filter absorb slowly varying (Markov) drift.
+
+Continuous model ``ẋ = F x + G w`` with ``w = [w_g, w_v, w_3, w_4]`` (12 white
+noises, PSDs ``q``): ``w_g`` gyro angle random walk (φ rows, ``−C_b^n``), ``w_v``
+accelerometer white noise (δv rows, ``+C_b^n``; zero unless a VRW is given),
+``w_3``/``w_4`` drive ε_r/∇ (18 states: ``q = 2σ²/T``) or the random walks of ε/∇
+(15 states).  With ``bias_frame="nav"`` the mapping ``C_b^n`` of the bias columns and
+of ``G`` is replaced by ``I`` (spec §8.3 [A], S1's platform wording).
+
+Discretization (spec §8.4) is :func:`ftnav.core.discretize.van_loan` or
+:func:`ftnav.core.discretize.series`; the filter evaluates F from the current INS
+solution (:class:`NavState`) at each step through :meth:`SinsErrorModel.transition`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, NamedTuple
+
+import numpy as np
+
+from ftnav.core.discretize import series, van_loan
+from ftnav.nav.attitude import skew
+from ftnav.nav.earth import OMEGA_IE, gravity_gradient, omega_en_n, omega_ie_n, radii
+
+__all__ = [
+    "STATES_18", "STATES_15", "ErrorModelParams", "ContinuousModel", "NavState",
+    "continuous_model", "discrete_model", "SinsErrorModel",
+]
+
+STATES_18 = (
+    "phi_E", "phi_N", "phi_U", "dv_E", "dv_N", "dv_U", "dL", "dlam", "dh",
+    "eps_bx", "eps_by", "eps_bz", "eps_rx", "eps_ry", "eps_rz", "nabla_x", "nabla_y", "nabla_z",
+)  #: state names of the 18-state model, in order (spec §8.3)
+STATES_15 = STATES_18[:9] + ("eps_x", "eps_y", "eps_z", "nabla_x", "nabla_y", "nabla_z")
+#: state names of the 15-state model, in order
+
+Vec3 = tuple[float, float, float]
+
+
+def _axes(name: str, value, positive: bool = False) -> Vec3:
+    try:
+        a = np.broadcast_to(np.asarray(value, dtype=float), (3,))
+    except ValueError:
+        raise ValueError(f"{name} must be a scalar or three values, got {value!r}") from None
+    if not np.all(np.isfinite(a)) or np.any(a < 0.0) or (positive and np.any(a == 0.0)):
+        raise ValueError(f"{name} must be finite and {'> 0' if positive else '≥ 0'} "
+                         f"on every axis, got {value!r}")
+    return tuple(float(x) for x in a)
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorModelParams:
+    """Assumed IMU error parameters of the SINS error model (SI units; spec §8.3).
+
+    Scalars apply to all three axes; per-axis values are given as three numbers
+    (body x, y, z).  The gyro random-constant drift of the 18-state model has no
+    driving noise; its size enters only through the filter's ``P0``.
+
+    Attributes
+    ----------
+    gyro_psd : (3,) rad²/s, gyro angle-random-walk PSD ``q_g`` (ARW² in rad²/s; spec
+        Table 1 reading: ``(0.01·π/180/60)²`` for 0.01°/√h).
+    gyro_markov_sigma : (3,) rad/s, steady-state σ of the Markov drift ε_r.
+    gyro_markov_tau : (3,) s, correlation time ``T_g`` of ε_r (> 0).
+    accel_markov_sigma : (3,) m/s², steady-state σ of the Markov bias ∇.
+    accel_markov_tau : (3,) s, correlation time ``T_a`` of ∇ (> 0).
+    accel_psd : (3,) m²/s³, accelerometer white-noise (VRW²) PSD ``q_v``; default 0.
+    gyro_bias_rw_psd : (3,) rad²/s³, 15-state only: random-walk PSD of ε (0: constant).
+    accel_bias_rw_psd : (3,) m²/s⁵, 15-state only: random-walk PSD of ∇ (0: constant).
+    bias_frame : ``"body"`` (default, ``C_b^n`` mapping) or ``"nav"`` (``C_b^n = I``).
+    states : 18 or 15.
+    """
+
+    gyro_psd: Vec3 = (0.0, 0.0, 0.0)
+    gyro_markov_sigma: Vec3 = (0.0, 0.0, 0.0)
+    gyro_markov_tau: Vec3 = (3600.0, 3600.0, 3600.0)
+    accel_markov_sigma: Vec3 = (0.0, 0.0, 0.0)
+    accel_markov_tau: Vec3 = (3600.0, 3600.0, 3600.0)
+    accel_psd: Vec3 = (0.0, 0.0, 0.0)
+    gyro_bias_rw_psd: Vec3 = (0.0, 0.0, 0.0)
+    accel_bias_rw_psd: Vec3 = (0.0, 0.0, 0.0)
+    bias_frame: Literal["body", "nav"] = "body"
+    states: Literal[18, 15] = 18
+
+    def __post_init__(self):
+        for name in ("gyro_psd", "gyro_markov_sigma", "accel_markov_sigma", "accel_psd",
+                     "gyro_bias_rw_psd", "accel_bias_rw_psd"):
+            object.__setattr__(self, name, _axes(name, getattr(self, name)))
+        for name in ("gyro_markov_tau", "accel_markov_tau"):
+            object.__setattr__(self, name, _axes(name, getattr(self, name), positive=True))
+        if self.bias_frame not in ("body", "nav"):
+            raise ValueError(f"bias_frame must be 'body' or 'nav', got {self.bias_frame!r}")
+        if self.states not in (18, 15):
+            raise ValueError(f"states must be 18 or 15, got {self.states!r}")
+
+    @property
+    def n(self) -> int:
+        """Number of states."""
+        return int(self.states)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """State names in order (:data:`STATES_18` or :data:`STATES_15`)."""
+        return STATES_18 if self.states == 18 else STATES_15
+
+    @property
+    def noise_psd(self) -> np.ndarray:
+        """``q`` (12,): PSDs of ``w = [w_g, w_v, w_3, w_4]`` (module docstring).
+
+        18 states: ``q_r = 2σ_g²/T_g``, ``q_a = 2σ_a²/T_a`` (spec §8.3).
+        """
+        if self.states == 18:
+            s_g, t_g = np.array(self.gyro_markov_sigma), np.array(self.gyro_markov_tau)
+            s_a, t_a = np.array(self.accel_markov_sigma), np.array(self.accel_markov_tau)
+            q3, q4 = 2.0 * s_g**2 / t_g, 2.0 * s_a**2 / t_a
+        else:
+            q3, q4 = np.array(self.gyro_bias_rw_psd), np.array(self.accel_bias_rw_psd)
+        return np.concatenate([self.gyro_psd, self.accel_psd, q3, q4])
+
+
+class ContinuousModel(NamedTuple):
+    """Continuous error model ``ẋ = F x + G w``, ``E[w wᵀ] = diag(q) δ(t−s)``.
+
+    Attributes
+    ----------
+    F : (..., n, n) system matrix (1/s, mixed state units).
+    G : (..., n, 12) noise input matrix.
+    q : (12,) noise PSDs (shared by the batch).
+    """
+
+    F: np.ndarray
+    G: np.ndarray
+    q: np.ndarray
+
+    @property
+    def GQGt(self) -> np.ndarray:
+        """``G diag(q) Gᵀ`` (..., n, n)."""
+        return (self.G * self.q) @ np.swapaxes(self.G, -1, -2)
+
+
+class NavState(NamedTuple):
+    """INS solution at an epoch, the point where the error model is linearized (spec §8.4).
+
+    Attributes
+    ----------
+    L : (B,) latitude, rad.
+    lam : (B,) longitude, rad (F does not depend on it).
+    h : (B,) height, m.
+    v_enu : (B, 3) velocity, m/s.
+    f_b : (B, 3) specific force in the body frame (bias-compensated IMU output), m/s².
+    C_bn : (B, 3, 3) attitude ``C_b^n``.
+    """
+
+    L: np.ndarray
+    lam: np.ndarray
+    h: np.ndarray
+    v_enu: np.ndarray
+    f_b: np.ndarray
+    C_bn: np.ndarray
+
+
+def _mat(rows, batch):
+    """Stack a nested 3×3 list of scalars/arrays into (batch, 3, 3)."""
+    return np.stack([np.stack([np.broadcast_to(e, batch) for e in r], -1) for r in rows], -2)
+
+
+def _nav_blocks(L, h, v, f_n):
+    """The 9×9 navigation blocks of F (spec §8.3), shape ``L.shape + (9, 9)``."""
+    batch = L.shape
+    s, c, t = np.sin(L), np.cos(L), np.tan(L)
+    RMh, RNh = radii(L, h)
+    vE, vN = v[..., 0], v[..., 1]
+    w_ie = omega_ie_n(L)
+    w_en = omega_en_n(L, h, v)
+    z = np.zeros(batch)
+    F_av = _mat([[z, -1.0 / RMh, z], [1.0 / RNh, z, z], [t / RNh, z, z]], batch)
+    M1 = _mat([[z, z, z], [-OMEGA_IE * s, z, z], [OMEGA_IE * c, z, z]], batch)
+    M2 = _mat([[z, z, vN / RMh**2], [z, z, -vE / RNh**2],
+               [vE / (RNh * c**2), z, -vE * t / RNh**2]], batch)
+    dgdL, dgdh = gravity_gradient(L, h)
+    F_g = _mat([[z, z, z], [z, z, z], [-dgdL, z, -dgdh]], batch)
+    Vx = skew(v)
+    F = np.zeros(batch + (9, 9))
+    F[..., 0:3, 0:3] = -skew(w_ie + w_en)
+    F[..., 0:3, 3:6] = F_av
+    F[..., 0:3, 6:9] = M1 + M2
+    F[..., 3:6, 0:3] = skew(f_n)
+    F[..., 3:6, 3:6] = Vx @ F_av - skew(2.0 * w_ie + w_en)
+    F[..., 3:6, 6:9] = Vx @ (2.0 * M1 + M2) + F_g
+    F[..., 6:9, 3:6] = _mat([[z, 1.0 / RMh, z], [1.0 / (RNh * c), z, z], [z, z, z + 1.0]],
+                            batch)
+    F[..., 6:9, 6:9] = _mat([[z, z, -vN / RMh**2],
+                             [vE * t / (RNh * c), z, -vE / (RNh**2 * c)], [z, z, z]], batch)
+    return F
+
+
+def _nav_inputs(L, h, v_enu, f_b, C_bn):
+    L, h = np.asarray(L, dtype=float), np.asarray(h, dtype=float)
+    v, f_b, C = (np.asarray(a, dtype=float) for a in (v_enu, f_b, C_bn))
+    if v.shape[-1:] != (3,) or f_b.shape[-1:] != (3,) or C.shape[-2:] != (3, 3):
+        raise ValueError(f"v_enu and f_b must be (..., 3) and C_bn (..., 3, 3); got "
+                         f"{v.shape}, {f_b.shape}, {C.shape}")
+    try:
+        batch = np.broadcast_shapes(L.shape, h.shape, v.shape[:-1], f_b.shape[:-1],
+                                    C.shape[:-2])
+    except ValueError as err:
+        raise ValueError(f"navigation inputs do not broadcast: {err}") from None
+    L, h = np.broadcast_to(L, batch), np.broadcast_to(h, batch)
+    v = np.broadcast_to(v, batch + (3,))
+    f_b = np.broadcast_to(f_b, batch + (3,))
+    C = np.broadcast_to(C, batch + (3, 3))
+    return L, h, v, f_b, C, batch
+
+
+def continuous_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams) -> ContinuousModel:
+    """Continuous SINS error model ``(F, G, q)`` linearized at an INS solution (spec §8.3).
+
+    ``φ̇ = F_aa φ + F_av δv + F_ap δp − C_b^n (ε_b + ε_r) − C_b^n w_g``,
+    ``δv̇ = [f^n×] φ + F_vv δv + F_vp δp + C_b^n ∇ + C_b^n w_v``,
+    ``δṗ = F_pv δv + F_pp δp``, ``ε̇_b = 0``, ``ε̇_r = −ε_r/T_g + w_r``,
+    ``∇̇ = −∇/T_a + w_a`` (18 states; 15 states: module docstring), with the blocks
+    ``F_aa = −[ω_in^n×]``, ``F_ap = M1 + M2``, ``F_vv = [v×]F_av − [(2ω_ie^n + ω_en^n)×]``,
+    ``F_vp = [v×](2M1 + M2) + F_g`` etc. as printed in spec §8.3 (PSINS ``etm.m``).
+    The blocks neglect ∂R_M/∂L and ∂R_N/∂L (an O(e²) effect, spec §8.6 c).
+
+    Parameters
+    ----------
+    L, lam, h : (...) latitude (rad), longitude (rad, unused), height (m).
+    v_enu : (..., 3) ENU velocity, m/s.
+    f_b : (..., 3) body specific force, m/s²; ``f^n = C_b^n f^b``.
+    C_bn : (..., 3, 3) attitude ``C_b^n``.
+    params : ErrorModelParams.
+
+    Returns
+    -------
+    ContinuousModel with ``F`` (..., n, n), ``G`` (..., n, 12), ``q`` (12,).
+    """
+    L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
+    n = params.n
+    f_n = (C @ f_b[..., None])[..., 0]
+    Cb = C if params.bias_frame == "body" else np.broadcast_to(np.eye(3), batch + (3, 3))
+    F = np.zeros(batch + (n, n))
+    F[..., :9, :9] = _nav_blocks(L, h, v, f_n)
+    F[..., 0:3, 9:12] = -Cb
+    G = np.zeros(batch + (n, 12))
+    G[..., 0:3, 0:3] = -Cb
+    G[..., 3:6, 3:6] = Cb
+    if n == 18:
+        F[..., 0:3, 12:15] = -Cb
+        F[..., 3:6, 15:18] = Cb
+        idx = np.arange(3)
+        F[..., 12 + idx, 12 + idx] = -1.0 / np.array(params.gyro_markov_tau)
+        F[..., 15 + idx, 15 + idx] = -1.0 / np.array(params.accel_markov_tau)
+        G[..., 12:15, 6:9] = np.eye(3)
+        G[..., 15:18, 9:12] = np.eye(3)
+    else:
+        F[..., 3:6, 12:15] = Cb
+        G[..., 9:12, 6:9] = np.eye(3)
+        G[..., 12:15, 9:12] = np.eye(3)
+    return ContinuousModel(F, G, params.noise_psd)
+
+
+Method = Literal["van-loan", "series"]
+
+
+def discrete_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams, T: float,
+                   method: Method = "van-loan", order: int = 5
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Discrete SINS error model ``(Φ_k, Q_k)`` over a step T (spec §8.3, §8.4).
+
+    F is held at the given INS solution over the step; ``method="van-loan"`` is exact
+    for that F, ``"series"`` is the PSINS ``kfc2d`` series of the given ``order``.
+
+    Parameters
+    ----------
+    L, lam, h, v_enu, f_b, C_bn, params : as in :func:`continuous_model`.
+    T : float, step in seconds (> 0).
+    method : ``"van-loan"`` or ``"series"``.
+    order : int, series order (``method="series"`` only).
+
+    Returns
+    -------
+    Phi : (..., n, n) transition matrix.
+    Q : (..., n, n) discrete process-noise covariance.
+    """
+    if method not in ("van-loan", "series"):
+        raise ValueError(f"method must be 'van-loan' or 'series', got {method!r}")
+    m = continuous_model(L, lam, h, v_enu, f_b, C_bn, params)
+    if method == "van-loan":
+        return van_loan(m.F, m.GQGt, T)
+    return series(m.F, m.GQGt, T, order)
+
+
+@dataclass(frozen=True, slots=True)
+class SinsErrorModel:
+    """Time-varying linear SINS error model for the estimation core (spec §8.3-§8.4).
+
+    Holds the assumed IMU errors and the filter step; :meth:`transition` linearizes at
+    the current INS solution and returns batched ``(Φ, Q)`` that
+    :func:`ftnav.core.kalman.predict` accepts directly.
+
+    Attributes
+    ----------
+    params : ErrorModelParams.
+    T : float, filter step in seconds (the aid rate, e.g. 1 s).
+    method : ``"van-loan"`` (default) or ``"series"``.
+    order : int, series order for ``method="series"`` (≥ 5 recommended, spec §8.6 f).
+    """
+
+    params: ErrorModelParams
+    T: float
+    method: Method = "van-loan"
+    order: int = 5
+
+    def __post_init__(self):
+        if not np.isfinite(self.T) or self.T <= 0.0:
+            raise ValueError(f"T must be positive and finite, got {self.T!r}")
+        if self.method not in ("van-loan", "series"):
+            raise ValueError(f"method must be 'van-loan' or 'series', got {self.method!r}")
+        if int(self.order) != self.order or self.order < 1:
+            raise ValueError(f"order must be an integer ≥ 1, got {self.order!r}")
+
+    @property
+    def n(self) -> int:
+        """Number of states."""
+        return self.params.n
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """State names in order."""
+        return self.params.names
+
+    def continuous(self, nav: NavState) -> ContinuousModel:
+        """``(F, G, q)`` at the INS solution ``nav`` (:func:`continuous_model`)."""
+        return continuous_model(*nav, self.params)
+
+    def transition(self, nav: NavState) -> tuple[np.ndarray, np.ndarray]:
+        """``(Φ, Q)`` (B, n, n) for the step that starts at the INS solution ``nav``."""
+        return discrete_model(*nav, self.params, self.T, self.method, self.order)
