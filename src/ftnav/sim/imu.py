@@ -336,10 +336,11 @@ def _markov_inplace(w: np.ndarray, sigma: np.ndarray, tau: np.ndarray, dt: float
     a = np.exp(-dt / tau)
     w[..., 1:, :] *= sigma * np.sqrt(-np.expm1(-2.0 * dt / tau))
     w[..., 0, :] *= sigma  # stationary start
+    if np.all(a == a[0]):
+        return lfilter([1.0], [1.0, -a[0]], w, axis=-2)
     out = np.empty_like(w)
-    for ai in np.unique(a):
-        cols = np.flatnonzero(a == ai)
-        out[..., cols] = lfilter([1.0], [1.0, -ai], w[..., cols], axis=-2)
+    for j, aj in enumerate(a):
+        out[..., j] = lfilter([1.0], [1.0, -aj], w[..., j], axis=-1)
     return out
 
 
@@ -416,22 +417,30 @@ def _misalignment(draws: np.ndarray, sd: np.ndarray) -> np.ndarray:
     return M
 
 
-def _corrupt(ideal, scale, mis, bias, markov, noise_sd, seed, runs, component, dt, B, K):
-    """``(I + S + M) x + (b + m)·dt + n`` for one triad, (B, K, 3)."""
+def _corrupt(ideal, scale, mis, bias, markov, noise_sd, seed, runs, component, dt, K):
+    """``(I + S + M) x + (b + m + n/dt)·dt`` for one triad, (B, K, 3), n the white noise.
+
+    Written as in-place passes over one (B, K, 3) buffer: this is the memory-bound part.
+    """
+    B = len(runs)
+    if np.any(noise_sd):
+        out = _normal_blocks(seed, runs, component, K)
+        out *= noise_sd / math.sqrt(dt)  # white rate samples, std N/√dt
+        if markov is not None:
+            out += markov
+    elif markov is not None:
+        out = markov.copy()
+    else:
+        out = np.zeros((B, K, 3))
+    out += bias[:, None, :]
+    out *= dt
     if np.any(scale) or np.any(mis):
         A = mis + scale[:, :, None] * np.eye(3)
         x = ideal[..., None, :]  # (…, K, 1, 3): Σ_j A_ij x_j as three broadcast terms
-        out = ideal + (A[:, None, :, 0] * x[..., 0] + A[:, None, :, 1] * x[..., 1]
-                       + A[:, None, :, 2] * x[..., 2])
-    else:
-        out = np.array(np.broadcast_to(ideal, (B, K, 3)))
-    out += (bias * dt)[:, None, :]
-    if markov is not None:
-        out += markov * dt
-    if np.any(noise_sd):
-        n = _normal_blocks(seed, runs, component, K)
-        n *= noise_sd * math.sqrt(dt)
-        out += n
+        out += A[:, None, :, 0] * x[..., 0]
+        out += A[:, None, :, 1] * x[..., 1]
+        out += A[:, None, :, 2] * x[..., 2]
+    out += ideal
     return out
 
 
@@ -524,10 +533,10 @@ def simulate_imu_errors(
 
     gyro_markov = markov(e.gyro_markov_sd, e.gyro_markov_tau, 1)
     out_theta = _corrupt(dtheta, gyro_scale, gyro_mis, gyro_bias, gyro_markov, e.gyro_arw,
-                         seed, run_ids, 2, dt, B, K)
+                         seed, run_ids, 2, dt, K)
     accel_markov = markov(e.accel_markov_sd, e.accel_markov_tau, 3)
     out_v = _corrupt(dv, accel_scale, accel_mis, accel_bias, accel_markov, e.accel_vrw,
-                     seed, run_ids, 4, dt, B, K)
+                     seed, run_ids, 4, dt, K)
 
     zeros = np.broadcast_to(np.zeros(()), (B, K, 3))
     truth = ImuErrorTruth(
