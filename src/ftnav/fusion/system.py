@@ -20,7 +20,7 @@ from scipy.linalg import block_diag
 
 from ftnav.sim.scenario import LinearModel, Scenario, Sensor
 
-__all__ = ["LinearSystem", "LocalModel"]
+__all__ = ["LinearSystem", "LocalModel", "TimeVaryingSystem"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,3 +147,48 @@ class LinearSystem:
         mask[:nc, :nc] = 1.0
         scale = np.asarray(common_scale, dtype=float)[..., None, None]
         return Fi, Qi * (1.0 + mask * (scale - 1.0))
+
+
+@dataclass(frozen=True)
+class TimeVaryingSystem(LinearSystem):
+    """Linear system whose common ``(Φ_k, Q_k)`` change every step (spec §8.4).
+
+    ``Phi[k−1]``, ``Qk[k−1]`` (each ``(K, n_c, n_c)``) drive the step ``k−1 → k``, e.g.
+    the discretized SINS error model evaluated along a trajectory
+    (:class:`ftnav.nav.error_model.SinsErrorModel`).  ``Qk`` is both the filters' and
+    the simulator's process noise.  Sensors, private states and every filter are used
+    unchanged: this is how the inertial error models plug into the estimation core.
+    """
+
+    Phi: np.ndarray | None = None
+    Qk: np.ndarray | None = None
+
+    def __post_init__(self):
+        n = self.model.n
+        if self.Phi is None or self.Qk is None:
+            raise ValueError("Phi, Qk: a time-varying system needs both")
+        Phi, Qk = np.asarray(self.Phi, dtype=float), np.asarray(self.Qk, dtype=float)
+        if Phi.ndim != 3 or Phi.shape[1:] != (n, n) or Qk.shape != Phi.shape:
+            raise ValueError(f"Phi, Qk: expected (K, {n}, {n}) each, got {Phi.shape} and "
+                             f"{Qk.shape}")
+        if not (np.isfinite(Phi).all() and np.isfinite(Qk).all()):
+            raise ValueError("Phi, Qk: contain NaN or inf")
+        object.__setattr__(self, "Phi", Phi)
+        object.__setattr__(self, "Qk", Qk)
+        LinearSystem.__post_init__(self)
+
+    @property
+    def steps(self) -> int:
+        return int(self.Phi.shape[0])
+
+    def transition(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        return self.Phi[k - 1], self.Qk[k - 1]
+
+    def augmented_transition(self, k: int, true: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        return (block_diag(self.Phi[k - 1], *self._private_blocks("F")),
+                block_diag(self.Qk[k - 1], *self._private_blocks("Q")))
+
+    def _local_blocks(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+        lm = self.local(i)
+        return (block_diag(self.Phi[k - 1], lm.F_private),
+                block_diag(self.Qk[k - 1], lm.Q_private))

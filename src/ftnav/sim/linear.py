@@ -54,9 +54,14 @@ def _cholesky_psd(A: np.ndarray) -> np.ndarray:
     return V * np.sqrt(np.clip(w, 0.0, None))
 
 
-def simulate(scenario: Scenario, runs: int, seed: int, first_run: int = 0) -> Simulation:
-    """Simulate ``runs`` Monte Carlo runs (indices ``first_run ..``) of a scenario."""
-    system = LinearSystem.from_scenario(scenario)
+def simulate(scenario: Scenario, runs: int, seed: int, first_run: int = 0,
+             system: LinearSystem | None = None) -> Simulation:
+    """Simulate ``runs`` Monte Carlo runs (indices ``first_run ..``) of a scenario.
+
+    ``system`` replaces the scenario's constant model, e.g. by a
+    :class:`~ftnav.fusion.system.TimeVaryingSystem` (same sensors and faults).
+    """
+    system = LinearSystem.from_scenario(scenario) if system is None else system
     K, B, N = scenario.steps, runs, len(scenario.sensors)
     n = system.n_aug
     dims = [s.dim for s in scenario.sensors]
