@@ -68,3 +68,17 @@ def test_cli_rejects_bad_profile_with_status_2(tmp_path, capsys):
     assert main(["trajectory", str(f), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("ftnav: error: start.lat_deg:") and "\n" not in err
+
+
+def test_documented_profile_example_is_valid():
+    """The profile example in docs/scenario-format.md parses (keeps the docs honest)."""
+    import tomllib
+    from pathlib import Path
+
+    doc = Path(__file__).resolve().parents[2] / "docs" / "scenario-format.md"
+    if not doc.exists():
+        pytest.skip("docs not available")
+    text = doc.read_text(encoding="utf-8").split("## Flight profiles")[1]
+    example = text.split("```toml\n")[1].split("```")[0]
+    pr = parse_profile(tomllib.loads(example))
+    assert pr.name == "my-flight" and pr.segments[0].accel == 2.6

@@ -644,7 +644,7 @@ def test_documented_example_is_valid(tmp_path) -> None:
     if not doc.exists():
         pytest.skip("docs not available")
     text = doc.read_text(encoding="utf-8")
-    example = text.split("```toml\n")[-1].split("```")[0]
+    example = text.split("## Full example")[1].split("```toml\n")[1].split("```")[0]
     path = tmp_path / "example.toml"
     path.write_text(example, encoding="utf-8")
     sc = load_scenario(path)

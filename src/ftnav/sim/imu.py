@@ -16,8 +16,9 @@ accelerometer: Δv in m/s, errors in m/s²), for interval ``k`` = ``(t_{k−1}, 
 * ``m_k``: first-order Gauss-Markov drift (ε_r, ∇), exact discrete form (spec §8.4)
   ``m_{k+1} = e^{−dt/τ} m_k + w_k``, ``var(w_k) = σ²(1 − e^{−2dt/τ})``, started from
   its stationary distribution ``m_1 ~ N(0, σ²)``.  ``m_k`` is the value at ``t_{k−1}``
-  held over interval k (zero-order hold); the mean over the interval differs by about
-  ``σ√(dt/2τ)``, i.e. 1e-3 σ for dt = 0.01 s, τ = 7200 s, far below the white noise;
+  held over interval k (zero-order hold); the mean over the interval differs from it
+  by ``σ√(2dt/3τ)`` rms, i.e. 1e-3 σ for dt = 0.01 s, τ = 7200 s, far below the white
+  noise;
 * ``n_k``: white noise integrated over the interval, angle (velocity) random walk
   ``N`` in rad/√s (m/s/√s), so ``std(n_k) = N·√dt``;
 * ``S = diag(s)``, ``s_i ~ N(0, σ_s,i²)``: scale-factor errors;
