@@ -29,6 +29,7 @@ lint: $(VENV)/.installed
 
 bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_federated.py
+	$(PY) benchmarks/bench_mechanization.py
 
 clean:
 	rm -rf $(VENV) results build *.egg-info src/*.egg-info
