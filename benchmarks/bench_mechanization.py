@@ -53,12 +53,12 @@ def main():
         t0 = time.perf_counter()
         _, sol = mech.integrate(st0, tr.dtheta, tr.dv, tr.dt)
         best = min(best, time.perf_counter() - t0)
-    e_ft = earth.ned_metres(sol.p[0, -1], tr.p[-1])
+    e_ft = earth.enu_metres(sol.p[0, -1], tr.p[-1])
 
     t0 = time.perf_counter()
     p_peer = pyins_integrate(tr.t, tr.p[0], tr.v[0], tr.euler[0], tr.dtheta, tr.dv)
     t_peer = time.perf_counter() - t0
-    e_peer = earth.ned_metres(p_peer[-1], tr.p[-1])
+    e_peer = earth.enu_metres(p_peer[-1], tr.p[-1])
 
     # 100 runs batched, in 60 s chunks, each run with its own white noise
     B, chunk = args.runs, 6000
@@ -74,7 +74,7 @@ def main():
         t0 = time.perf_counter()
         st, _ = mech.integrate(st, dth, dv, tr.dt, output_every=50)
         t_batch += time.perf_counter() - t0
-    spread = np.hypot(*earth.ned_metres(st.p, tr.p[-1])[:, :2].T)
+    spread = np.hypot(*earth.enu_metres(st.p, tr.p[-1])[:, :2].T)
 
     print(f"profile {args.profile}: {K * tr.dt:.0f} s at {1 / tr.dt:.0f} Hz ({K} samples); "
           f"generated in {t_gen:.2f} s")

@@ -41,7 +41,7 @@ def test_initial_errors_propagate_like_phi(seed001):
     _, sol = mech.integrate(st, tr.dtheta[k0:k0 + n], tr.dv[k0:k0 + n], tr.dt,
                             output_every=per_s // 2)
     idx = k0 + per_s * np.arange(1, seconds + 1)
-    e_pos = earth.ned_metres(sol.p[0], tr.p[idx])
+    e_pos = earth.enu_metres(sol.p[0], tr.p[idx])
     e_vel = sol.v[0] - tr.v[idx]
     e_att = at.attitude_error(at.quat_to_dcm(sol.q[0]), at.euler_to_dcm(tr.euler[idx]))
 
@@ -58,7 +58,7 @@ def test_initial_errors_propagate_like_phi(seed001):
         x = Phi[k] @ x
         lin.append(x.copy())
     lin = np.array(lin)
-    lin_pos = earth.ned_metres(tr.p[idx] + lin[:, 6:9], tr.p[idx])
+    lin_pos = earth.enu_metres(tr.p[idx] + lin[:, 6:9], tr.p[idx])
 
     def rel(a, b):
         return np.linalg.norm(a - b, axis=1) / np.linalg.norm(b, axis=1)

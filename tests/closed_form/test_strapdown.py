@@ -36,7 +36,7 @@ def test_stationary_hour_with_error_free_imu():
     tr = generate(_stationary())
     st, sol = mech.integrate(mech.init_state(tr.p[0], tr.v[0], tr.euler[0]), tr.dtheta, tr.dv,
                              tr.dt)
-    e = earth.ned_metres(sol.p[0], tr.p[2::2])
+    e = earth.enu_metres(sol.p[0], tr.p[2::2])
     assert np.abs(e[:, :2]).max() < 1e-3
     assert np.abs(e[:, 2]).max() < 1e-2
     assert np.abs(sol.v[0, :, :2]).max() < 1e-6
@@ -66,7 +66,7 @@ def test_seed001_round_trip_with_error_free_imu(seed001, algorithm):
     ns = 2 if algorithm == "two-sample" else 1
     _, sol = mech.integrate(mech.init_state(tr.p[0], tr.v[0], tr.euler[0]), tr.dtheta, tr.dv,
                             tr.dt, algorithm=algorithm)
-    e = earth.ned_metres(sol.p[0], tr.p[ns::ns])
+    e = earth.enu_metres(sol.p[0], tr.p[ns::ns])
     assert np.hypot(e[:, 0], e[:, 1]).max() < 0.05  # far inside the 1 m target
     assert np.hypot(*e[-1, :2]) < 1.0
     assert np.abs(sol.v[0] - tr.v[ns::ns]).max() < 1e-3

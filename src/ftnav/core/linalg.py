@@ -38,6 +38,15 @@ def _n_chunks(M: int) -> int:
     return 0 if M < PARALLEL_MIN or threads == 1 else min(M, 4 * threads)
 
 
+def _run_batch(rows, par, M: int, *args) -> None:
+    """Run ``rows(0, M, *args)`` serially, or ``par(C, *args)`` on C chunks of the pool."""
+    C = _n_chunks(M)
+    if C:
+        par(C, *args)
+    else:
+        rows(0, M, *args)
+
+
 @numba.njit(**_JIT)
 def _chol(A, L):  # pragma: no cover - compiled
     n = A.shape[0]
@@ -89,11 +98,7 @@ def _chol_solve_par(C, A, B, out, ok):  # pragma: no cover - compiled
 def _chol_solve(A, B, out):
     M = A.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    C = _n_chunks(M)
-    if C:
-        _chol_solve_par(C, A, B, out, ok)
-    else:
-        _chol_solve_rows(0, M, A, B, out, ok)
+    _run_batch(_chol_solve_rows, _chol_solve_par, M, A, B, out, ok)
     return ok
 
 
@@ -166,11 +171,7 @@ def predict_kernel(x, P, F, Q, x_out, P_out):
     ``F`` and ``Q`` have a leading axis of M or of 1 (shared by the batch).
     """
     M = x.shape[0]
-    C = _n_chunks(M)
-    if C:
-        _predict_kernel_par(C, x, P, F, Q, x_out, P_out)
-    else:
-        _predict_rows(0, M, x, P, F, Q, x_out, P_out)
+    _run_batch(_predict_rows, _predict_kernel_par, M, x, P, F, Q, x_out, P_out)
 
 
 @numba.njit(**_JIT)
@@ -281,11 +282,8 @@ def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):
     """Joseph-form update for flat batches; returns False where S is not SPD."""
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    C = _n_chunks(M)
-    if C:
-        _update_kernel_par(C, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out, ok)
-    else:
-        _update_rows(0, M, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out, ok)
+    _run_batch(_update_rows, _update_kernel_par, M, x, P, z, H, R, x_out, P_out, nu_out, S_out,
+               nis_out, ok)
     return ok
 
 
@@ -400,9 +398,5 @@ def fuse_kernel(x, P, w, Y0, y0, x_out, P_out):
     """
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    C = _n_chunks(M)
-    if C:
-        _fuse_kernel_par(C, x, P, w, Y0, y0, x_out, P_out, ok)
-    else:
-        _fuse_rows(0, M, x, P, w, Y0, y0, x_out, P_out, ok)
+    _run_batch(_fuse_rows, _fuse_kernel_par, M, x, P, w, Y0, y0, x_out, P_out, ok)
     return ok

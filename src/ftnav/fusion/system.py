@@ -184,11 +184,15 @@ class TimeVaryingSystem(LinearSystem):
     def transition(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         return self.Phi[k - 1], self.Qk[k - 1]
 
+    def _with_common(self, F: np.ndarray, Q: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Constant blocks (private states) with the common corner replaced by step k's."""
+        nc = self.n_common
+        F, Q = F.copy(), Q.copy()
+        F[:nc, :nc], Q[:nc, :nc] = self.Phi[k - 1], self.Qk[k - 1]
+        return F, Q
+
     def augmented_transition(self, k: int, true: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        return (block_diag(self.Phi[k - 1], *self._private_blocks("F")),
-                block_diag(self.Qk[k - 1], *self._private_blocks("Q")))
+        return self._with_common(*self._aug[False], k)
 
     def _local_blocks(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-        lm = self.local(i)
-        return (block_diag(self.Phi[k - 1], lm.F_private),
-                block_diag(self.Qk[k - 1], lm.Q_private))
+        return self._with_common(*self._blocks[i], k)

@@ -25,7 +25,7 @@ def write_truth_csv(traj, path: Path) -> Path:
     data = np.column_stack([traj.t, np.degrees(traj.p[:, 0]), np.degrees(traj.p[:, 1]),
                             traj.p[:, 2], traj.v, e[:, 1], e[:, 0], traj.heading_deg])
     np.savetxt(path, data, delimiter=",", header=",".join(TRUTH_COLUMNS), comments="",
-               fmt=["%.4f", "%.12f", "%.12f", "%.6f"] + ["%.9f"] * 3 + ["%.9f"] * 3)
+               fmt=["%.4f", "%.12f", "%.12f", "%.6f"] + ["%.9f"] * 6)
     return Path(path)
 
 

@@ -16,8 +16,7 @@ import numpy as np
 
 __all__ = [
     "A", "F", "E2", "OMEGA_IE", "GM",
-    "radii", "gravity", "gravity_gradient", "omega_ie_n", "omega_en_n", "position_rate",
-    "ned_metres",
+    "radii", "gravity", "gravity_gradient", "omega_ie_n", "omega_en_n", "enu_metres",
 ]
 
 A = 6378137.0  #: semi-major axis (m)
@@ -80,13 +79,7 @@ def omega_en_n(L, h, v):
     return np.stack([-vN / RMh, vE / RNh, vE * np.tan(L) / RNh], -1)
 
 
-def position_rate(L, h, v):
-    """``[L̇, λ̇, ḣ] = [v_N/R_Mh, v_E/(R_Nh cos L), v_U]`` (rad/s, rad/s, m/s), spec §8.2."""
-    RMh, RNh = radii(L, h)
-    return np.stack([v[..., 1] / RMh, v[..., 0] / (RNh * np.cos(L)), v[..., 2]], -1)
-
-
-def ned_metres(p_est, p_true):
+def enu_metres(p_est, p_true):
     """Position error ``[e_E, e_N, e_U]`` in metres of ``p_est − p_true`` (spec §11).
 
     ``e_N = R_Mh (L̂ − L)``, ``e_E = R_Nh cos L (λ̂ − λ)``, ``e_U = ĥ − h``, with the radii

@@ -277,6 +277,18 @@ def error_figure(
     return fig
 
 
+def _method_grid(result, methods, field: str, axes, empty_message: str):
+    """Methods whose result has ``field`` (not None) and a grid of axes, one per method."""
+    names = [m for m in _select(result.results, methods)
+             if getattr(result.results[m], field) is not None]
+    if not names:
+        raise ValueError(empty_message)
+    ncols = _grid_cols(len(names))
+    nrows = math.ceil(len(names) / ncols)
+    fig, axs = _new_axes(len(names), axes, ncols, figsize=_grid_size(ncols, nrows), sharey=True)
+    return names, fig, axs
+
+
 def sharing_figure(
     result: ScenarioResult,
     methods: list[str] | None = None,
@@ -306,16 +318,11 @@ def sharing_figure(
         If no selected method has sharing coefficients.
     """
     sc = result.scenario
-    names = [m for m in _select(result.results, methods)
-             if result.results[m].beta is not None]
-    if not names:
-        raise ValueError("sharing_figure: no selected method has sharing coefficients (beta)")
+    names, fig, axs = _method_grid(result, methods, "beta", axes,
+                                   "sharing_figure: no selected method has sharing "
+                                   "coefficients (beta)")
     t = sc.times
     colours = _sensor_colours(sc.sensor_names)
-    ncols = _grid_cols(len(names))
-    nrows = math.ceil(len(names) / ncols)
-    fig, axs = _new_axes(len(names), axes, ncols,
-                         figsize=_grid_size(ncols, nrows), sharey=True)
     fault_handles: list = []
     widths = _sensor_widths(len(sc.sensor_names))
     for ax, name in zip(axs, names, strict=True):
@@ -375,16 +382,10 @@ def fault_flag_figure(
         If no selected method has fault flags.
     """
     sc = result.scenario
-    names = [m for m in _select(result.results, methods)
-             if result.results[m].flag is not None]
-    if not names:
-        raise ValueError("fault_flag_figure: no selected method has fault flags")
+    names, fig, axs = _method_grid(result, methods, "flag", axes,
+                                   "fault_flag_figure: no selected method has fault flags")
     t = sc.times
     colours = _sensor_colours(sc.sensor_names)
-    ncols = _grid_cols(len(names))
-    nrows = math.ceil(len(names) / ncols)
-    fig, axs = _new_axes(len(names), axes, ncols,
-                         figsize=_grid_size(ncols, nrows), sharey=True)
     detectable = [f for f in sc.faults if f.kind != "outage"]
     faulty = [s for s in sc.sensor_names if any(f.sensor == s for f in detectable)]
     widths = _sensor_widths(len(sc.sensor_names))

