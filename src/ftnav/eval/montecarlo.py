@@ -16,6 +16,7 @@ from ftnav.eval.metrics import nees
 from ftnav.fusion.centralized import CentralizedFilter
 from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import FederatedFilter
+from ftnav.fusion.neural import NeuralFusion
 from ftnav.fusion.system import LinearSystem
 from ftnav.sim.linear import Simulation, simulate
 from ftnav.sim.scenario import Method, Scenario
@@ -36,6 +37,7 @@ class MethodResult(NamedTuple):
     raw_flag, flag : (B, K, N) detector flags before/after hysteresis, or None.
     R_hat : per sensor (B, K, m_i) diagonal noise used (adapted under VB).
     nan_count : (B, N) scheduled measurements that were NaN/inf (treated as missing).
+    features : (B, K, F) learned-detector features (spec §4.1), or None.
     """
 
     x: np.ndarray
@@ -48,6 +50,7 @@ class MethodResult(NamedTuple):
     flag: np.ndarray | None
     R_hat: tuple[np.ndarray, ...]
     nan_count: np.ndarray
+    features: np.ndarray | None = None
 
 
 class ScenarioResult(NamedTuple):
@@ -62,14 +65,20 @@ class ScenarioResult(NamedTuple):
     fault_free: dict[str, MethodResult]
 
 
-def build_filter(system: LinearSystem, method: Method):
-    """The filter object for a method's architecture."""
+def build_filter(system: LinearSystem, method: Method, features: tuple[str, ...] | None = None):
+    """The filter object for a method's architecture.
+
+    ``features`` asks a federated or distributed filter to report the learned
+    detector's input features every epoch (training data collection).
+    """
     if method.architecture == "centralized":
         return CentralizedFilter(system, method)
     if method.architecture == "federated":
-        return FederatedFilter(system, method)
+        return FederatedFilter(system, method, features=features)
     if method.architecture == "distributed":
-        return DistributedFilter(system, method)
+        return DistributedFilter(system, method, features=features)
+    if method.architecture == "neural":
+        return NeuralFusion(system, method)
     raise ValueError(f"methods[{method.name}].architecture: unknown value {method.architecture!r}")
 
 
@@ -82,7 +91,7 @@ def run_filter(filt, sim: Simulation, n_common: int,
     x = np.empty((B, K, n_common))
     Pd = np.empty((B, K, n_common))
     ne = np.empty((B, K))
-    beta = stat = thr = raw = flag = None
+    beta = stat = thr = raw = flag = feats = None
     R_hat = [np.empty((B, K, z.shape[-1])) for z in sim.z]
     nan_count = np.zeros((B, N), dtype=int)
     for k in range(1, K + 1):
@@ -102,12 +111,16 @@ def run_filter(filt, sim: Simulation, n_common: int,
             d = out.detection
             stat[:, k - 1], thr[:, k - 1] = d.statistic, d.threshold
             raw[:, k - 1], flag[:, k - 1] = d.raw, d.flag
+        if out.features is not None:
+            if feats is None:
+                feats = np.empty((B, K, out.features.shape[-1]))
+            feats[:, k - 1] = out.features
         for i, r in enumerate(out.R_hat):
             R_hat[i][:, k - 1] = r
         nan_count += out.nan
         if progress is not None:
             progress(1)
-    return MethodResult(x, Pd, ne, beta, stat, thr, raw, flag, tuple(R_hat), nan_count)
+    return MethodResult(x, Pd, ne, beta, stat, thr, raw, flag, tuple(R_hat), nan_count, feats)
 
 
 def run_scenario(
@@ -146,21 +159,21 @@ def run_scenario(
     return ScenarioResult(scenario, runs, seed, sim, results, sim_ff, ff)
 
 
-def concat_simulations(a: Simulation, b: Simulation) -> Simulation:
-    """One simulation with the runs of ``a`` followed by those of ``b``.
+def concat_simulations(*sims: Simulation) -> Simulation:
+    """One simulation with the runs of each argument in turn.
 
-    The oracle becomes per run, ``(K, B_a + B_b, N)``.
+    The oracle becomes per run, ``(K, B_1 + B_2 + ..., N)``.
     """
     def per_run(s):
         return np.broadcast_to(s.oracle[:, None, :] if s.oracle.ndim == 2 else s.oracle,
                                (s.oracle.shape[0], s.truth.shape[0], s.oracle.shape[-1]))
 
     return Simulation(
-        np.concatenate([a.truth, b.truth]),
-        tuple(np.concatenate(p) for p in zip(a.z, b.z, strict=True)),
-        np.concatenate([a.available, b.available]),
-        np.concatenate([per_run(a), per_run(b)], axis=1),
-        tuple(np.concatenate(p) for p in zip(a.noise_free, b.noise_free, strict=True)),
+        np.concatenate([s.truth for s in sims]),
+        tuple(np.concatenate(p) for p in zip(*(s.z for s in sims), strict=True)),
+        np.concatenate([s.available for s in sims]),
+        np.concatenate([per_run(s) for s in sims], axis=1),
+        tuple(np.concatenate(p) for p in zip(*(s.noise_free for s in sims), strict=True)),
     )
 
 

@@ -19,6 +19,7 @@ __all__ = [
     "DetectorOutput",
     "ChiSquareDetector",
     "state_statistic",
+    "apply_hysteresis",
 ]
 
 
@@ -112,15 +113,29 @@ class ChiSquareDetector:
         total_dof = hdof.sum(-1)
         threshold = chi2_threshold(total_dof, self.pfa)
         raw = tested & (total > threshold)
-        passed = tested & ~raw
-        on = np.where(raw, state.on_count + 1, np.where(passed, 0, state.on_count))
-        off = np.where(passed, state.off_count + 1, np.where(raw, 0, state.off_count))
-        flag = np.where(on >= self.n_on, True, np.where(off >= self.n_off, False, state.flag))
+        on, off, flag = apply_hysteresis(state, raw, tested, self.n_on, self.n_off)
         statistic_out = np.where(tested, total, 0.0)
         return (
             DetectorState(hist, hdof, on, off, flag),
             DetectorOutput(statistic_out, threshold, raw, flag),
         )
+
+
+def apply_hysteresis(state: DetectorState, raw: np.ndarray, tested: np.ndarray, n_on: int,
+                     n_off: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Spec §3.1 hysteresis: set after ``n_on`` alarms in a row, clear after ``n_off`` passes.
+
+    Epochs that are not tested leave the counters and the flag as they are.
+
+    Returns
+    -------
+    on_count, off_count, flag : (B, N) each.
+    """
+    passed = tested & ~raw
+    on = np.where(raw, state.on_count + 1, np.where(passed, 0, state.on_count))
+    off = np.where(passed, state.off_count + 1, np.where(raw, 0, state.off_count))
+    flag = np.where(on >= n_on, True, np.where(off >= n_off, False, state.flag))
+    return on, off, flag
 
 
 def state_statistic(

@@ -14,6 +14,7 @@ import numpy as np
 
 from ftnav.core import kalman as kf
 from ftnav.fdi.chi2 import DetectorState
+from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.local import (
     NoiseState,
     StepOutput,
@@ -60,7 +61,10 @@ class CentralizedFilter:
             )
         self.system = system
         self.method = method
-        self.detector = make_detector(method)
+        self.detector = make_detector(method, system)
+        if method.detector == "rbf" and "state-difference" in self.detector.features:
+            raise ValueError(f"methods[{method.name}].model: its features include local "
+                             "state differences; a centralized filter has no local filters")
         self.variant = vb_variant(method)
         self.H = [system.augmented_H(i) for i in range(system.n_sensors)]
         self.vb_on = vb_enabled(method, system.sensors)
@@ -96,7 +100,13 @@ class CentralizedFilter:
         stat = np.stack([residual_statistic(x, P, z[i], usable[:, i], self.H[i], R_now[i])
                          for i in range(self.n_filters)], 1)
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
-        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, usable, oracle)
+        feats = None
+        if m.detector == "rbf":
+            feats = np.concatenate([whitened_innovation(x, P, z[i], usable[:, i], self.H[i],
+                                                        R_now[i])
+                                    for i in range(self.n_filters)], 1)
+        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, usable, oracle,
+                                    feats)
         use = usable if det_out is None else usable & ~det_out.flag
         noise, R_hat = [], []
         for i, s in enumerate(self.system.sensors):

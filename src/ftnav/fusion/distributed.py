@@ -26,11 +26,14 @@ import numpy as np
 
 from ftnav.core import kalman as kf
 from ftnav.fdi.chi2 import DetectorState
+from ftnav.fdi.features import detector_features, whitened_innovation
+from ftnav.fdi.rbf import RBFDetector
 from ftnav.fusion.local import (
     NoiseState,
     StateTest,
     StepOutput,
     detect,
+    detector_feature_kinds,
     initial_noise,
     local_update,
     make_detector,
@@ -66,10 +69,12 @@ class DistributedFilter:
         ``adaptive_noise``, ``mode="rescale"`` with ``rescale_factor``).
     local_Q_scale, local_P0_scale : (N,) factors on each local filter's Q and P0
         (spec §6.2: they do not affect exactness in the linear case).
+    features : feature kinds (spec §4.1) to compute every epoch even without an
+        RBF detector (training data collection).
     """
 
     def __init__(self, system: LinearSystem, method: Method, local_Q_scale=None,
-                 local_P0_scale=None):
+                 local_P0_scale=None, features: tuple[str, ...] | None = None):
         name = f"methods[{method.name}]"
         if method.mode == "rescale" and not method.reconstructed:
             raise ValueError(f"{name}.mode: 'rescale' is a reconstruction (spec §1.5); "
@@ -82,7 +87,10 @@ class DistributedFilter:
         self.q_scale = np.ones(N) if local_Q_scale is None else np.asarray(local_Q_scale, float)
         self.p_scale = np.ones(N) if local_P0_scale is None else np.asarray(local_P0_scale,
                                                                               float)
-        self.detector = make_detector(method)
+        self.detector = make_detector(method, system)
+        self.features = detector_feature_kinds(self.detector, features)
+        self.feature_prior = self.detector.model.prior if isinstance(self.detector, RBFDetector) \
+            else method.prior
         self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
             else None
         self.variant = vb_variant(method)
@@ -114,13 +122,16 @@ class DistributedFilter:
         usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
                           strict=True)
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
-        priors, stat, props = [], [], []
+        priors, stat, props, innov = [], [], [], []
         for i, s in enumerate(self.system.sensors):
             prior = kf.predict(state.x[i], state.P[i], F, Q * self.q_scale[i])
             priors.append(prior)
             R = predicted_noise(state.noise[i], s.R, m.vb_rho)
             base = kf.Gaussian(xg_pr, Pg_pr) if m.prior == "global" else prior
             stat.append(residual_statistic(*base, z[i], usable[:, i], self.H[i], R))
+            if self.features is not None:
+                fb = kf.Gaussian(xg_pr, Pg_pr) if self.feature_prior == "global" else prior
+                innov.append(whitened_innovation(*fb, z[i], usable[:, i], self.H[i], R))
             if self.state_test is not None:
                 props.append(kf.predict(*state.propagator[i], F, Q * self.q_scale[i]))
         stat = np.stack(stat, 1)
@@ -136,7 +147,19 @@ class DistributedFilter:
             stat = np.stack([r[0] for r in res], 1)
             dof = np.stack([r[1] for r in res], 1)
             tested = np.stack([r[2] for r in res], 1)
-        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle)
+        feats = None
+        if self.features is not None:
+            # features see each local posterior before the isolation decision (spec §4.1)
+            if posts is None:
+                posts = [self._update(i, priors[i], z[i], usable[:, i], state.noise[i])
+                         for i in range(N)]
+            nc = self.system.n_common
+            feats = detector_features(
+                self.features, np.stack([p.x[:, :nc] for p in posts], 1),
+                np.stack([np.diagonal(p.P, axis1=-2, axis2=-1)[:, :nc] for p in posts], 1),
+                xg_pr[:, :nc], innov)
+        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle,
+                                    feats)
         use = usable if det_out is None else usable & ~det_out.flag
 
         yg, Yg = kf.to_information(xg_pr, Pg_pr)
@@ -168,7 +191,7 @@ class DistributedFilter:
             prop = tuple(kf.Gaussian(*self.state_test.restart(k, xs[i], Ps[i], *props[i]))
                          for i in range(N))
         nc = self.system.n_common
-        out = StepOutput(xg[:, :nc], Pg[:, :nc, :nc], None, det_out, tuple(R_hat), nan)
+        out = StepOutput(xg[:, :nc], Pg[:, :nc, :nc], None, det_out, tuple(R_hat), nan, feats)
         return DistributedState(tuple(xs), tuple(Ps), xg, Pg, tuple(noise), det_state,
                                 prop), out
 

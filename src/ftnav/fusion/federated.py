@@ -26,11 +26,14 @@ import numpy as np
 from ftnav.core import kalman as kf
 from ftnav.core.sharing import information_content, sharing_coefficients
 from ftnav.fdi.chi2 import DetectorState
+from ftnav.fdi.features import detector_features, whitened_innovation
+from ftnav.fdi.rbf import RBFDetector
 from ftnav.fusion.local import (
     NoiseState,
     StateTest,
     StepOutput,
     detect,
+    detector_feature_kinds,
     initial_noise,
     local_update,
     make_detector,
@@ -80,9 +83,12 @@ class FederatedFilter:
     method : settings: ``mode``, ``reset_interval``, ``sharing``, ``betas``,
         ``master_share``, ``trace_mode``, ``detector`` and its settings,
         ``prior``, ``adaptive_noise``.
+    features : feature kinds (spec §4.1) to compute every epoch even without an
+        RBF detector (training data collection); reported in ``StepOutput.features``.
     """
 
-    def __init__(self, system: LinearSystem, method: Method):
+    def __init__(self, system: LinearSystem, method: Method,
+                 features: tuple[str, ...] | None = None):
         name = f"methods[{method.name}]"
         if method.mode == "rescale":
             raise ValueError(f"{name}.mode: 'rescale' is provided by the distributed architecture")
@@ -93,8 +99,8 @@ class FederatedFilter:
             if method.adaptive_noise != "none":
                 raise ValueError(f"{name}.adaptive_noise: not available with zero-reset "
                                  "(local filters have no prior)")
-            if method.detector == "state-chi2":
-                raise ValueError(f"{name}.detector: 'state-chi2' needs local priors; "
+            if method.detector in ("state-chi2", "rbf") or features:
+                raise ValueError(f"{name}.detector: {method.detector!r} needs local priors; "
                                  "zero-reset locals have none")
         N = system.n_sensors
         if method.sharing == "fixed" and len(method.betas) != N:
@@ -104,7 +110,10 @@ class FederatedFilter:
         self.N = N
         self.nc = system.n_common
         self.locals = [system.local(i) for i in range(N)]
-        self.detector = make_detector(method)
+        self.detector = make_detector(method, system)
+        self.features = detector_feature_kinds(self.detector, features)
+        self.feature_prior = self.detector.model.prior if isinstance(self.detector, RBFDetector) \
+            else method.prior
         self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
             else None
         self.variant = vb_variant(method)
@@ -177,8 +186,8 @@ class FederatedFilter:
         F, Q = self.system.transition(k)
         B = state.xg.shape[0]
         # the fused prior: needed by global-prior tests and when every local is isolated
-        need_prior = self.global_prior or not state.active.any(1).all() and \
-            state.master is None
+        need_prior = self.global_prior or self.features is not None or \
+            not state.active.any(1).all() and state.master is None
         xg_pr, Pg_pr = kf.predict(state.xg, state.Pg, F, Q) if need_prior else (None, None)
         usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
                           strict=True)
@@ -212,8 +221,11 @@ class FederatedFilter:
                 R_hat.append(np.diagonal(up.R, axis1=-2, axis2=-1))
                 if self.state_test is not None:
                     props.append(kf.predict(*state.propagator[i], Fi, Qi))
-            stat.append(self._residual(i, xg_pr, Pg_pr, priors[i], z[i], use, state.noise[i])
-                        if self.global_prior else up.nis)  # global_prior covers zero-reset
+            if self.global_prior:  # covers zero-reset
+                stat.append(self._residual(i, *self._against_global(i, xg_pr, Pg_pr, priors[i]),
+                                           z[i], use, state.noise[i]))
+            else:
+                stat.append(up.nis)
         stat = np.stack(stat, 1)
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
         tested = usable
@@ -222,7 +234,11 @@ class FederatedFilter:
             stat = np.stack([r[0] for r in res], 1)
             dof = np.stack([r[1] for r in res], 1)
             tested = np.stack([r[2] for r in res], 1)
-        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle)
+        feats = None
+        if self.features is not None:
+            feats = self._features(priors, posts, xg_pr, Pg_pr, z, usable, state.noise)
+        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle,
+                                    feats)
         flag = np.zeros((B, N), dtype=bool) if det_out is None else det_out.flag
 
         # ---- fusion over the active set (spec §1.3 step 3) --------------------------
@@ -288,25 +304,41 @@ class FederatedFilter:
         if self.state_test is not None:
             prop = tuple(kf.Gaussian(*self.state_test.restart(k, xs[i], Ps[i], *props[i]))
                          for i in range(N))
-        out = StepOutput(xg, Pg, beta_report, det_out, tuple(R_hat), nan)
+        out = StepOutput(xg, Pg, beta_report, det_out, tuple(R_hat), nan, feats)
         return FederatedState(tuple(xs), tuple(Ps), new_master, xg, Pg, share, active_next,
                               tuple(noise), det_state, prop), out
 
     # ------------------------------------------------------------------------------
-    def _residual(self, i, xg_pr, Pg_pr, prior, z, use, noise):
-        """NIS of sensor i against the fused (global) prior (spec §3.1 option)."""
-        lm, s = self.locals[i], self.system.sensors[i]
+    def _against_global(self, i, xg_pr, Pg_pr, prior):
+        """Local filter i's prior with its common block replaced by the fused prior."""
         nc = self.nc
-        R = predicted_noise(noise, s.R, self.method.vb_rho)
-        if lm.n == nc:
-            return residual_statistic(xg_pr, Pg_pr, z, use, lm.H, R)
+        if self.locals[i].n == nc:
+            return xg_pr, Pg_pr
         x_pr, P_pr = prior
         x = np.concatenate([xg_pr, x_pr[:, nc:]], 1)
         P = P_pr.copy()
         P[:, :nc, :nc] = Pg_pr
         P[:, :nc, nc:] = 0.0
         P[:, nc:, :nc] = 0.0
-        return residual_statistic(x, P, z, use, lm.H, R)
+        return x, P
+
+    def _residual(self, i, x, P, z, use, noise):
+        """NIS of sensor i against the prior (x, P) (spec §3.1)."""
+        R = predicted_noise(noise, self.system.sensors[i].R, self.method.vb_rho)
+        return residual_statistic(x, P, z, use, self.locals[i].H, R)
+
+    def _features(self, priors, posts, xg_pr, Pg_pr, z, usable, noise):
+        """Spec §4.1 features: posterior − fused prior, whitened innovations."""
+        nc = self.nc
+        innov = []
+        for i, (lm, s) in enumerate(zip(self.locals, self.system.sensors, strict=True)):
+            base = self._against_global(i, xg_pr, Pg_pr, priors[i]) \
+                if self.feature_prior == "global" else priors[i]
+            R = predicted_noise(noise[i], s.R, self.method.vb_rho)
+            innov.append(whitened_innovation(*base, z[i], usable[:, i], lm.H, R))
+        xl = np.stack([p[0][:, :nc] for p in posts], 1)
+        vl = np.stack([np.diagonal(p[1], axis1=-2, axis2=-1)[:, :nc] for p in posts], 1)
+        return detector_features(self.features, xl, vl, xg_pr, innov)
 
     def _reset(self, x, P, xg, Pg, beta, where):
         """Reset common block to ``x̂_g``, ``P_g/β`` (spec §1.2); cross block per §1.7."""

@@ -15,6 +15,7 @@ import numpy as np
 from ftnav.core import kalman as kf
 from ftnav.core import vb as vbk
 from ftnav.fdi.chi2 import ChiSquareDetector, DetectorOutput, DetectorState, state_statistic
+from ftnav.fdi.rbf import RBFDetector, RBFModel
 from ftnav.sim.scenario import Method
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "local_update",
     "Detection",
     "make_detector",
+    "detector_feature_kinds",
     "StateTest",
 ]
 
@@ -132,12 +134,40 @@ class Detection(NamedTuple):
     state: DetectorState
 
 
-def make_detector(method: Method) -> ChiSquareDetector | None:
-    """Chi-square thresholding + hysteresis for the method, None without a test."""
+def make_detector(method: Method, system=None) -> ChiSquareDetector | RBFDetector | None:
+    """The method's detector (chi-square or RBF network), None without a test.
+
+    An RBF detector loads ``method.model`` and checks it against ``system``
+    (states, sensors, system hash); a bad or foreign file raises
+    :class:`~ftnav.io.model_file.ModelFileError` naming the method.
+    """
     if method.detector in ("residual-chi2", "state-chi2"):
         return ChiSquareDetector(
             method.false_alarm_probability, method.window, method.n_on, method.n_off
         )
+    if method.detector == "rbf":
+        from ftnav.io.model_file import ModelFileError
+
+        if method.model is None:
+            raise ValueError(f"methods[{method.name}].model: detector 'rbf' needs a trained "
+                             "model file (ftnav train-detector)")
+        compat = None if system is None else system.compatibility()
+        try:
+            model = RBFModel.load(method.model, compat)
+        except ModelFileError as e:
+            raise ModelFileError(method.model, e.reason,
+                                 field=f"methods[{method.name}].model") from None
+        return RBFDetector(model, method.threshold, method.n_on, method.n_off)
+    return None
+
+
+def detector_feature_kinds(detector, extra: tuple[str, ...] | None = None
+                           ) -> tuple[str, ...] | None:
+    """Feature kinds a filter must compute: the RBF detector's, or ``extra`` (training)."""
+    if extra:
+        return tuple(extra)
+    if isinstance(detector, RBFDetector):
+        return detector.features
     return None
 
 
@@ -179,6 +209,7 @@ class StepOutput(NamedTuple):
     detection : detector output (B, N) per local filter / sensor, or None.
     R_hat : per sensor (B, m_i) diagonal of the noise used (adapted under VB).
     nan : (B, N) bool, scheduled measurements that were NaN/inf (treated as missing).
+    features : (B, F) learned-detector features of the epoch (spec §4.1), or None.
     """
 
     x: np.ndarray
@@ -187,6 +218,7 @@ class StepOutput(NamedTuple):
     detection: DetectorOutput | None
     R_hat: tuple[np.ndarray, ...]
     nan: np.ndarray
+    features: np.ndarray | None = None
 
 
 def detect(
@@ -197,8 +229,15 @@ def detect(
     dof: np.ndarray,
     tested: np.ndarray,
     oracle: np.ndarray,
+    features: np.ndarray | None = None,
 ) -> tuple[DetectorState | None, DetectorOutput | None]:
-    """Run the method's detector for one epoch; ``oracle`` (N,) or (B, N): true fault flags."""
+    """Run the method's detector for one epoch; ``oracle`` (N,) or (B, N): true fault flags.
+
+    A chi-square detector thresholds ``statistic``; an RBF detector evaluates its
+    network on ``features`` (B, F) (spec §4) and ignores the statistic.
+    """
+    if isinstance(detector, RBFDetector):
+        return detector.step(state, features, tested)
     if detector is not None:
         return detector.step(state, statistic, dof, tested)
     if method.detector == "oracle":

@@ -85,6 +85,28 @@ class LinearSystem:
     def has_private(self) -> bool:
         return any(s.private is not None for s in self.sensors)
 
+    def compatibility(self) -> dict:
+        """What a learned model trained on this system records and later checks.
+
+        State and sensor names, measurement sizes and ``system_hash``, a SHA-256
+        fingerprint of the filters' model (F, Q, x0, P0, every H, R and private
+        block).  Faults, methods and the simulator's true noise are left out, so
+        a model trained on one scenario serves any scenario of the same system.
+        """
+        from ftnav.io.model_file import system_hash
+
+        parts = {"states": list(self.model.states), "F": self.model.F, "Q": self.model.Q,
+                 "x0": self.model.x0, "P0": self.model.P0}
+        for s in self.sensors:
+            parts[f"sensor:{s.name}"] = {
+                "H": s.H, "R": s.R, "every": s.every, "offset": s.offset,
+                "private": None if s.private is None else {
+                    "names": list(s.private.names), "F": s.private.F, "Q": s.private.Q,
+                    "x0": s.private.x0, "P0": s.private.P0, "H": s.private.H}}
+        return {"states": list(self.model.states), "sensors": [s.name for s in self.sensors],
+                "measurement_dims": [s.dim for s in self.sensors],
+                "system_hash": system_hash(parts)}
+
     # -- common / augmented matrices ---------------------------------------------
     def transition(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """Common-state ``(F, Q)`` for the step ``k−1 → k`` (filter's assumed Q)."""

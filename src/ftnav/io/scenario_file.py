@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
+from dataclasses import replace
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any
@@ -335,7 +336,16 @@ class MethodFile(BaseModel):
     rescale_factor: float = _num(
         "information scale of the rescale mode", default=_d("rescale_factor"), ge=0, lt=1
     )
-    model: str | None = Field(default=_d("model"), description="learned detector file")
+    model: str | None = Field(
+        default=_d("model"),
+        description="trained model file (detector 'rbf' or architecture 'neural'); a relative "
+        "path is relative to the scenario file")
+    threshold: float | None = _num("RBF decision threshold (default: the model's)",
+                                   default=_d("threshold"), gt=0, lt=1)
+    uncovered: Name = Field(
+        default=_d("uncovered"),
+        description="neural: flag pattern no configuration covers -> 'renormalize' or a "
+        "configuration name")
 
 
 class EvaluationFile(BaseModel):
@@ -515,6 +525,13 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
         if name not in names:
             raise _fail(f"unknown sensor {name!r} (known: {', '.join(names)})",
                         "methods", i, "vb_sensors", j)
+    needs_model = me.detector == "rbf" or me.architecture == "neural"
+    if needs_model and me.model is None:
+        what = "detector 'rbf'" if me.detector == "rbf" else "architecture 'neural'"
+        raise _fail(f"{what} needs a trained model file", "methods", i, "model")
+    if me.model is not None and not needs_model:
+        raise _fail("only used with detector = 'rbf' or architecture = 'neural'",
+                    "methods", i, "model")
     if me.mode == "rescale" and not me.reconstructed:
         raise _fail(
             "'rescale' is a reconstruction (spec §1.5); set reconstructed = true to use it",
@@ -544,6 +561,8 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
         reconstructed=me.reconstructed,
         rescale_factor=float(me.rescale_factor),
         model=me.model,
+        threshold=None if me.threshold is None else float(me.threshold),
+        uncovered=me.uncovered,
     )
 
 
@@ -645,7 +664,16 @@ def load_scenario(source: str | Path) -> Scenario:
     ScenarioError : unreadable file, TOML syntax error (message names the file),
         or an invalid scenario (message ``<field path>: <reason>``).
     """
-    return parse_scenario(read_toml(source), origin=str(source))
+    sc = parse_scenario(read_toml(source), origin=str(source))
+    return resolve_model_paths(sc, Path(source).parent)
+
+
+def resolve_model_paths(sc: Scenario, base: Path) -> Scenario:
+    """Make the methods' relative ``model`` paths relative to ``base`` (the file's folder)."""
+    methods = tuple(
+        replace(m, model=str(base / m.model)) if m.model and not Path(m.model).is_absolute()
+        else m for m in sc.methods)
+    return replace(sc, methods=methods)
 
 
 def scenario_json_schema() -> dict[str, Any]:

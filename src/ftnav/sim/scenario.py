@@ -18,12 +18,12 @@ from typing import Literal
 import numpy as np
 
 FaultKind = Literal["bias", "ramp", "noise-scale", "outage", "stuck"]
-Architecture = Literal["centralized", "federated", "distributed"]
+Architecture = Literal["centralized", "federated", "distributed", "neural"]
 Mode = Literal["no-reset", "fusion-reset", "zero-reset", "rescale"]
 Sharing = Literal[
     "equal", "fixed", "information", "trace", "eigen-trace", "frobenius", "inverse-trace"
 ]
-Detector = Literal["none", "residual-chi2", "state-chi2", "oracle"]
+Detector = Literal["none", "residual-chi2", "state-chi2", "oracle", "rbf"]
 AdaptiveNoise = Literal["none", "vb", "vb-literal"]
 Prior = Literal["local", "global"]
 TraceMode = Literal["scaled", "raw"]
@@ -141,6 +141,8 @@ class Method:
     reconstructed: bool = False
     rescale_factor: float = 0.5
     model: str | None = None
+    threshold: float | None = None
+    uncovered: str = "renormalize"
 
 
 @dataclass(frozen=True, slots=True)

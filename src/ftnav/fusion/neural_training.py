@@ -1,0 +1,243 @@
+"""Training and held-out evaluation of the neuron fusion centre (spec §5.3-§5.4).
+
+Pipeline (:func:`train_fusion`):
+
+1. Configurations (spec §5.4): ``healthy`` (no flag) and one per sensor
+   (that sensor's local filter flagged).  Paper 001's "SINS faulty"
+   configuration needs an inertial system and comes with the INS scenarios.
+2. Training data: independent local filters (no sharing) run over a
+   :class:`~ftnav.sim.fault_family.FaultFamily`.  Configuration ``healthy``
+   takes every epoch of the fault-free runs after the initial convergence;
+   configuration ``<sensor>`` takes the epochs inside that sensor's fault
+   windows, so LMS learns to down-weight the faulty input.
+3. Per (configuration, state) neuron the inputs are centred by their mean
+   ``ū`` (spec §5.3 conditioning): ``ũ_i = u_i − ū``, target ``t̃ = t − ū``.
+   Every configuration is subsampled to the same M samples and all neurons
+   train in one batch of :func:`ftnav.core.lms.lms_train`.
+4. Held-out runs (whole runs, :data:`~ftnav.sim.fault_family.HOLDOUT_OFFSET`):
+   RMSE per configuration and state of the neuron fusion (configuration from
+   the true fault windows, and from the residual chi-square flags), of every
+   local filter and of the centralized filter, on the same data.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from ftnav.core.lms import lms_train
+from ftnav.fusion.neural import FREE_INPUT, NeuralFusion, NeuronModel
+from ftnav.fusion.system import LinearSystem
+from ftnav.sim.fault_family import HOLDOUT_OFFSET, FaultFamily, fault_variants, simulate_variants
+from ftnav.sim.scenario import Method, Scenario
+
+__all__ = ["FusionTraining", "FusionReport", "train_fusion", "fusion_table"]
+
+_WINDOW_STREAM = 0x4E46
+_SAMPLE_STREAM = 0x4E53
+
+
+def _default_family() -> FaultFamily:
+    return FaultFamily(step_sizes=(5.0, 10.0, 20.0), ramp_sizes=(20.0,), noise_scales=(5.0,),
+                       fault_free=4)
+
+
+@dataclass(frozen=True, slots=True)
+class FusionTraining:
+    """Settings of :func:`train_fusion` (defaults from spec §5.3).
+
+    Attributes
+    ----------
+    runs, holdout_runs : runs per fault variant.   seed : root seed.
+    family : faults that generate each configuration's data.
+    free_input : add the free propagation as an input (paper 001's SINS input).
+    projection, step, mu, epochs, tol : LMS settings (:func:`ftnav.core.lms.lms_train`).
+    max_samples : samples per neuron (all configurations use the same number).
+    skip_fraction : initial fraction of each run left out (filter convergence).
+    chi2_pfa, chi2_prior : false-alarm probability and prior of the selection test on
+        held-out runs (``"global"``: against the predicted fused estimate).
+    """
+
+    runs: int = 4
+    holdout_runs: int = 2
+    seed: int = 1
+    family: FaultFamily = field(default_factory=_default_family)
+    free_input: bool = False
+    projection: str = "simplex"
+    step: str = "lms"
+    mu: float = 0.1
+    epochs: int = 200
+    tol: float = 1e-6
+    max_samples: int = 20000
+    skip_fraction: float = 0.05
+    chi2_pfa: float = 1e-3
+    chi2_prior: str = "global"
+
+    def __post_init__(self):
+        for name in ("runs", "holdout_runs", "max_samples"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name}: must be >= 1, got {getattr(self, name)}")
+        if not 0 <= self.skip_fraction < 1:
+            raise ValueError(f"skip_fraction: must be in [0, 1), got {self.skip_fraction}")
+
+
+@dataclass(frozen=True)
+class FusionReport:
+    """Held-out RMSE per configuration.
+
+    ``rmse[source][configuration]`` maps state name → RMSE, for the sources
+    ``neural-oracle`` (configuration from the true windows), ``neural-chi2``
+    (from the chi-square flags), ``centralized`` and every local filter.
+    """
+
+    rmse: dict[str, dict[str, dict[str, float]]]
+    configurations: tuple[str, ...]
+    states: tuple[str, ...]
+    samples_per_neuron: int
+    lms_epochs: int
+    min_weight: float
+    max_sum_error: float
+
+
+def _epoch_masks(scenario: Scenario, variants, runs: int, skip: float):
+    """Per configuration, a (B, K) mask of the epochs that belong to it."""
+    t = scenario.times
+    T = scenario.steps * scenario.dt
+    converged = t >= skip * T
+    names = scenario.sensor_names
+    masks = {"healthy": []} | {s: [] for s in names}
+    for v in variants:
+        window = np.zeros(t.size, dtype=bool)
+        for f in v.faults:
+            window |= (t >= f.start) & (t < f.end)
+        for c in masks:
+            if c == "healthy":
+                m = converged if v.sensor is None else np.zeros(t.size, dtype=bool)
+            else:
+                m = window & converged if v.sensor == c else np.zeros(t.size, dtype=bool)
+            masks[c].append(np.broadcast_to(m, (runs, t.size)))
+    return {c: np.concatenate(m) for c, m in masks.items()}
+
+
+def _inputs(system, scenario, sim, free_input, progress):
+    """Stacked local estimates (B, K, N_in, n_c) of independent local filters."""
+    from ftnav.eval.montecarlo import run_filter
+
+    collect = NeuralFusion(system, Method(name="collect", architecture="neural"),
+                           collect=True, free_input=free_input)
+    res = run_filter(collect, sim, system.n_common, progress)
+    B, K, _ = res.features.shape
+    return res.features.reshape(B, K, -1, system.n_common)
+
+
+def train_fusion(
+    scenario: Scenario,
+    settings: FusionTraining = FusionTraining(),
+    progress: Callable[[int], None] | None = None,
+) -> tuple[NeuronModel, FusionReport]:
+    """Train the neuron banks for ``scenario``'s system (spec §5.3-§5.4).
+
+    Returns
+    -------
+    model : the trained banks (save with :meth:`NeuronModel.save`).
+    report : held-out RMSE per configuration beside the local and centralized filters.
+    """
+    s = settings
+    system = LinearSystem.from_scenario(scenario)
+    nc, N = system.n_common, system.n_sensors
+    rng = np.random.default_rng(np.random.SeedSequence(s.seed, spawn_key=(_WINDOW_STREAM,)))
+    variants = fault_variants(scenario, s.family, rng)
+    sim, _ = simulate_variants(scenario, variants, s.runs, s.seed)
+    U = _inputs(system, scenario, sim, s.free_input, progress)  # (B, K, N_in, nc)
+    truth = sim.truth[..., :nc]
+    masks = _epoch_masks(scenario, variants, s.runs, s.skip_fraction)
+    configs = tuple(masks)
+    counts = [int(m.sum()) for m in masks.values()]
+    M = min(s.max_samples, *counts)
+    if M <= U.shape[2]:
+        raise ValueError(f"runs: too few training epochs ({M}) for {U.shape[2]} inputs; "
+                         "raise runs or the fault windows")
+    pick = np.random.default_rng(np.random.SeedSequence(s.seed, spawn_key=(_SAMPLE_STREAM,)))
+    Us, ts = [], []
+    for c in configs:
+        idx = np.flatnonzero(masks[c].ravel())
+        idx = np.sort(pick.choice(idx, M, replace=False))
+        u = U.reshape(-1, *U.shape[2:])[idx]  # (M, N_in, nc)
+        t = truth.reshape(-1, nc)[idx]  # (M, nc)
+        ubar = u.mean(1)  # (M, nc) centring (spec §5.3)
+        Us.append(np.moveaxis(u - ubar[:, None, :], 2, 0))  # (nc, M, N_in)
+        ts.append((t - ubar).T)  # (nc, M)
+    lms = lms_train(np.concatenate(Us), np.concatenate(ts), projection=s.projection,
+                    step=s.step, mu=s.mu, epochs=s.epochs, tol=s.tol, rng=pick)
+    C = len(configs)
+    weights = lms.weights.reshape(C, nc, -1)
+    patterns = np.zeros((C, N), dtype=bool)
+    for j, c in enumerate(configs[1:], start=1):
+        patterns[j, scenario.sensor_names.index(c)] = True
+    inputs = scenario.sensor_names + ((FREE_INPUT,) if s.free_input else ())
+    provenance = {"scenario": scenario.name, "runs_per_variant": s.runs, "seed": s.seed,
+                  "variants": [v.label for v in variants], "samples_per_neuron": M,
+                  "lms": {"projection": s.projection, "step": s.step, "mu": s.mu,
+                          "epochs": s.epochs, "epochs_run": int(lms.epochs_run),
+                          "converged": bool(lms.converged), "tol": s.tol},
+                  "family": {k: list(v) if isinstance(v, tuple) else v
+                             for k, v in asdict(s.family).items()}}
+    model = NeuronModel(configs, patterns, inputs, tuple(scenario.model.states), weights,
+                        np.sqrt(lms.mse).reshape(C, nc), system.compatibility(), provenance)
+    report = _held_out(scenario, system, model, variants, s, progress)
+    report = replace(report, samples_per_neuron=M, lms_epochs=int(lms.epochs_run),
+                     min_weight=float(lms.min_weight.min()),
+                     max_sum_error=float(lms.max_sum_error.max()))
+    summary = {src: {c: v for c, v in by.items()} for src, by in report.rmse.items()}
+    return replace(model, training={**provenance, "held_out_rmse": summary}), report
+
+
+def _held_out(scenario, system, model, variants, s: FusionTraining, progress) -> FusionReport:
+    from ftnav.eval.montecarlo import build_filter, run_filter
+
+    sim, _ = simulate_variants(scenario, variants, s.holdout_runs, s.seed, HOLDOUT_OFFSET)
+    nc = system.n_common
+    masks = _epoch_masks(scenario, variants, s.holdout_runs, s.skip_fraction)
+    U = _inputs(system, scenario, sim, model.free_input, progress)
+    truth = sim.truth[..., :nc]
+    est = {name: U[:, :, i] for i, name in enumerate(model.inputs)}
+    base = Method(name="neural", architecture="neural")
+    for src, m in (("neural-oracle", replace(base, detector="oracle")),
+                   ("neural-chi2", replace(base, detector="residual-chi2",
+                                           false_alarm_probability=s.chi2_pfa, n_off=3,
+                                           prior=s.chi2_prior)),
+                   ("centralized", Method(name="ckf", architecture="centralized"))):
+        filt = NeuralFusion(system, m, model=model) if m.architecture == "neural" else \
+            build_filter(system, m)
+        est[src] = run_filter(filt, sim, nc, progress).x
+    rmse = {}
+    states = tuple(scenario.model.states)
+    for src, x in est.items():
+        err2 = (x - truth) ** 2
+        rmse[src] = {c: {st: float(np.sqrt(err2[mask][:, j].mean())) for j, st in
+                         enumerate(states)} for c, mask in masks.items()}
+    order = ["neural-oracle", "neural-chi2", "centralized", *model.inputs]
+    return FusionReport({k: rmse[k] for k in order}, model.configurations, states, 0, 0, 0.0,
+                        0.0)
+
+
+def fusion_table(model: NeuronModel, report: FusionReport) -> str:
+    """Plain-text table: held-out RMSE per configuration and the learned weights."""
+    lines = []
+    for j, st in enumerate(report.states):
+        head = f"RMSE of {st} on held-out runs, per configuration"
+        cols = "".join(f"{c:>12s}" for c in report.configurations)
+        lines += [head, f"{'source':16s}{cols}"]
+        for src, by in report.rmse.items():
+            lines.append(f"{src:16s}" + "".join(f"{by[c][st]:12.3g}" for c in
+                                                report.configurations))
+        lines.append("weights (" + ", ".join(model.inputs) + "):")
+        for c, w in zip(model.configurations, model.weights[:, j], strict=True):
+            lines.append(f"  {c:14s} " + " ".join(f"{v:.3f}" for v in w))
+        lines.append("")
+    lines.append(f"LMS: {report.samples_per_neuron} samples per neuron, {report.lms_epochs} "
+                 f"epochs; constraints over every update: min w = {report.min_weight:.3g}, "
+                 f"max |sum w - 1| = {report.max_sum_error:.2g}")
+    return "\n".join(lines)
