@@ -1,4 +1,4 @@
-"""Command-line interface: ``ftnav run | list | schema | trajectory``.
+"""Command-line interface: ``ftnav run | list | schema | trajectory | train-detector | train-fusion``.
 
 Bad input (a malformed scenario, an unknown built-in, an impossible option)
 prints one line ``ftnav: error: <field>: <reason>`` on stderr and exits with
@@ -69,6 +69,38 @@ def _parser() -> _Parser:
                    help="IMU error preset (ideal increments if omitted), e.g. seed001")
     t.add_argument("--seed", type=_seed, default=1, help="random seed of the IMU errors")
     t.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
+    d = sub.add_parser("train-detector",
+                       help="train the RBF fault detector (paper 000) on a scenario's system")
+    d.add_argument("scenario", help="built-in scenario name or a TOML path")
+    d.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
+    d.add_argument("--runs", type=_positive_int("--runs"), default=8,
+                   help="training runs per typical fault (default 8)")
+    d.add_argument("--holdout", type=_positive_int("--holdout"), default=4,
+                   help="held-out runs per typical fault (default 4)")
+    d.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
+    d.add_argument("--method", default=None,
+                   help="scenario method whose filters produce the features (default: the "
+                        "first with detector 'rbf', else federated inverse-trace)")
+    d.add_argument("--centres", type=_positive_int("--centres"), default=60,
+                   help="hidden RBF units (default 60)")
+    d.add_argument("--no-figure", action="store_true", help="skip the ROC/confusion figure")
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
+    f = sub.add_parser("train-fusion",
+                       help="train the neuron fusion centre (paper 001) on a scenario's system")
+    f.add_argument("scenario", help="built-in scenario name or a TOML path")
+    f.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
+    f.add_argument("--runs", type=_positive_int("--runs"), default=4,
+                   help="training runs per typical fault (default 4)")
+    f.add_argument("--holdout", type=_positive_int("--holdout"), default=2,
+                   help="held-out runs per typical fault (default 2)")
+    f.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
+    f.add_argument("--projection", choices=("simplex", "seed"), default="simplex",
+                   help="weight constraint: exact simplex projection or the paper's "
+                        "clip-and-renormalize (default simplex)")
+    f.add_argument("--free-input", action="store_true",
+                   help="add the free propagation (no measurements) as an input")
+    f.add_argument("--no-figure", action="store_true", help="skip the RMSE/weights figure")
+    f.add_argument("--quiet", action="store_true", help="no progress bar")
     sub.add_parser("list", help="list built-in scenarios and their methods")
     s = sub.add_parser("schema", help="print the JSON schema of scenario files")
     s.add_argument("--out", type=Path, default=None, help="write to a file instead")
@@ -104,10 +136,10 @@ def _cmd_list() -> int:
             if m.detector != "none":
                 detail += f", detector {m.detector}"
             print(f"    {m.name:28s} {detail}")
-    print("architectures: centralized | federated | distributed")
+    print("architectures: centralized | federated | distributed | neural")
     print("sharing rules: equal | fixed | information | trace | eigen-trace | frobenius | "
           "inverse-trace")
-    print("detectors: none | residual-chi2 | state-chi2 | oracle")
+    print("detectors: none | residual-chi2 | state-chi2 | oracle | rbf")
     return 0
 
 
@@ -129,7 +161,7 @@ def _cmd_run(args) -> int:
     from ftnav.eval.montecarlo import run_scenario
     from ftnav.io.results import write_estimates, write_metrics
     from ftnav.report.claims import check_claims
-    from ftnav.report.summary import markdown_report, results_table
+    from ftnav.report.summary import detector_table, markdown_report, results_table
 
     sc = _resolve(args.scenario)
     out = args.out if args.out is not None else Path("results") / sc.name
@@ -159,6 +191,10 @@ def _cmd_run(args) -> int:
     print(f"{sc.name}: {args.runs} runs, seed {args.seed}, {len(sc.methods)} methods, "
           f"{elapsed:.1f} s")
     print(results_table(result, metrics))
+    detectors = detector_table(result, metrics)
+    if detectors:
+        print("\nDetectors side by side (learned and statistical):")
+        print(detectors)
     for c in claims:
         verdict = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c["holds"]]
         print(f"[{verdict}] {c['source']}: {c['claim']}")
@@ -203,6 +239,93 @@ def _cmd_trajectory(args) -> int:
     return 0
 
 
+def _output_file(path: Path) -> Path:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"--out: cannot create {str(path.parent)!r}: {e.strerror}") from None
+    if path.is_dir():
+        raise UsageError(f"--out: {str(path)!r} is a folder; give a model file name")
+    return path
+
+
+def _bar(total: int, quiet: bool, desc: str):
+    from tqdm import tqdm
+
+    return tqdm(total=total, disable=True if quiet else None, unit="epoch", desc=desc,
+                file=sys.stderr, mininterval=0.5)
+
+
+def _cmd_train_detector(args) -> int:
+    from ftnav.fdi.training import DetectorTraining, default_method, held_out_table, \
+        train_detector
+    from ftnav.sim.fault_family import fault_variants
+
+    sc = _resolve(args.scenario)
+    out = _output_file(args.out)
+    method = default_method(sc)
+    if args.method is not None:
+        named = {m.name: m for m in sc.methods}
+        if args.method not in named:
+            raise UsageError(f"--method: {args.method!r} is not a method of {sc.name} "
+                             f"({', '.join(named)})")
+        method = named[args.method]
+    settings = DetectorTraining(runs=args.runs, holdout_runs=args.holdout, seed=args.seed,
+                                n_centres=args.centres)
+    import numpy as np
+
+    n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+    total = sc.steps * n_var * (args.runs * (1 + settings.closed_loop) + 2 * args.holdout)
+    t0 = time.perf_counter()
+    with _bar(total, args.quiet, f"train-detector {sc.name}") as bar:
+        model, report = train_detector(sc, settings, method, progress=bar.update)
+    model.save(out)
+    written = [str(out)]
+    if not args.no_figure:
+        from ftnav.plot.learning import detector_figure
+
+        fig = detector_figure(report, f"{sc.name}: RBF detector vs chi-square, held-out runs")
+        fig.savefig(out.with_suffix(".png"), dpi=110)
+        written.append(str(out.with_suffix(".png")))
+    print(f"{sc.name}: RBF detector for method {method.name!r} ({method.architecture}), "
+          f"{n_var} fault variants x {args.runs} training runs, {report.train_samples} "
+          f"samples, {time.perf_counter() - t0:.1f} s")
+    print(f"thresholds per output: {', '.join(f'{t:.3g}' for t in model.threshold)}")
+    print(held_out_table(report))
+    print(f"Written: {', '.join(written)}")
+    return 0
+
+
+def _cmd_train_fusion(args) -> int:
+    from ftnav.fusion.neural_training import FusionTraining, fusion_table, train_fusion
+    from ftnav.sim.fault_family import fault_variants
+
+    sc = _resolve(args.scenario)
+    out = _output_file(args.out)
+    settings = FusionTraining(runs=args.runs, holdout_runs=args.holdout, seed=args.seed,
+                              projection=args.projection, free_input=args.free_input)
+    import numpy as np
+
+    n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+    total = sc.steps * n_var * (args.runs + 4 * args.holdout)
+    t0 = time.perf_counter()
+    with _bar(total, args.quiet, f"train-fusion {sc.name}") as bar:
+        model, report = train_fusion(sc, settings, progress=bar.update)
+    model.save(out)
+    written = [str(out)]
+    if not args.no_figure:
+        from ftnav.plot.learning import fusion_figure
+
+        fig = fusion_figure(model, report, f"{sc.name}: neuron fusion centre, held-out runs")
+        fig.savefig(out.with_suffix(".png"), dpi=110)
+        written.append(str(out.with_suffix(".png")))
+    print(f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
+          f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s")
+    print(fusion_table(model, report))
+    print(f"Written: {', '.join(written)}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``ftnav`` command; returns the exit status."""
     from ftnav.io.scenario_file import ScenarioError
@@ -215,6 +338,10 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_schema(args.out)
         if args.command == "trajectory":
             return _cmd_trajectory(args)
+        if args.command == "train-detector":
+            return _cmd_train_detector(args)
+        if args.command == "train-fusion":
+            return _cmd_train_fusion(args)
         return _cmd_run(args)
     except (UsageError, ScenarioError, ValueError) as e:
         msg = " ".join(str(e).split("\n"))

@@ -257,6 +257,14 @@ BAD: list[tuple[str, Callable[[], dict], str]] = [
         for key, path in ENUMS.items()
     ],
     ("enum-not-string", _add_method(detector=3), r"^methods\[2\]\.detector: unknown value"),
+    ("rbf-without-model", _add_method(detector="rbf"),
+     r"^methods\[2\]\.model: detector 'rbf' needs a trained model file$"),
+    ("neural-without-model", _add_method(architecture="neural"),
+     r"^methods\[2\]\.model: architecture 'neural' needs a trained model file$"),
+    ("model-unused", _add_method(model="x.npz"),
+     r"^methods\[2\]\.model: only used with detector = 'rbf' or architecture = 'neural'$"),
+    ("threshold-above-1", _add_method(detector="rbf", model="x.npz", threshold=1.5),
+     r"^methods\[2\]\.threshold: "),
     ("fixed-betas-count", _add_method(sharing="fixed", betas=[0.5, 0.5]),
      r"^methods\[2\]\.betas: expected 3 values \(one per sensor\)"),
     ("fixed-betas-sum", _add_method(sharing="fixed", betas=[0.5, 0.3, 0.1]),
@@ -400,8 +408,10 @@ def test_optional_parts_parse() -> None:
         "reconstructed": True, "sharing": "fixed", "betas": [0.5, 0.25, 0.15],
         "master_share": 0.1, "trace_mode": "raw", "detector": "state-chi2", "prior": "global",
         "adaptive_noise": "vb-literal", "vb_sensors": ["pos2"], "increment": "difference",
-        "model": "detector.json", "rescale_factor": 0.0, "vb_rho": 1.0,
+        "rescale_factor": 0.0, "vb_rho": 1.0,
     })
+    d["methods"].append({"name": "learned", "detector": "rbf", "model": "detector.npz",
+                         "threshold": 0.6})
     d["evaluation"] = {"skip_initial": 50.0, "grace": 0.0}
     sc = parse_scenario(d)
     p = sc.sensors[0].private
@@ -412,9 +422,10 @@ def test_optional_parts_parse() -> None:
     np.testing.assert_array_equal(outage.magnitude, [0.0])
     assert noise.start == 10.0 and isinstance(noise.start, float)
     assert stuck.start > sc.dt * sc.steps
-    me = sc.methods[-1]
+    me = sc.methods[-2]
     assert me.betas == (0.5, 0.25, 0.15) and me.vb_sensors == ("pos2",)
-    assert me.model == "detector.json" and me.reconstructed and me.mode == "rescale"
+    assert me.reconstructed and me.mode == "rescale" and me.model is None
+    assert sc.methods[-1].model == "detector.npz" and sc.methods[-1].threshold == 0.6
     assert sc.evaluation.skip_initial == 50.0 and sc.description == "with everything"
 
 
@@ -461,7 +472,9 @@ def test_round_trip(make: Callable[[], dict]) -> None:
 def test_round_trip_all_options() -> None:
     d = with_private()
     d["methods"].append({"name": "x", "sharing": "fixed", "betas": [0.2, 0.3, 0.5],
-                         "vb_sensors": ["pos1"], "model": "m.json"})
+                         "vb_sensors": ["pos1"]})
+    d["methods"].append({"name": "learned", "architecture": "neural", "model": "m.npz",
+                         "uncovered": "pos1", "detector": "residual-chi2"})
     d["model"]["Q_true"] = [[2.0, 0, 0], [0, 0.0, 0], [0, 0, 0.0]]
     sc = parse_scenario(d)
     _assert_same(sc, parse_scenario(scenario_to_dict(sc)))

@@ -305,7 +305,8 @@ def _report(scenario, variants, vidx, sim: Simulation, results, feats) -> Detect
     roc, confusion = {}, {}
     for i, sensor in enumerate(names):
         y = labels[..., i].ravel()
-        roc[sensor] = (y, feats.statistic[..., i].ravel(), results["chi2"].statistic[..., i].ravel())
+        roc[sensor] = (y, feats.statistic[..., i].ravel(),
+                       results["chi2"].statistic[..., i].ravel())
         f = results["rbf"].flag[..., i].ravel()
         confusion[sensor] = np.array([[np.sum(~y & ~f), np.sum(~y & f)],
                                       [np.sum(y & ~f), np.sum(y & f)]])

@@ -17,8 +17,8 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from dataclasses import replace
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any
 

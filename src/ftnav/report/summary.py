@@ -5,7 +5,7 @@ from __future__ import annotations
 from ftnav.eval.evaluate import MethodMetrics
 from ftnav.eval.montecarlo import ScenarioResult
 
-__all__ = ["results_table", "markdown_report"]
+__all__ = ["results_table", "detector_table", "markdown_report"]
 
 
 def _f(v, fmt="{:.3g}"):
@@ -35,6 +35,44 @@ def _rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
     return header, rows
 
 
+def _detector_rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
+    """Every method with a detector, per faulty sensor: detection and error in/out of window."""
+    sc = result.scenario
+    st = sc.model.states[0]
+    dt = sc.dt
+    header = ["method", "detector", "sensor", "Pd", "events", "false alarms", "median delay [ep]",
+              "recovery [s]", f"{st} in fault", f"{st} out of fault"]
+    rows = []
+    faulty = list(dict.fromkeys(f.sensor for f in sc.faults if f.kind != "outage"))
+    detectors = {m.name: m.detector for m in sc.methods}
+    for name, m in metrics.items():
+        if not m.detection:
+            continue
+        for s in faulty:
+            d = m.detection[s]
+            delay = None if d["median_delay_s"] is None else d["median_delay_s"] / dt
+            rows.append([name, detectors.get(name, ""), s, _f(d["rate"], "{:.3f}"),
+                         _f(d["event_rate"], "{:.2f}"), _f(d["false_alarm_rate"], "{:.2e}"),
+                         _f(delay, "{:.1f}"), _f(d["mean_recovery_s"], "{:.1f}"),
+                         _f(m.rmse_fault and m.rmse_fault[st]),
+                         _f(m.rmse_nofault and m.rmse_nofault[st])])
+    return header, rows
+
+
+def _fixed(header, rows) -> str:
+    widths = [max(len(str(r[c])) for r in [header] + rows) for c in range(len(header))]
+    line = "  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True))
+    out = [line, "-" * len(line)]
+    out += ["  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    return "\n".join(out)
+
+
+def detector_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> str:
+    """Detectors side by side (learned and statistical): detection, delay, error in/out."""
+    header, rows = _detector_rows(result, metrics)
+    return _fixed(header, rows) if rows else ""
+
+
 def results_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> str:
     """Fixed-width table: RMSE overall, in the fault window, fault-free, detection."""
     header, rows = _rows(result, metrics)
@@ -58,6 +96,14 @@ def markdown_report(result: ScenarioResult, metrics: dict[str, MethodMetrics],
           "faulty sensor under each method's own detector.", "",
           "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     md += ["| " + " | ".join(r) + " |" for r in rows]
+    dh, drows = _detector_rows(result, metrics)
+    if drows:
+        md += ["", "## Detectors side by side", "",
+               "Per method with a detector and per faulty sensor: per-epoch detection rate, "
+               "detected events, false alarms per clean epoch, median delay in epochs, mean "
+               "time to clear after the fault, and the RMSE inside and outside the fault "
+               "window.", "", "| " + " | ".join(dh) + " |", "|" + "---|" * len(dh)]
+        md += ["| " + " | ".join(r) + " |" for r in drows]
     if claims:
         md += ["", "## Claims checked", ""]
         for c in claims:
