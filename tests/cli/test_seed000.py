@@ -31,3 +31,15 @@ def test_seed000_story(tmp_path):
     assert claims["p000-fig4a-reset10"]["holds"]
     assert claims["p000-fig4a-reset1"]["holds"] is False  # β-invariance, spec §1.6
     assert claims["p000-recovery"]["holds"]
+    # issue 4: the RBF-driven fault factor (spec §4.3), side by side with the chi-square one
+    rbf = m["fkf-inverse-trace-rbf"]
+    d = rbf["detection"]["pos1"]
+    assert d["rate"] >= 0.95 and d["false_alarm_rate"] <= 5e-3 and d["median_delay_s"] <= 2.0
+    assert rbf["rmse_fault"]["s"] <= 1.2 * rbf["fault_free"]["rmse_fault_window"]["s"]
+    assert claims["p000-rbf"]["holds"]
+    # the neuron fusion centre isolates the faulty input through its pos1 bank
+    neural = m["neural-chi2"]
+    assert neural["rmse_fault"]["s"] <= 1.2 * neural["fault_free"]["rmse_fault_window"]["s"]
+    assert neural["rmse_fault"]["s"] <= 0.5 * m["fkf-nr-equal"]["rmse_fault"]["s"]
+    report = (out / "report.md").read_text()
+    assert "## Detectors side by side" in report and "fkf-inverse-trace-rbf | rbf | pos1" in report
