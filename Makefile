@@ -30,6 +30,7 @@ lint: $(VENV)/.installed
 bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_federated.py
 	$(PY) benchmarks/bench_mechanization.py
+	$(PY) benchmarks/bench_learned.py
 
 clean:
 	rm -rf $(VENV) results build *.egg-info src/*.egg-info

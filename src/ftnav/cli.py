@@ -1,4 +1,4 @@
-"""Command-line interface: ``ftnav run | list | schema | trajectory | train-detector | train-fusion``.
+"""Command-line interface: ``ftnav run | list | schema | trajectory | train-*``.
 
 Bad input (a malformed scenario, an unknown built-in, an impossible option)
 prints one line ``ftnav: error: <field>: <reason>`` on stderr and exits with
@@ -257,10 +257,11 @@ def _bar(total: int, quiet: bool, desc: str):
 
 
 def _cmd_train_detector(args) -> int:
-    from ftnav.fdi.training import DetectorTraining, default_method, held_out_table, \
-        train_detector
+    from ftnav.fdi.training import DetectorTraining, default_method, held_out_table, train_detector
     from ftnav.sim.fault_family import fault_variants
 
+    if args.centres < 2:
+        raise UsageError(f"--centres: must be >= 2, got {args.centres}")
     sc = _resolve(args.scenario)
     out = _output_file(args.out)
     method = default_method(sc)
