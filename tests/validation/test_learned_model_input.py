@@ -117,20 +117,20 @@ def models(tmp_path_factory):
     return {"det": d / "det.npz", "fus": d / "fus.npz"}
 
 
-def _refused(argv, capsys, start: str, phrase: str) -> str:
+def _refused(argv, capsys, start: str) -> str:
+    """Run the CLI; assert exit 2 and one ``ftnav: error: <start>...`` line; return it."""
     code = main([str(a) for a in argv])
     err = capsys.readouterr().err
     assert code == 2, err
     assert "Traceback" not in err
     assert err.endswith("\n") and err.count("\n") == 1, err
     assert err.startswith(f"ftnav: error: {start}"), err
-    assert phrase in err, err
     return err
 
 
-def _run_refused(scenario, tmp_path, capsys, method: str, phrase: str) -> str:
+def _run_refused(scenario, tmp_path, capsys, method: str) -> str:
     return _refused(["run", scenario, "--runs", "1", "--out", tmp_path / "out",
-                     "--no-figures", "--quiet"], capsys, f"methods[{method}].model: ", phrase)
+                     "--no-figures", "--quiet"], capsys, f"methods[{method}].model: ")
 
 
 # --- the model file itself ------------------------------------------------------------
@@ -147,26 +147,30 @@ def test_the_models_work(models, tmp_path, capsys):
 def test_missing_model_file(method, tmp_path, capsys):
     sc = _scenario(tmp_path / "missing.toml", **{method: "nosuch.npz"})
     name = {"rbf": "fkf-rbf", "neural": "neural"}[method]
-    _run_refused(sc, tmp_path, capsys, name, "file not found")
+    err = _run_refused(sc, tmp_path, capsys, name)
+    assert "file not found" in err, err
 
 
 def test_model_path_is_a_folder(tmp_path, capsys):
     (tmp_path / "det.npz").mkdir()
     sc = _scenario(tmp_path / "folder.toml", rbf="det.npz")
-    _run_refused(sc, tmp_path, capsys, "fkf-rbf", "is a folder")
+    err = _run_refused(sc, tmp_path, capsys, "fkf-rbf")
+    assert "is a folder" in err, err
 
 
 def test_truncated_model_file(models, tmp_path, capsys):
     data = models["det"].read_bytes()
     (tmp_path / "cut.npz").write_bytes(data[: len(data) // 2])
     sc = _scenario(tmp_path / "cut.toml", rbf="cut.npz")
-    _run_refused(sc, tmp_path, capsys, "fkf-rbf", "truncated or not a ZIP archive")
+    err = _run_refused(sc, tmp_path, capsys, "fkf-rbf")
+    assert "truncated or not a ZIP archive" in err, err
 
 
 def test_not_a_zip_file(tmp_path, capsys):
     (tmp_path / "text.npz").write_text("centres = [1, 2, 3]\n")
     sc = _scenario(tmp_path / "text.toml", neural="text.npz")
-    _run_refused(sc, tmp_path, capsys, "neural", "truncated or not a ZIP archive")
+    err = _run_refused(sc, tmp_path, capsys, "neural")
+    assert "truncated or not a ZIP archive" in err, err
 
 
 def _members(path: Path) -> dict[str, bytes]:
@@ -191,7 +195,8 @@ def test_edited_array_with_old_metadata(models, tmp_path, capsys):
     members["weights.npy"] = buf.getvalue()
     _write_zip(tmp_path / "edited.npz", members)
     sc = _scenario(tmp_path / "edited.toml", rbf="edited.npz")
-    err = _run_refused(sc, tmp_path, capsys, "fkf-rbf", "sha256 mismatch")
+    err = _run_refused(sc, tmp_path, capsys, "fkf-rbf")
+    assert "sha256 mismatch" in err, err
     assert "'weights'" in err
 
 
@@ -202,7 +207,8 @@ def test_edited_metadata(models, tmp_path, capsys):
     members["metadata.json"] = json.dumps(meta).encode()
     _write_zip(tmp_path / "edited.npz", members)
     sc = _scenario(tmp_path / "edited.toml", neural="edited.npz")
-    _run_refused(sc, tmp_path, capsys, "neural", "checksum mismatch")
+    err = _run_refused(sc, tmp_path, capsys, "neural")
+    assert "checksum mismatch" in err, err
 
 
 # --- a valid model used where it does not fit -----------------------------------------
@@ -213,20 +219,21 @@ def test_model_trained_for_another_scenario(models, method, model, tmp_path, cap
     # same names and sizes, pos2's R = 31 instead of 30: only the system hash differs
     sc = _scenario(tmp_path / "other.toml", r2=31.0, **{method: models[model]})
     name = {"rbf": "fkf-rbf", "neural": "neural"}[method]
-    err = _run_refused(sc, tmp_path, capsys, name, "another scenario")
+    err = _run_refused(sc, tmp_path, capsys, name)
+    assert "another scenario" in err, err
     assert "system hash" in err
 
 
 def test_fusion_model_given_as_rbf_detector(models, tmp_path, capsys):
     sc = _scenario(tmp_path / "swap.toml", rbf=models["fus"])
-    _run_refused(sc, tmp_path, capsys, "fkf-rbf",
-                 "is a 'neuron-fusion' model, expected 'rbf-detector'")
+    err = _run_refused(sc, tmp_path, capsys, "fkf-rbf")
+    assert "is a 'neuron-fusion' model, expected 'rbf-detector'" in err, err
 
 
 def test_detector_model_given_as_fusion_centre(models, tmp_path, capsys):
     sc = _scenario(tmp_path / "swap.toml", neural=models["det"])
-    _run_refused(sc, tmp_path, capsys, "neural",
-                 "is a 'rbf-detector' model, expected 'neuron-fusion'")
+    err = _run_refused(sc, tmp_path, capsys, "neural")
+    assert "is a 'rbf-detector' model, expected 'neuron-fusion'" in err, err
 
 
 @pytest.mark.parametrize("method,model", [("rbf", "det"), ("neural", "fus")])
@@ -236,14 +243,15 @@ def test_other_sensor_names(models, method, model, tmp_path, capsys):
     name = {"rbf": "fkf-rbf", "neural": "neural"}[method]
     # the first differing compatibility key (states, sensors, measurement_dims,
     # system_hash) is reported
-    _run_refused(sc, tmp_path, capsys, name,
-                 "was trained for sensors = ['pos1', 'pos2', 'pos3'], "
-                 "this scenario has ['gnss', 'pos2', 'pos3']")
+    err = _run_refused(sc, tmp_path, capsys, name)
+    assert ("was trained for sensors = ['pos1', 'pos2', 'pos3'], "
+            "this scenario has ['gnss', 'pos2', 'pos3']") in err, err
 
 
 def test_other_state_names(models, tmp_path, capsys):
     sc = _scenario(tmp_path / "states.toml", states=("p", "v", "a"), rbf=models["det"])
-    _run_refused(sc, tmp_path, capsys, "fkf-rbf", "was trained for states = ['s', 'v', 'a']")
+    err = _run_refused(sc, tmp_path, capsys, "fkf-rbf")
+    assert "was trained for states = ['s', 'v', 'a']" in err, err
 
 
 # --- training options -----------------------------------------------------------------
@@ -257,7 +265,8 @@ def base(tmp_path) -> Path:
 def test_train_detector_unknown_method(base, tmp_path, capsys):
     out = tmp_path / "det.npz"
     err = _refused(["train-detector", base, "--out", out, "--method", "nosuch"], capsys,
-                   "--method: ", "'nosuch' is not a method")
+                   "--method: ")
+    assert "'nosuch' is not a method" in err, err
     assert "fkf-chi2" in err  # lists the scenario's methods
     assert not out.exists()
 
@@ -265,7 +274,8 @@ def test_train_detector_unknown_method(base, tmp_path, capsys):
 @pytest.mark.parametrize("command", ["train-detector", "train-fusion"])
 def test_train_out_is_a_folder(command, base, tmp_path, capsys):
     (tmp_path / "models").mkdir()
-    _refused([command, base, "--out", tmp_path / "models"], capsys, "--out: ", "is a folder")
+    err = _refused([command, base, "--out", tmp_path / "models"], capsys, "--out: ")
+    assert "is a folder" in err, err
 
 
 @pytest.mark.parametrize("command,option,value", [
@@ -277,16 +287,19 @@ def test_train_out_is_a_folder(command, base, tmp_path, capsys):
 ])
 def test_train_bad_numbers(command, option, value, base, tmp_path, capsys):
     out = tmp_path / "m.npz"
-    err = _refused([command, base, "--out", out, option, value], capsys, "", option)
+    err = _refused([command, base, "--out", out, option, value], capsys, "")
+    assert option in err, err
     assert not out.exists()
     assert "usage" not in err
 
 
 def test_train_unknown_scenario(tmp_path, capsys):
-    _refused(["train-detector", "nosuch-scenario", "--out", tmp_path / "m.npz"], capsys,
-             "scenario: ", "neither a built-in scenario")
+    err = _refused(["train-detector", "nosuch-scenario", "--out", tmp_path / "m.npz"], capsys,
+                   "scenario: ")
+    assert "neither a built-in scenario" in err, err
 
 
 def test_train_detector_needs_out(base, capsys):
-    _refused(["train-detector", base], capsys, "", "--out")
+    err = _refused(["train-detector", base], capsys, "")
+    assert "--out" in err, err
 
