@@ -18,7 +18,7 @@ from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import FederatedFilter
 from ftnav.fusion.neural import NeuralFusion
 from ftnav.fusion.system import LinearSystem
-from ftnav.sim.linear import Simulation, simulate
+from ftnav.sim.linear import Simulation, concat_simulations, simulate
 from ftnav.sim.scenario import Method, Scenario
 
 __all__ = ["MethodResult", "ScenarioResult", "build_filter", "run_filter", "run_scenario",
@@ -157,24 +157,6 @@ def run_scenario(
     results = {name: r[0] for name, r in split.items()}
     ff = {name: r[1] for name, r in split.items()}
     return ScenarioResult(scenario, runs, seed, sim, results, sim_ff, ff)
-
-
-def concat_simulations(*sims: Simulation) -> Simulation:
-    """One simulation with the runs of each argument in turn.
-
-    The oracle becomes per run, ``(K, B_1 + B_2 + ..., N)``.
-    """
-    def per_run(s):
-        return np.broadcast_to(s.oracle[:, None, :] if s.oracle.ndim == 2 else s.oracle,
-                               (s.oracle.shape[0], s.truth.shape[0], s.oracle.shape[-1]))
-
-    return Simulation(
-        np.concatenate([s.truth for s in sims]),
-        tuple(np.concatenate(p) for p in zip(*(s.z for s in sims), strict=True)),
-        np.concatenate([s.available for s in sims]),
-        np.concatenate([per_run(s) for s in sims], axis=1),
-        tuple(np.concatenate(p) for p in zip(*(s.noise_free for s in sims), strict=True)),
-    )
 
 
 def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult]:

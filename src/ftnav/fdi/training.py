@@ -39,6 +39,7 @@ from ftnav.sim.fault_family import (
     FaultVariant,
     fault_variants,
     simulate_variants,
+    window_masks,
 )
 from ftnav.sim.linear import Simulation
 from ftnav.sim.scenario import Method, Scenario
@@ -117,7 +118,6 @@ class DetectorReport:
     roc: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
     confusion: dict[str, np.ndarray]
     train_samples: int
-    features: list[str]
 
 
 def default_method(scenario: Scenario) -> Method:
@@ -188,7 +188,8 @@ def train_detector(
                   "family": {k: list(v) if isinstance(v, tuple) else v
                              for k, v in asdict(s.family).items()}}
 
-    clean = _clean_mask(scenario, variants, s.runs)  # (B, K, N)
+    clean = ~window_masks(scenario, variants, s.runs, scenario.evaluation.grace).reshape(
+        -1, system.n_sensors)  # (B·K, N) epochs where an alarm of output i is false
 
     def model_of(network):
         return RBFModel(network, kinds, s.prior, _calibrate(network, X, clean, s), s.n_on,
@@ -208,27 +209,13 @@ def train_detector(
                              random_state=s.seed)
             net.fit(np.concatenate(X), np.concatenate(Y))
         model_of(net).save(path)
-        report = _held_out(scenario, system, method, variants, s, str(path), progress)
-        report = replace(report, train_samples=int(sum(x.shape[0] for x in X)))
+        report = _held_out(scenario, system, method, variants, s, str(path), progress,
+                           train_samples=sum(x.shape[0] for x in X))
     summary = {"false_alarm": report.false_alarm,
                "rows": [{k: (None if isinstance(v, float) and math.isnan(v) else v)
                          for k, v in r.items()} for r in report.rows]}
     final = model_of(net)
     return replace(final, training={**provenance, "held_out": summary}), report
-
-
-def _clean_mask(scenario, variants, runs) -> np.ndarray:
-    """(B·K, N) epochs that count as clean for output i (spec §11 false alarms)."""
-    t = scenario.times
-    grace = scenario.evaluation.grace
-    rows = []
-    for v in variants:
-        m = np.ones((t.size, len(scenario.sensors)), dtype=bool)
-        for f in v.faults:
-            i = scenario.sensor_names.index(f.sensor)
-            m[:, i] &= ~((t >= f.start) & (t < f.end + grace))
-        rows.append(np.broadcast_to(m, (runs,) + m.shape))
-    return np.concatenate(rows).reshape(-1, len(scenario.sensors))
 
 
 def _calibrate(network, X, clean, s: DetectorTraining) -> np.ndarray:
@@ -245,7 +232,7 @@ def _calibrate(network, X, clean, s: DetectorTraining) -> np.ndarray:
 
 
 def _held_out(scenario, system, method, variants: list[FaultVariant], s: DetectorTraining,
-              model_path: str, progress) -> DetectorReport:
+              model_path: str, progress, train_samples: int) -> DetectorReport:
     from ftnav.eval.montecarlo import build_filter, run_filter
 
     sim, vidx = simulate_variants(scenario, variants, s.holdout_runs, s.seed, HOLDOUT_OFFSET)
@@ -256,11 +243,11 @@ def _held_out(scenario, system, method, variants: list[FaultVariant], s: Detecto
     nc = system.n_common
     results = {name: run_filter(build_filter(system, m), sim, nc, progress)
                for name, m in (("rbf", rbf), ("chi2", chi2))}
-    feats = results["rbf"]  # statistic = network output
-    return _report(scenario, variants, vidx, sim, results, feats)
+    return _report(scenario, variants, vidx, sim, results, s.holdout_runs, train_samples)
 
 
-def _report(scenario, variants, vidx, sim: Simulation, results, feats) -> DetectorReport:
+def _report(scenario, variants, vidx, sim: Simulation, results, runs_per_variant: int,
+            train_samples: int) -> DetectorReport:
     t = scenario.times
     dt = scenario.dt
     labels = np.swapaxes(np.asarray(sim.oracle, dtype=bool), 0, 1)  # (B, K, N)
@@ -289,36 +276,19 @@ def _report(scenario, variants, vidx, sim: Simulation, results, feats) -> Detect
             row[f"{d}_median_delay"] = float(np.median(delays) / dt) if delays else float("nan")
         rows.append(row)
     # false alarms: every held-out run's clean epochs of each output (outside its
-    # variant's window and grace period)
-    false_alarm = {}
-    for d, res in results.items():
-        alarms = clean = 0
-        for j, v in enumerate(variants):
-            runs = vidx == j
-            for i, sensor in enumerate(names):
-                wins = [(f.start, f.end) for f in v.faults if f.sensor == sensor]
-                st = detection_stats(res.flag[runs, :, i], t, wins, grace)
-                n_clean = _clean_epochs(t, wins, grace) * int(runs.sum())
-                alarms += st.false_alarm_rate * n_clean if n_clean else 0.0
-                clean += n_clean
-        false_alarm[d] = float(alarms / clean) if clean else float("nan")
+    # variant's window and grace period), as in spec §11
+    clean = ~window_masks(scenario, variants, runs_per_variant, grace)
+    false_alarm = {d: float((res.flag & clean).sum() / clean.sum()) if clean.any()
+                   else float("nan") for d, res in results.items()}
     roc, confusion = {}, {}
     for i, sensor in enumerate(names):
         y = labels[..., i].ravel()
-        roc[sensor] = (y, feats.statistic[..., i].ravel(),
+        roc[sensor] = (y, results["rbf"].statistic[..., i].ravel(),  # network outputs
                        results["chi2"].statistic[..., i].ravel())
         f = results["rbf"].flag[..., i].ravel()
         confusion[sensor] = np.array([[np.sum(~y & ~f), np.sum(~y & f)],
                                       [np.sum(y & ~f), np.sum(y & f)]])
-    return DetectorReport(rows, false_alarm, roc, confusion, 0,
-                          [])
-
-
-def _clean_epochs(t, wins, grace) -> int:
-    bad = np.zeros(t.shape, dtype=bool)
-    for a, b in wins:
-        bad |= (t >= a) & (t < b + grace)
-    return int((~bad).sum())
+    return DetectorReport(rows, false_alarm, roc, confusion, int(train_samples))
 
 
 def held_out_table(report: DetectorReport) -> str:

@@ -27,7 +27,6 @@ import numpy as np
 from ftnav.core import kalman as kf
 from ftnav.fdi.chi2 import DetectorState
 from ftnav.fdi.features import detector_features, whitened_innovation
-from ftnav.fdi.rbf import RBFDetector
 from ftnav.fusion.local import (
     NoiseState,
     StateTest,
@@ -88,9 +87,8 @@ class DistributedFilter:
         self.p_scale = np.ones(N) if local_P0_scale is None else np.asarray(local_P0_scale,
                                                                               float)
         self.detector = make_detector(method, system)
-        self.features = detector_feature_kinds(self.detector, features)
-        self.feature_prior = self.detector.model.prior if isinstance(self.detector, RBFDetector) \
-            else method.prior
+        self.features, self.feature_prior = detector_feature_kinds(self.detector, method,
+                                                                   features)
         self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
             else None
         self.variant = vb_variant(method)

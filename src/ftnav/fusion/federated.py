@@ -27,7 +27,6 @@ from ftnav.core import kalman as kf
 from ftnav.core.sharing import information_content, sharing_coefficients
 from ftnav.fdi.chi2 import DetectorState
 from ftnav.fdi.features import detector_features, whitened_innovation
-from ftnav.fdi.rbf import RBFDetector
 from ftnav.fusion.local import (
     NoiseState,
     StateTest,
@@ -111,9 +110,8 @@ class FederatedFilter:
         self.nc = system.n_common
         self.locals = [system.local(i) for i in range(N)]
         self.detector = make_detector(method, system)
-        self.features = detector_feature_kinds(self.detector, features)
-        self.feature_prior = self.detector.model.prior if isinstance(self.detector, RBFDetector) \
-            else method.prior
+        self.features, self.feature_prior = detector_feature_kinds(self.detector, method,
+                                                                   features)
         self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
             else None
         self.variant = vb_variant(method)

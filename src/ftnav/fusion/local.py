@@ -26,6 +26,7 @@ __all__ = [
     "Detection",
     "make_detector",
     "detector_feature_kinds",
+    "load_method_model",
     "StateTest",
 ]
 
@@ -146,29 +147,41 @@ def make_detector(method: Method, system=None) -> ChiSquareDetector | RBFDetecto
             method.false_alarm_probability, method.window, method.n_on, method.n_off
         )
     if method.detector == "rbf":
-        from ftnav.io.model_file import ModelFileError
-
-        if method.model is None:
-            raise ValueError(f"methods[{method.name}].model: detector 'rbf' needs a trained "
-                             "model file (ftnav train-detector)")
-        compat = None if system is None else system.compatibility()
-        try:
-            model = RBFModel.load(method.model, compat)
-        except ModelFileError as e:
-            raise ModelFileError(method.model, e.reason,
-                                 field=f"methods[{method.name}].model") from None
+        model = load_method_model(RBFModel, method, system, "detector 'rbf'",
+                                  "ftnav train-detector")
         return RBFDetector(model, method.threshold, method.n_on, method.n_off)
     return None
 
 
-def detector_feature_kinds(detector, extra: tuple[str, ...] | None = None
-                           ) -> tuple[str, ...] | None:
-    """Feature kinds a filter must compute: the RBF detector's, or ``extra`` (training)."""
-    if extra:
-        return tuple(extra)
+def load_method_model(cls, method: Method, system, what: str, trainer: str):
+    """``cls.load(method.model)`` checked against ``system``; errors name the method's field.
+
+    ``cls`` is :class:`~ftnav.fdi.rbf.RBFModel` or
+    :class:`~ftnav.fusion.neural.NeuronModel`; ``what`` and ``trainer`` word the
+    error when no file is given.
+    """
+    from ftnav.io.model_file import ModelFileError
+
+    field = f"methods[{method.name}].model"
+    if method.model is None:
+        raise ValueError(f"{field}: {what} needs a trained model file ({trainer})")
+    compat = None if system is None else system.compatibility()
+    try:
+        return cls.load(method.model, compat)
+    except ModelFileError as e:
+        raise ModelFileError(method.model, e.reason, field=field) from None
+
+
+def detector_feature_kinds(detector, method: Method, extra: tuple[str, ...] | None = None
+                           ) -> tuple[tuple[str, ...] | None, str]:
+    """Feature kinds a filter must compute and the prior its innovations use.
+
+    The RBF detector's kinds and trained prior, or ``extra`` with the method's
+    ``prior`` (training data collection); ``(None, prior)`` when no features are needed.
+    """
     if isinstance(detector, RBFDetector):
-        return detector.features
-    return None
+        return tuple(extra) if extra else detector.features, detector.model.prior
+    return (tuple(extra) if extra else None), method.prior
 
 
 class StateTest:

@@ -39,6 +39,7 @@ from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.local import (
     StepOutput,
     detect,
+    load_method_model,
     local_update,
     make_detector,
     residual_statistic,
@@ -185,15 +186,8 @@ class NeuralFusion:
         self.nc = system.n_common
         self.collect = collect
         if model is None and not collect:
-            if method.model is None:
-                raise ValueError(f"{name}.model: architecture 'neural' needs a trained model "
-                                 "file (ftnav train-fusion)")
-            from ftnav.io.model_file import ModelFileError
-
-            try:
-                model = NeuronModel.load(method.model, system.compatibility())
-            except ModelFileError as e:
-                raise ModelFileError(method.model, e.reason, field=f"{name}.model") from None
+            model = load_method_model(NeuronModel, method, system, "architecture 'neural'",
+                                      "ftnav train-fusion")
         if model is not None:
             if model.states != tuple(system.model.states):
                 raise ValueError(f"{name}.model: trained for states {list(model.states)}")

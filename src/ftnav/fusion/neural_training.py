@@ -30,7 +30,13 @@ import numpy as np
 from ftnav.core.lms import lms_train
 from ftnav.fusion.neural import FREE_INPUT, NeuralFusion, NeuronModel
 from ftnav.fusion.system import LinearSystem
-from ftnav.sim.fault_family import HOLDOUT_OFFSET, FaultFamily, fault_variants, simulate_variants
+from ftnav.sim.fault_family import (
+    HOLDOUT_OFFSET,
+    FaultFamily,
+    fault_variants,
+    simulate_variants,
+    window_masks,
+)
 from ftnav.sim.scenario import Method, Scenario
 
 __all__ = ["FusionTraining", "FusionReport", "train_fusion", "fusion_table"]
@@ -103,25 +109,16 @@ class FusionReport:
 
 def _epoch_masks(scenario: Scenario, variants, runs: int, skip: float):
     """Per configuration, a (B, K) mask of the epochs that belong to it."""
-    t = scenario.times
-    T = scenario.steps * scenario.dt
-    converged = t >= skip * T
-    names = scenario.sensor_names
-    masks = {"healthy": []} | {s: [] for s in names}
-    for v in variants:
-        window = np.zeros(t.size, dtype=bool)
-        for f in v.faults:
-            window |= (t >= f.start) & (t < f.end)
-        for c in masks:
-            if c == "healthy":
-                m = converged if v.sensor is None else np.zeros(t.size, dtype=bool)
-            else:
-                m = window & converged if v.sensor == c else np.zeros(t.size, dtype=bool)
-            masks[c].append(np.broadcast_to(m, (runs, t.size)))
-    return {c: np.concatenate(m) for c, m in masks.items()}
+    converged = scenario.times >= skip * scenario.steps * scenario.dt
+    windows = window_masks(scenario, variants, runs)  # (B, K, N)
+    fault_free = np.repeat([v.sensor is None for v in variants], runs)
+    masks = {"healthy": fault_free[:, None] & converged}
+    for i, name in enumerate(scenario.sensor_names):
+        masks[name] = windows[..., i] & converged
+    return masks
 
 
-def _inputs(system, scenario, sim, free_input, progress):
+def _inputs(system, sim, free_input, progress):
     """Stacked local estimates (B, K, N_in, n_c) of independent local filters."""
     from ftnav.eval.montecarlo import run_filter
 
@@ -150,7 +147,7 @@ def train_fusion(
     rng = np.random.default_rng(np.random.SeedSequence(s.seed, spawn_key=(_WINDOW_STREAM,)))
     variants = fault_variants(scenario, s.family, rng)
     sim, _ = simulate_variants(scenario, variants, s.runs, s.seed)
-    U = _inputs(system, scenario, sim, s.free_input, progress)  # (B, K, N_in, nc)
+    U = _inputs(system, sim, s.free_input, progress)  # (B, K, N_in, nc)
     truth = sim.truth[..., :nc]
     masks = _epoch_masks(scenario, variants, s.runs, s.skip_fraction)
     configs = tuple(masks)
@@ -186,21 +183,20 @@ def train_fusion(
                              for k, v in asdict(s.family).items()}}
     model = NeuronModel(configs, patterns, inputs, tuple(scenario.model.states), weights,
                         np.sqrt(lms.mse).reshape(C, nc), system.compatibility(), provenance)
-    report = _held_out(scenario, system, model, variants, s, progress)
-    report = replace(report, samples_per_neuron=M, lms_epochs=int(lms.epochs_run),
-                     min_weight=float(lms.min_weight.min()),
-                     max_sum_error=float(lms.max_sum_error.max()))
-    summary = {src: {c: v for c, v in by.items()} for src, by in report.rmse.items()}
-    return replace(model, training={**provenance, "held_out_rmse": summary}), report
+    rmse = _held_out(scenario, system, model, variants, s, progress)
+    report = FusionReport(rmse, configs, tuple(scenario.model.states), M, int(lms.epochs_run),
+                          float(lms.min_weight.min()), float(lms.max_sum_error.max()))
+    return replace(model, training={**provenance, "held_out_rmse": rmse}), report
 
 
-def _held_out(scenario, system, model, variants, s: FusionTraining, progress) -> FusionReport:
+def _held_out(scenario, system, model, variants, s: FusionTraining, progress) -> dict:
+    """Held-out RMSE ``[source][configuration][state]`` (see :class:`FusionReport`)."""
     from ftnav.eval.montecarlo import build_filter, run_filter
 
     sim, _ = simulate_variants(scenario, variants, s.holdout_runs, s.seed, HOLDOUT_OFFSET)
     nc = system.n_common
     masks = _epoch_masks(scenario, variants, s.holdout_runs, s.skip_fraction)
-    U = _inputs(system, scenario, sim, model.free_input, progress)
+    U = _inputs(system, sim, model.free_input, progress)
     truth = sim.truth[..., :nc]
     est = {name: U[:, :, i] for i, name in enumerate(model.inputs)}
     base = Method(name="neural", architecture="neural")
@@ -219,8 +215,7 @@ def _held_out(scenario, system, model, variants, s: FusionTraining, progress) ->
         rmse[src] = {c: {st: float(np.sqrt(err2[mask][:, j].mean())) for j, st in
                          enumerate(states)} for c, mask in masks.items()}
     order = ["neural-oracle", "neural-chi2", "centralized", *model.inputs]
-    return FusionReport({k: rmse[k] for k in order}, model.configurations, states, 0, 0, 0.0,
-                        0.0)
+    return {k: rmse[k] for k in order}
 
 
 def fusion_table(model: NeuronModel, report: FusionReport) -> str:

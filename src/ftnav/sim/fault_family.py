@@ -19,11 +19,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ftnav.sim.linear import Simulation, simulate
+from ftnav.sim.linear import Simulation, concat_simulations, simulate
 from ftnav.sim.scenario import Fault, Scenario
 
 __all__ = ["FaultFamily", "FaultVariant", "fault_variants", "simulate_variants",
-           "HOLDOUT_OFFSET"]
+           "window_masks", "HOLDOUT_OFFSET"]
 
 #: Held-out runs use run indices from here on, so they never share a random
 #: stream with training runs (whole runs are held out, spec §4.2).
@@ -138,10 +138,23 @@ def simulate_variants(scenario: Scenario, variants: list[FaultVariant], runs: in
         ``(K, B, N)``, the true fault windows of each run's variant.
     variant : (B,) int, the variant of each run.
     """
-    from ftnav.eval.montecarlo import concat_simulations
-
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
     sims = [simulate(replace(scenario, faults=v.faults), runs, seed, first_run + j * runs)
             for j, v in enumerate(variants)]
     return concat_simulations(*sims), np.repeat(np.arange(len(variants)), runs)
+
+
+def window_masks(scenario: Scenario, variants: list[FaultVariant], runs: int,
+                 grace: float = 0.0) -> np.ndarray:
+    """(B, K, N) bool: epoch inside ``[start, end + grace)`` of a fault of sensor i.
+
+    Runs are ordered as :func:`simulate_variants` orders them (``runs`` per variant).
+    """
+    t = scenario.times
+    per_variant = np.zeros((len(variants), t.size, len(scenario.sensors)), dtype=bool)
+    for j, v in enumerate(variants):
+        for f in v.faults:
+            i = scenario.sensor_names.index(f.sensor)
+            per_variant[j, :, i] |= (t >= f.start) & (t < f.end + grace)
+    return np.repeat(per_variant, runs, axis=0)

@@ -20,7 +20,7 @@ import numpy as np
 from ftnav.fusion.system import LinearSystem
 from ftnav.sim.scenario import Scenario
 
-__all__ = ["Simulation", "run_generator", "simulate"]
+__all__ = ["Simulation", "concat_simulations", "run_generator", "simulate"]
 
 
 class Simulation(NamedTuple):
@@ -123,3 +123,21 @@ def simulate(scenario: Scenario, runs: int, seed: int, first_run: int = 0,
         ideal.append(zi_ideal)
         available[:, :, i] = avail
     return Simulation(truth, tuple(z), available, oracle, tuple(ideal))
+
+
+def concat_simulations(*sims: Simulation) -> Simulation:
+    """One simulation with the runs of each argument in turn.
+
+    The oracle becomes per run, ``(K, B_1 + B_2 + ..., N)``.
+    """
+    def per_run(s):
+        return np.broadcast_to(s.oracle[:, None, :] if s.oracle.ndim == 2 else s.oracle,
+                               (s.oracle.shape[0], s.truth.shape[0], s.oracle.shape[-1]))
+
+    return Simulation(
+        np.concatenate([s.truth for s in sims]),
+        tuple(np.concatenate(p) for p in zip(*(s.z for s in sims), strict=True)),
+        np.concatenate([s.available for s in sims]),
+        np.concatenate([per_run(s) for s in sims], axis=1),
+        tuple(np.concatenate(p) for p in zip(*(s.noise_free for s in sims), strict=True)),
+    )
