@@ -171,18 +171,32 @@ def _cmd_run(args) -> int:
         raise UsageError(f"--out: cannot create {str(out)!r}: {e.strerror}") from None
     passes = 2 if sc.faults else 1
     total = len(sc.methods) * sc.steps * passes
+    integrated = getattr(sc, "kind", "linear") == "integrated"
     t0 = time.perf_counter()
     with tqdm(total=total, disable=True if args.quiet else None, unit="epoch",
               desc=f"{sc.name} x{args.runs}", file=sys.stderr, mininterval=0.5) as bar:
-        result = run_scenario(sc, args.runs, args.seed, progress=bar.update)
+        if integrated:
+            from ftnav.eval.integrated import run_ins_scenario
+
+            total = len(sc.methods) * sc.steps
+            bar.total = total
+            ir = run_ins_scenario(sc, args.runs, args.seed, progress=bar.update)
+            result = ir.result
+        else:
+            result = run_scenario(sc, args.runs, args.seed, progress=bar.update)
     elapsed = time.perf_counter() - t0
     metrics = evaluate(result)
     claims = check_claims(result, metrics)
     figures = []
     if not args.no_figures:
-        from ftnav.plot.figures import save_all
+        if integrated:
+            from ftnav.plot.integrated import save_integrated
 
-        figures = [p.name for p in save_all(result, out)]
+            figures = [p.name for p in save_integrated(ir, out)]
+        else:
+            from ftnav.plot.figures import save_all
+
+            figures = [p.name for p in save_all(result, out)]
     write_metrics(metrics_to_json(result, metrics, claims), out / "metrics.json")
     (out / "report.md").write_text(markdown_report(result, metrics, claims, figures))
     written = ["metrics.json", "report.md", *figures]

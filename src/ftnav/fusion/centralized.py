@@ -87,22 +87,28 @@ class CentralizedFilter:
             det,
         )
 
-    def step(self, state: CentralizedState, k: int, z, available, oracle):
-        """Advance one epoch; see :class:`~ftnav.fusion.local.StepOutput`."""
+    def step(self, state: CentralizedState, k: int, z, available, oracle, lin=None):
+        """Advance one epoch; see :class:`~ftnav.fusion.local.StepOutput`.
+
+        ``lin`` (:class:`~ftnav.fusion.system.Linearization`) supplies the epoch's
+        per-run matrices of an error-state model linearized at the INS solution.
+        """
         m = self.method
-        F, Q = self.system.augmented_transition(k)
+        F, Q = self.system.augmented_transition(k, lin=lin)
+        Hs = self.H if lin is None else [self.system.augmented_H(i, lin)
+                                         for i in range(self.n_filters)]
         x, P = kf.predict(state.x, state.P, F, Q)
         usable, nan = zip(*(valid_measurement(z[i], available[:, i])
                             for i in range(self.n_filters)), strict=True)
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
         R_now = [predicted_noise(state.noise[i], s.R, m.vb_rho)
                  for i, s in enumerate(self.system.sensors)]
-        stat = np.stack([residual_statistic(x, P, z[i], usable[:, i], self.H[i], R_now[i])
+        stat = np.stack([residual_statistic(x, P, z[i], usable[:, i], Hs[i], R_now[i])
                          for i in range(self.n_filters)], 1)
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
         feats = None
         if m.detector == "rbf":
-            feats = np.concatenate([whitened_innovation(x, P, z[i], usable[:, i], self.H[i],
+            feats = np.concatenate([whitened_innovation(x, P, z[i], usable[:, i], Hs[i],
                                                         R_now[i])
                                     for i in range(self.n_filters)], 1)
         det_state, det_out = detect(m, self.detector, state.detector, stat, dof, usable, oracle,
@@ -110,7 +116,7 @@ class CentralizedFilter:
         use = usable if det_out is None else usable & ~det_out.flag
         noise, R_hat = [], []
         for i, s in enumerate(self.system.sensors):
-            up = local_update(x, P, z[i], use[:, i], self.H[i], s.R, state.noise[i],
+            up = local_update(x, P, z[i], use[:, i], Hs[i], s.R, state.noise[i],
                               variant=self.variant if self.vb_on[i] else None,
                               rho=m.vb_rho, iterations=m.vb_iterations)
             x, P = up.x, up.P

@@ -112,10 +112,11 @@ class DistributedFilter:
         return DistributedState(xs, Ps, xs[0].copy(), np.broadcast_to(P0, (B,) + P0.shape).copy(),
                                 noise, det, prop)
 
-    def step(self, state: DistributedState, k: int, z, available, oracle):
-        """Advance one epoch (spec §6.1 steps 1-3)."""
+    def step(self, state: DistributedState, k: int, z, available, oracle, lin=None):
+        """Advance one epoch (spec §6.1 steps 1-3); ``lin`` as in the centralized filter."""
         m, N = self.method, self.N
-        F, Q = self.system.augmented_transition(k)
+        F, Q = self.system.augmented_transition(k, lin=lin)
+        Hs = self.H if lin is None else [self.system.augmented_H(i, lin) for i in range(N)]
         xg_pr, Pg_pr = kf.predict(state.xg, state.Pg, F, Q)
         usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
                           strict=True)
@@ -126,10 +127,10 @@ class DistributedFilter:
             priors.append(prior)
             R = predicted_noise(state.noise[i], s.R, m.vb_rho)
             base = kf.Gaussian(xg_pr, Pg_pr) if m.prior == "global" else prior
-            stat.append(residual_statistic(*base, z[i], usable[:, i], self.H[i], R))
+            stat.append(residual_statistic(*base, z[i], usable[:, i], Hs[i], R))
             if self.features is not None:
                 fb = kf.Gaussian(xg_pr, Pg_pr) if self.feature_prior == "global" else prior
-                innov.append(whitened_innovation(*fb, z[i], usable[:, i], self.H[i], R))
+                innov.append(whitened_innovation(*fb, z[i], usable[:, i], Hs[i], R))
             if self.state_test is not None:
                 props.append(kf.predict(*state.propagator[i], F, Q * self.q_scale[i]))
         stat = np.stack(stat, 1)
@@ -138,7 +139,7 @@ class DistributedFilter:
         posts = None
         if self.state_test is not None:
             # the state test compares this epoch's posterior with the propagator
-            posts = [self._update(i, priors[i], z[i], usable[:, i], state.noise[i])
+            posts = [self._update(i, priors[i], z[i], usable[:, i], state.noise[i], Hs[i])
                      for i in range(N)]
             res = [self.state_test.statistic(k, posts[i].x, posts[i].P, *props[i])
                    for i in range(N)]
@@ -149,8 +150,8 @@ class DistributedFilter:
         if self.features is not None:
             # features see each local posterior before the isolation decision (spec §4.1)
             if posts is None:
-                posts = [self._update(i, priors[i], z[i], usable[:, i], state.noise[i])
-                         for i in range(N)]
+                posts = [self._update(i, priors[i], z[i], usable[:, i], state.noise[i],
+                                      Hs[i]) for i in range(N)]
             nc = self.system.n_common
             feats = detector_features(
                 self.features, np.stack([p.x[:, :nc] for p in posts], 1),
@@ -163,11 +164,11 @@ class DistributedFilter:
         yg, Yg = kf.to_information(xg_pr, Pg_pr)
         xs, Ps, noise, R_hat = [], [], [], []
         for i in range(N):
-            up = self._update(i, priors[i], z[i], use[:, i], state.noise[i])
-            H = self.H[i]
+            up = self._update(i, priors[i], z[i], use[:, i], state.noise[i], Hs[i])
+            H = Hs[i]
             if m.increment == "direct":
-                HtRinv = kf.mT(np.linalg.solve(up.R, np.broadcast_to(H, up.R.shape[:-1]
-                                                                      + H.shape[-1:])))
+                HtRinv = kf.mT(np.linalg.solve(up.R, np.broadcast_to(
+                    H, up.R.shape[:-1] + H.shape[-1:])))
                 dY = HtRinv @ H
                 dy = kf.mv(HtRinv, np.where(use[:, i, None], z[i], 0.0))
             else:
@@ -193,8 +194,8 @@ class DistributedFilter:
         return DistributedState(tuple(xs), tuple(Ps), xg, Pg, tuple(noise), det_state,
                                 prop), out
 
-    def _update(self, i, prior, z, use, noise):
+    def _update(self, i, prior, z, use, noise, H):
         s = self.system.sensors[i]
-        return local_update(prior.x, prior.P, z, use, self.H[i], s.R, noise,
+        return local_update(prior.x, prior.P, z, use, H, s.R, noise,
                             variant=self.variant if self.vb_on[i] else None,
                             rho=self.method.vb_rho, iterations=self.method.vb_iterations)

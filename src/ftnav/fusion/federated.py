@@ -178,10 +178,15 @@ class FederatedFilter:
                               noise, det, prop)
 
     # ------------------------------------------------------------------------------
-    def step(self, state: FederatedState, k: int, z, available, oracle):
-        """Advance one epoch (spec §1.3): predict, update, test, fuse, share."""
+    def step(self, state: FederatedState, k: int, z, available, oracle, lin=None):
+        """Advance one epoch (spec §1.3): predict, update, test, fuse, share.
+
+        ``lin`` (:class:`~ftnav.fusion.system.Linearization`) supplies the epoch's
+        per-run matrices of an error-state model linearized at the INS solution.
+        """
         m, nc, N = self.method, self.nc, self.N
-        F, Q = self.system.transition(k)
+        F, Q = self.system.transition(k, lin)
+        Hs = [lm.H for lm in self.locals] if lin is None else list(lin.H)
         B = state.xg.shape[0]
         # the fused prior: needed by global-prior tests and when every local is isolated
         need_prior = self.global_prior or self.features is not None or \
@@ -192,12 +197,12 @@ class FederatedFilter:
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
 
         priors, posts, noise, R_hat, stat, props = [], [], [], [], [], []
-        for i, (lm, s) in enumerate(zip(self.locals, self.system.sensors, strict=True)):
+        for i, s in enumerate(self.system.sensors):
             use = usable[:, i]
             if self.zr:
                 y, Y = kf.information_predict(state.x[i], state.P[i], F, Q)
-                HtRinv = np.linalg.solve(s.R, lm.H).T
-                Y_post = np.where(use[:, None, None], Y + HtRinv @ lm.H, Y)
+                HtRinv = kf.mT(np.linalg.solve(s.R, Hs[i]))
+                Y_post = np.where(use[:, None, None], Y + HtRinv @ Hs[i], Y)
                 y_post = np.where(use[:, None], y + kf.mv(HtRinv, np.where(
                     use[:, None], z[i], 0.0)), y)
                 priors.append((y, Y))
@@ -208,9 +213,9 @@ class FederatedFilter:
                 sharing_local = state.active[:, i] & (state.share[:, i] > 0)
                 scale = np.where(sharing_local, 1.0 / np.where(sharing_local,
                                                                state.share[:, i], 1.0), 1.0)
-                Fi, Qi = self.system.local_transition(i, k, scale)
+                Fi, Qi = self.system.local_transition(i, k, scale, lin)
                 x_pr, P_pr = kf.predict(state.x[i], state.P[i], Fi, Qi)
-                up = local_update(x_pr, P_pr, z[i], use, lm.H, s.R, state.noise[i],
+                up = local_update(x_pr, P_pr, z[i], use, Hs[i], s.R, state.noise[i],
                                   variant=self.variant if self.vb_on[i] else None,
                                   rho=m.vb_rho, iterations=m.vb_iterations)
                 priors.append((x_pr, P_pr))
@@ -221,7 +226,7 @@ class FederatedFilter:
                     props.append(kf.predict(*state.propagator[i], Fi, Qi))
             if self.global_prior:  # covers zero-reset
                 stat.append(self._residual(i, *self._against_global(i, xg_pr, Pg_pr, priors[i]),
-                                           z[i], use, state.noise[i]))
+                                           z[i], use, state.noise[i], Hs[i]))
             else:
                 stat.append(up.nis)
         stat = np.stack(stat, 1)
@@ -234,7 +239,7 @@ class FederatedFilter:
             tested = np.stack([r[2] for r in res], 1)
         feats = None
         if self.features is not None:
-            feats = self._features(priors, posts, xg_pr, Pg_pr, z, usable, state.noise)
+            feats = self._features(priors, posts, xg_pr, Pg_pr, z, usable, state.noise, Hs)
         det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle,
                                     feats)
         flag = np.zeros((B, N), dtype=bool) if det_out is None else det_out.flag
@@ -320,20 +325,20 @@ class FederatedFilter:
         P[:, nc:, :nc] = 0.0
         return x, P
 
-    def _residual(self, i, x, P, z, use, noise):
+    def _residual(self, i, x, P, z, use, noise, H):
         """NIS of sensor i against the prior (x, P) (spec §3.1)."""
         R = predicted_noise(noise, self.system.sensors[i].R, self.method.vb_rho)
-        return residual_statistic(x, P, z, use, self.locals[i].H, R)
+        return residual_statistic(x, P, z, use, H, R)
 
-    def _features(self, priors, posts, xg_pr, Pg_pr, z, usable, noise):
+    def _features(self, priors, posts, xg_pr, Pg_pr, z, usable, noise, Hs):
         """Spec §4.1 features: posterior − fused prior, whitened innovations."""
         nc = self.nc
         innov = []
-        for i, (lm, s) in enumerate(zip(self.locals, self.system.sensors, strict=True)):
+        for i, s in enumerate(self.system.sensors):
             base = self._against_global(i, xg_pr, Pg_pr, priors[i]) \
                 if self.feature_prior == "global" else priors[i]
             R = predicted_noise(noise[i], s.R, self.method.vb_rho)
-            innov.append(whitened_innovation(*base, z[i], usable[:, i], lm.H, R))
+            innov.append(whitened_innovation(*base, z[i], usable[:, i], Hs[i], R))
         xl = np.stack([p[0][:, :nc] for p in posts], 1)
         vl = np.stack([np.diagonal(p[1], axis1=-2, axis2=-1)[:, :nc] for p in posts], 1)
         return detector_features(self.features, xl, vl, xg_pr, innov)

@@ -214,10 +214,13 @@ class NeuralFusion:
         det = self.detector.init(B, self.N) if self.detector else None
         return NeuralState(xs, Ps, free, free.x.copy(), free.P.copy(), det)
 
-    def step(self, state: NeuralState, k: int, z, available, oracle):
-        """Advance one epoch: local filters, detection, configuration, neuron fusion."""
+    def step(self, state: NeuralState, k: int, z, available, oracle, lin=None):
+        """Advance one epoch: local filters, detection, configuration, neuron fusion.
+
+        ``lin`` as in :meth:`ftnav.fusion.federated.FederatedFilter.step`.
+        """
         m, nc, N = self.method, self.nc, self.N
-        F, Q = self.system.transition(k)
+        F, Q = self.system.transition(k, lin)
         usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
                           strict=True)
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
@@ -226,9 +229,10 @@ class NeuralFusion:
             xf_pr, Pf_pr = kf.predict(state.xf, state.Pf, F, Q)
         xs, Ps, stat, R_hat = [], [], [], []
         for i, (lm, s) in enumerate(zip(self.locals, self.system.sensors, strict=True)):
-            Fi, Qi = self.system.local_transition(i, k)
+            Fi, Qi = self.system.local_transition(i, k, lin=lin)
+            H = lm.H if lin is None else lin.H[i]
             x_pr, P_pr = kf.predict(state.x[i], state.P[i], Fi, Qi)
-            up = local_update(x_pr, P_pr, z[i], usable[:, i], lm.H, s.R, None)
+            up = local_update(x_pr, P_pr, z[i], usable[:, i], H, s.R, None)
             xs.append(up.x)
             Ps.append(up.P)
             R_hat.append(np.broadcast_to(np.diag(s.R), (up.x.shape[0], s.dim)))
@@ -237,7 +241,7 @@ class NeuralFusion:
                 P_g = P_pr.copy()
                 P_g[:, :nc, :nc] = Pf_pr
                 P_g[:, :nc, nc:] = P_g[:, nc:, :nc] = 0.0
-                stat.append(residual_statistic(x_g, P_g, z[i], usable[:, i], lm.H, s.R))
+                stat.append(residual_statistic(x_g, P_g, z[i], usable[:, i], H, s.R))
             else:
                 stat.append(up.nis)
         stat = np.stack(stat, 1)

@@ -14,13 +14,35 @@ interface.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import block_diag
 
 from ftnav.sim.scenario import LinearModel, Scenario, Sensor
 
-__all__ = ["LinearSystem", "LocalModel", "TimeVaryingSystem"]
+__all__ = ["LinearSystem", "LocalModel", "TimeVaryingSystem", "Linearization"]
+
+
+class Linearization(NamedTuple):
+    """One epoch's matrices of an error-state model linearized per run (spec §6.2, §8.4).
+
+    An integrated-navigation filter linearizes the SINS error model and every aid's
+    measurement at each run's own INS solution, so the matrices carry the batch axis.
+    Every architecture accepts it in ``step(..., lin=...)``; all local filters and the
+    fusion centre then use the *same* matrices (identical linearization, spec §6.2).
+
+    Attributes
+    ----------
+    Phi : (B, n_c, n_c) common-state transition over the step ``k−1 → k``.
+    Q : (B, n_c, n_c) its discrete process noise.
+    H : per sensor, (B, m_i, n_c + p_i) local measurement matrix (common columns, then
+        the sensor's private states).
+    """
+
+    Phi: np.ndarray
+    Q: np.ndarray
+    H: tuple[np.ndarray, ...]
 
 
 @dataclass(frozen=True, slots=True)
@@ -108,12 +130,18 @@ class LinearSystem:
                 "system_hash": system_hash(parts)}
 
     # -- common / augmented matrices ---------------------------------------------
-    def transition(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+    def transition(self, k: int, lin: Linearization | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
         """Common-state ``(F, Q)`` for the step ``k−1 → k`` (filter's assumed Q)."""
+        if lin is not None:
+            return lin.Phi, lin.Q
         return self.model.F, self.model.Q
 
-    def augmented_transition(self, k: int, true: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    def augmented_transition(self, k: int, true: bool = False,
+                             lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Augmented ``(F, Q)``; ``true=True`` gives the simulator's ``Q_true``."""
+        if lin is not None:
+            return _with_batch_common(*self._aug[False], lin)
         return self._aug[true]
 
     def augmented_initial(self) -> tuple[np.ndarray, np.ndarray]:
@@ -121,15 +149,27 @@ class LinearSystem:
         x0 = np.concatenate([self.model.x0, *self._private_blocks("x0")])
         return x0, block_diag(self.model.P0, *self._private_blocks("P0"))
 
-    def augmented_H(self, i: int) -> np.ndarray:
-        """Sensor i's measurement matrix over the augmented state, (m, n_aug)."""
+    def augmented_H(self, i: int, lin: Linearization | None = None) -> np.ndarray:
+        """Sensor i's measurement matrix over the augmented state, (m, n_aug).
+
+        With ``lin``: the epoch's per-run matrix, (B, m, n_aug).
+        """
         s = self.sensors[i]
+        index = self.local(i).aug_index
+        if lin is not None:
+            Hl = lin.H[i]
+            H = np.zeros(Hl.shape[:-1] + (self.n_aug,))
+            H[..., index] = Hl
+            return H
         H = np.zeros((s.dim, self.n_aug))
         H[:, : self.n_common] = s.H
         if s.private is not None:
-            idx = self.local(i).aug_index[self.n_common :]
-            H[:, idx] = s.private.H
+            H[:, index[self.n_common:]] = s.private.H
         return H
+
+    def local_H(self, i: int, lin: Linearization | None = None) -> np.ndarray:
+        """Local filter i's measurement matrix: (m, n_i), or the epoch's (B, m, n_i)."""
+        return self.local(i).H if lin is None else lin.H[i]
 
     def local(self, i: int) -> LocalModel:
         """Local filter i's model over ``[x_c; x_si]``."""
@@ -155,13 +195,17 @@ class LinearSystem:
     def _local_blocks(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
         return self._blocks[i]
 
-    def local_transition(self, i: int, k: int, common_scale=None) -> tuple[np.ndarray, np.ndarray]:
+    def local_transition(self, i: int, k: int, common_scale=None,
+                         lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Local ``(F_i, Q_i)``; the common block of Q is multiplied by ``common_scale``.
 
         ``common_scale`` (B,) is ``1/β_i`` for a sharing local filter (spec §1.2)
         and 1 for a standalone one; the private process noise is never shared.
         """
-        Fi, Qi = self._local_blocks(i, k)
+        if lin is not None:
+            Fi, Qi = _with_batch_common(*self._blocks[i], lin)
+        else:
+            Fi, Qi = self._local_blocks(i, k)
         if common_scale is None:
             return Fi, Qi
         nc = self.n_common
@@ -203,7 +247,10 @@ class TimeVaryingSystem(LinearSystem):
     def steps(self) -> int:
         return int(self.Phi.shape[0])
 
-    def transition(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+    def transition(self, k: int, lin: Linearization | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        if lin is not None:
+            return lin.Phi, lin.Q
         return self.Phi[k - 1], self.Qk[k - 1]
 
     def _with_common(self, F: np.ndarray, Q: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -213,8 +260,24 @@ class TimeVaryingSystem(LinearSystem):
         F[:nc, :nc], Q[:nc, :nc] = self.Phi[k - 1], self.Qk[k - 1]
         return F, Q
 
-    def augmented_transition(self, k: int, true: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    def augmented_transition(self, k: int, true: bool = False,
+                             lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
+        if lin is not None:
+            return _with_batch_common(*self._aug[False], lin)
         return self._with_common(*self._aug[False], k)
 
     def _local_blocks(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
         return self._with_common(*self._blocks[i], k)
+
+
+def _with_batch_common(F: np.ndarray, Q: np.ndarray, lin: Linearization
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Constant blocks (private states) under the epoch's per-run common corner."""
+    nc = lin.Phi.shape[-1]
+    if F.shape[-1] == nc:
+        return lin.Phi, lin.Q
+    B = lin.Phi.shape[0]
+    F = np.broadcast_to(F, (B,) + F.shape).copy()
+    Q = np.broadcast_to(Q, (B,) + Q.shape).copy()
+    F[:, :nc, :nc], Q[:, :nc, :nc] = lin.Phi, lin.Q
+    return F, Q

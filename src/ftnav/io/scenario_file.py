@@ -664,7 +664,13 @@ def load_scenario(source: str | Path) -> Scenario:
     ScenarioError : unreadable file, TOML syntax error (message names the file),
         or an invalid scenario (message ``<field path>: <reason>``).
     """
-    sc = parse_scenario(read_toml(source), origin=str(source))
+    data = read_toml(source)
+    if data.get("kind") == "integrated":
+        from ftnav.io.ins_scenario_file import parse_ins_scenario
+
+        sc = parse_ins_scenario(data, origin=str(source), base=Path(source).parent)
+    else:
+        sc = parse_scenario(data, origin=str(source))
     return resolve_model_paths(sc, Path(source).parent)
 
 

@@ -1,0 +1,352 @@
+"""Closed-loop Monte Carlo runner of integrated navigation (spec §6.2, §8.4-§8.5, §9).
+
+Every method owns a SINS mechanization per run (batched, :mod:`ftnav.nav.mechanization`)
+and a fusion filter over the SINS/aid local error-state filters.  Per filter epoch:
+
+1. the 18-state error model is linearized at each run's INS solution at the start of
+   the epoch (specific force averaged over the epoch) and discretized (spec §8.4);
+2. the SINS integrates the epoch's IMU increments;
+3. each aid's nonlinear measurement ``z = INS − aid`` and its ``H`` are formed at the
+   INS solution (:mod:`ftnav.sensors`); gated epochs count as missing;
+4. the filter steps with these per-run matrices (:class:`~ftnav.fusion.system.Linearization`:
+   every local filter and the centre use the same ones);
+5. with ``correction = "feedback"`` the fused navigation errors are fed back to the
+   SINS and every estimate is shifted by the same correction (spec §6.2).
+
+The reported output is the corrected navigation solution; its errors against the
+truth (spec §11) are the metric states of :data:`~ftnav.sim.ins_scenario.METRIC_STATES`.
+The loop over epochs is in Python; everything inside is batched over runs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+import numpy as np
+
+from ftnav.core import kalman as kf
+from ftnav.eval.metrics import nees
+from ftnav.eval.montecarlo import MethodResult, ScenarioResult, build_filter, split_result
+from ftnav.fusion.feedback import local_estimates, shift_estimates
+from ftnav.fusion.system import Linearization, LinearSystem
+from ftnav.nav import attitude
+from ftnav.nav.earth import radii
+from ftnav.nav.error_model import discrete_model
+from ftnav.nav.mechanization import InsState, feedback, integrate
+from ftnav.sim.ins_data import InsData, simulate_ins
+from ftnav.sim.ins_scenario import InsScenario
+from ftnav.sim.scenario import LinearModel, Sensor
+
+__all__ = ["build_ins_system", "run_ins_scenario", "run_ins_methods", "IntegratedSimulation",
+           "ins_errors", "initial_ins_state"]
+
+_ARCMIN = np.pi / 180.0 / 60.0
+N_NAV = 9
+
+
+class IntegratedSimulation(NamedTuple):
+    """What the metric code reads as ``result.simulation``.
+
+    ``truth`` is zero: the method results already hold output *errors* (computed −
+    true) in the metric states, so ``estimate − truth`` is the error.
+    """
+
+    truth: np.ndarray
+    data: InsData | None = None
+
+
+class InsSystem(LinearSystem):
+    """The local filters' model: 18 SINS error states plus each aid's private states.
+
+    Its transition and measurement matrices come from each epoch's
+    :class:`~ftnav.fusion.system.Linearization`; the constant ``H`` of the sensors is a
+    nominal value (used only by the ``information`` sharing rule).
+    """
+
+    def compatibility(self) -> dict:
+        """As :meth:`LinearSystem.compatibility`, without F, Q and the nominal H.
+
+        A learned model trained along one flight must serve another flight of the
+        same sensors and filters.
+        """
+        from ftnav.io.model_file import system_hash
+
+        parts = {"states": list(self.model.states), "P0": self.model.P0}
+        for s in self.sensors:
+            parts[f"sensor:{s.name}"] = {
+                "R": s.R, "every": s.every, "offset": s.offset,
+                "private": None if s.private is None else {
+                    "names": list(s.private.names), "F": s.private.F, "Q": s.private.Q,
+                    "P0": s.private.P0}}
+        return {"states": list(self.model.states), "sensors": [s.name for s in self.sensors],
+                "measurement_dims": [s.dim for s in self.sensors],
+                "system_hash": system_hash(parts)}
+
+
+def _nominal_H(sensor, truth, n: int) -> np.ndarray:
+    """H of a sensor at the middle epoch of the flight, error-free (a fixed nominal)."""
+    from ftnav.sensors.base import AidTruth
+
+    j = truth.t.size // 2
+    tr = AidTruth(*(a[j:j + 1] for a in truth))
+    c = sensor.simulate_errors(tr, 0, range(1), 0).constants * 0.0
+    raw = sensor.output(tr, np.zeros((1, 1, sensor.dim)), c)[:, 0]
+    lin = sensor.measure(tr.q, tr.v, tr.p, raw)
+    H = np.nan_to_num(lin.H[0, :, :n])
+    return H
+
+
+def build_ins_system(sc: InsScenario) -> InsSystem:
+    """The linear-system view of a scenario the fusion architectures work on."""
+    from ftnav.sim.ins_data import epoch_truth, trajectory_of
+
+    n = sc.error_model.n
+    P0 = np.diag(np.asarray(sc.initial_sigma[:n], float) ** 2)
+    model = LinearModel(sc.error_model.names, np.eye(n), np.zeros((n, n)), np.zeros(n), P0,
+                        np.zeros((n, n)))
+    truth = epoch_truth(trajectory_of(sc.profile), sc.samples_per_epoch, sc.steps)
+    sensors = tuple(Sensor(a.name, _nominal_H(a.sensor, truth, n), a.sensor.R, a.sensor.R,
+                           a.every, a.offset, a.sensor.private) for a in sc.aids)
+    return InsSystem(model, sensors)
+
+
+def initial_ins_state(data: InsData) -> InsState:
+    """Truth at t = 0 plus each run's initial navigation error (spec §8.3 order)."""
+    traj = data.trajectory
+    e = data.init_error
+    B = e.shape[0]
+    q_true = attitude.euler_to_quat(traj.euler[0])
+    q = attitude.quat_mul(attitude.rotvec_to_quat(-e[:, 0:3]), np.broadcast_to(q_true, (B, 4)))
+    v = traj.v[0] + e[:, 3:6]
+    p = traj.p[0] + e[:, 6:9]
+    return InsState(q / np.linalg.norm(q, axis=-1, keepdims=True), v, p, np.zeros((B, 3)))
+
+
+def ins_errors(q, v, p, q_true, v_true, p_true) -> np.ndarray:
+    """(B, 9) true navigation error states ``[φ, δv, δL δλ δh]`` (spec §8.3 order)."""
+    phi = attitude.attitude_error(attitude.quat_to_dcm(q), attitude.quat_to_dcm(q_true))
+    return np.concatenate([phi, v - v_true, p - p_true], -1)
+
+
+def _metric_errors(e: np.ndarray, p_true: np.ndarray) -> np.ndarray:
+    """(B, 9) output errors in metric states: E/N/U m, E/N/U m/s, φ E/N/U arcmin."""
+    RM, RN = radii(p_true[..., 0], p_true[..., 2])
+    RMh, RNh = RM + p_true[..., 2], RN + p_true[..., 2]
+    out = np.empty_like(e)
+    out[..., 0] = e[..., 7] * RNh * np.cos(p_true[..., 0])
+    out[..., 1] = e[..., 6] * RMh
+    out[..., 2] = e[..., 8]
+    out[..., 3:6] = e[..., 3:6]
+    out[..., 6:9] = e[..., 0:3] / _ARCMIN
+    return out
+
+
+def _metric_variances(P: np.ndarray, p_true: np.ndarray) -> np.ndarray:
+    """(B, 9) variances of the metric states from a covariance over ``[φ, δv, δp, ...]``."""
+    d = np.diagonal(P, axis1=-2, axis2=-1)[..., :N_NAV]
+    RM, RN = radii(p_true[..., 0], p_true[..., 2])
+    scale = np.ones(N_NAV)[None] * np.ones(d.shape[:-1] + (1,))
+    scale[..., 0] = ((RN + p_true[..., 2]) * np.cos(p_true[..., 0])) ** 2
+    scale[..., 1] = (RM + p_true[..., 2]) ** 2
+    order = [7, 6, 8, 3, 4, 5, 0, 1, 2]
+    out = d[..., order] * np.concatenate([scale[..., :3], scale[..., 3:6],
+                                          np.full(d.shape[:-1] + (3,), _ARCMIN ** -2)], -1)
+    return out
+
+
+class LocalTrack(NamedTuple):
+    """Per-epoch local-filter output errors (B, K, N, 3): position E/N/U in metres."""
+
+    pos: np.ndarray
+
+
+class _Recorder:
+    """Per-epoch outputs of one method, filled in place."""
+
+    def __init__(self, B: int, K: int, N: int, dims):
+        self.x = np.empty((B, K, N_NAV))
+        self.P = np.empty((B, K, N_NAV))
+        self.nees = np.empty((B, K))
+        self.beta = self.stat = self.thr = self.raw = self.flag = None
+        self.R_hat = [np.empty((B, K, m)) for m in dims]
+        self.nan = np.zeros((B, N), dtype=int)
+        self.local = None
+        self.shape = (B, K, N)
+
+    def detection(self, k, out):
+        B, K, N = self.shape
+        if out.beta is not None:
+            if self.beta is None:
+                self.beta = np.empty((B, K, N))
+            self.beta[:, k] = out.beta
+        if out.detection is not None:
+            if self.stat is None:
+                self.stat, self.thr = np.empty((B, K, N)), np.empty((B, K, N))
+                self.raw, self.flag = np.empty((B, K, N), bool), np.empty((B, K, N), bool)
+            d = out.detection
+            self.stat[:, k], self.thr[:, k] = d.statistic, d.threshold
+            self.raw[:, k], self.flag[:, k] = d.raw, d.flag
+        for i, r in enumerate(out.R_hat):
+            self.R_hat[i][:, k] = r
+        self.nan += out.nan
+
+    def result(self) -> tuple[MethodResult, LocalTrack | None]:
+        res = MethodResult(self.x, self.P, self.nees, self.beta, self.stat, self.thr, self.raw,
+                           self.flag, tuple(self.R_hat), self.nan)
+        return res, (None if self.local is None else LocalTrack(self.local))
+
+
+def _tile(a: np.ndarray, M: int) -> np.ndarray:
+    return a if M == 1 else np.concatenate([a] * M, 0)
+
+
+def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSystem,
+                    progress: Callable[[int], None] | None = None
+                    ) -> dict[str, tuple[MethodResult, LocalTrack | None]]:
+    """Run every fusion method closed-loop over the simulated runs (module docstring).
+
+    Each method has its own SINS per run; the SINS of all methods are integrated,
+    linearized and measured as one batch of ``methods × runs`` (lock-step), and each
+    filter steps on its slice.
+    """
+    names = list(filters)
+    M = len(names)
+    B = data.init_error.shape[0]
+    K, N = sc.steps, len(sc.aids)
+    n = system.n_common
+    spe = sc.samples_per_epoch
+    dt_imu = data.trajectory.dt
+    ins = initial_ins_state(data)
+    ins = InsState(*(_tile(a, M) for a in ins))
+    states = [filters[nm].init(B) for nm in names]
+    zr = [getattr(filters[nm], "zr", False) for nm in names]
+    rec = [_Recorder(B, K, N, [a.dim for a in sc.aids]) for _ in names]
+    feedback_on = sc.correction == "feedback"
+    truth = data.truth
+    every = spe // (2 if sc.algorithm == "two-sample" else 1)
+    parts = [slice(j * B, (j + 1) * B) for j in range(M)]
+    for k in range(1, K + 1):
+        sl = slice((k - 1) * spe, k * spe)
+        dth, dvel = _tile(data.dtheta[:, sl], M), _tile(data.dv[:, sl], M)
+        f_b = dvel.sum(1) / sc.dt
+        C_bn = attitude.quat_to_dcm(ins.q)
+        Phi, Q = discrete_model(ins.p[:, 0], ins.p[:, 1], ins.p[:, 2], ins.v, f_b, C_bn,
+                                sc.error_model, sc.dt, sc.discretization, 5)
+        ins, _ = integrate(ins, dth, dvel, dt_imu, algorithm=sc.algorithm, output_every=every)
+        z, H, avail = [], [], np.zeros((M * B, N), bool)
+        for i, aid in enumerate(sc.aids):
+            raw = _tile(data.raw[i][:, k - 1], M)
+            lin = aid.sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw))
+            ok = _tile(data.available[:, k - 1, i], M) & lin.valid & \
+                np.isfinite(lin.z).all(-1)
+            z.append(np.where(ok[:, None], lin.z, np.nan))
+            H.append(np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1)))
+            avail[:, i] = ok
+        e_true = ins_errors(ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1],
+                            truth.p[k - 1])
+        deltas = []
+        for j, nm in enumerate(names):
+            p = parts[j]
+            lin_k = Linearization(Phi[p], Q[p], tuple(h[p] for h in H))
+            states[j], out = filters[nm].step(states[j], k, [zz[p] for zz in z], avail[p],
+                                              data.oracle[k - 1], lin=lin_k)
+            if not (np.isfinite(out.x).all() and np.isfinite(out.P).all()):
+                raise FloatingPointError(f"methods[{nm}]: NaN or inf at epoch {k}")
+            r = rec[j]
+            xg = out.x[:, :N_NAV]
+            r.nees[:, k - 1] = nees(xg - e_true[p], out.P[:, :N_NAV, :N_NAV])
+            locs = None if zr[j] else local_estimates(states[j], N_NAV)
+            if locs is not None:
+                if r.local is None:
+                    r.local = np.empty((B, K, N, 3))
+                r.local[:, k - 1] = _metric_errors(e_true[p][:, None, :] - locs,
+                                                   truth.p[k - 1])[..., :3]
+            if feedback_on:
+                states[j] = shift_estimates(states[j], xg, information=zr[j])
+            else:
+                r.x[:, k - 1] = _metric_errors(e_true[p] - xg, truth.p[k - 1])
+            r.P[:, k - 1] = _metric_variances(out.P, truth.p[k - 1])
+            r.detection(k - 1, out)
+            deltas.append(xg)
+            if progress is not None:
+                progress(1)
+        if feedback_on:
+            d = np.concatenate(deltas, 0)
+            ins = feedback(ins, d[:, 0:3], d[:, 3:6], d[:, 6:9])
+            e_out = _metric_errors(ins_errors(ins.q, ins.v, ins.p, truth.q[k - 1],
+                                              truth.v[k - 1], truth.p[k - 1]), truth.p[k - 1])
+            for j in range(M):
+                rec[j].x[:, k - 1] = e_out[parts[j]]
+    return {nm: rec[j].result() for j, nm in enumerate(names)}
+
+
+class IntegratedResult(NamedTuple):
+    """Result of :func:`run_ins_scenario` (a :class:`ScenarioResult` plus local tracks)."""
+
+    result: ScenarioResult
+    local: dict[str, LocalTrack | None]
+    local_fault_free: dict[str, LocalTrack | None]
+
+
+def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
+                     fault_free: bool = True, first_run: int = 0,
+                     progress: Callable[[int], None] | None = None) -> IntegratedResult:
+    """Simulate and run every method closed-loop; with faults, also the fault-free twin.
+
+    The fault-free twin draws the same random streams with the faults removed and
+    runs in the same batch (2·runs), as in :func:`ftnav.eval.montecarlo.run_scenario`.
+    """
+    if runs < 1:
+        raise ValueError(f"runs: must be >= 1, got {runs}")
+    methods = sc.methods if methods is None else methods
+    system = build_ins_system(sc)
+    filters = {m.name: build_filter(system, m) for m in methods}
+    rr = range(first_run, first_run + runs)
+    data = simulate_ins(sc, rr, seed)
+    twin = fault_free and bool(sc.faults)
+    both = data
+    if twin:
+        both = _concat(data, simulate_ins(sc.without_faults(), rr, seed))
+    results, ff, local, local_ff = {}, {}, {}, {}
+    for name, (res, loc) in run_ins_methods(filters, sc, both, system, progress).items():
+        if twin:
+            results[name], ff[name] = split_result(res, runs)
+            local[name] = None if loc is None else LocalTrack(loc.pos[:runs])
+            local_ff[name] = None if loc is None else LocalTrack(loc.pos[runs:])
+        else:
+            results[name], local[name] = res, loc
+    zeros = np.zeros((runs, sc.steps, N_NAV))
+    sr = ScenarioResult(sc, runs, seed, IntegratedSimulation(zeros, data), results,
+                        IntegratedSimulation(zeros) if twin else None, ff)
+    return IntegratedResult(sr, local, local_ff)
+
+
+def _concat(a: InsData, b: InsData) -> InsData:
+    """Two simulations of the same runs as one batch (the oracle becomes per run)."""
+    B = a.init_error.shape[0]
+    oracle = np.concatenate([np.broadcast_to(a.oracle[:, None], (a.oracle.shape[0], B,
+                                                                  a.oracle.shape[1])),
+                             np.broadcast_to(b.oracle[:, None], (b.oracle.shape[0], B,
+                                                                  b.oracle.shape[1]))], 1)
+    from ftnav.sim.imu import ImuErrorTruth
+
+    return InsData(a.trajectory, a.truth, np.concatenate([a.dtheta, b.dtheta]),
+                   np.concatenate([a.dv, b.dv]),
+                   ImuErrorTruth(*(np.concatenate([x, y]) for x, y in zip(a.imu_truth,
+                                                                           b.imu_truth,
+                                                                           strict=True))),
+                   np.concatenate([a.init_error, b.init_error]),
+                   tuple(np.concatenate([x, y]) for x, y in zip(a.raw, b.raw, strict=True)),
+                   np.concatenate([a.available, b.available]), oracle, a.runs)
+
+
+def fused_covariance_ok(P: np.ndarray) -> bool:
+    """Symmetric and positive definite (Cholesky succeeds) for every run."""
+    if not np.allclose(P, kf.mT(P), rtol=0, atol=1e-12 * np.abs(P).max()):
+        return False
+    try:
+        np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        return False
+    return True

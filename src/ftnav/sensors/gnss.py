@@ -1,0 +1,195 @@
+"""GNSS position and velocity aid (spec §9.1; S1 eq. 17, S2).
+
+Measurement rows (m = 6), metric space ``e = [δN, δE, δU (m), δv_E, δv_N, δv_U (m/s)]``::
+
+    z_p = D_p(p̃) (p̃ − p_GNSS)   rows N, E, U (m),  D_p = diag(R_Mh, R_Nh cos L, 1)
+    z_v = ṽ − v_GNSS              rows E, N, U (m/s)
+
+so ``H_p = D_p`` on the ``(δL, δλ, δh)`` columns (row N ← δL, row E ← δλ, row U ← δh)
+and ``H_v = I₃`` on δv; ``R`` follows the same row order.
+
+Truth (spec §9.1): ``p_GNSS = p + D_p(p)⁻¹ e_pos`` and ``v_GNSS = v + e_vel`` with
+``e = b + n``: ``b`` first-order Gauss-Markov per axis (S1: σ_p 25 m, σ_v 0.05 m/s,
+τ 100 s), ``n`` white (defaults 1 m, 0.02 m/s [A]).  The metric error is the aid's
+error, so ``z = H x − e`` (``z_per_error = −1``).
+
+Coloured-noise handling ``markov`` [A]: ``"white"`` lumps the Markov part into
+``R = diag(σ_b² + σ_n²)``; ``"augment"`` adds the 6 Markov errors as private states
+(order of :attr:`Gnss.components`) with ``H_private = −I₆``, ``R = diag(σ_n²)``.
+
+Random components (spawn key ``c``): 0 position Markov, 1 velocity Markov, 2 white.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+import numpy as np
+
+from ftnav.nav.earth import radii
+from ftnav.sensors.base import (
+    N_STATES,
+    AidErrors,
+    AidTruth,
+    Linearized,
+    as_batch,
+    check_choice,
+    check_common,
+    check_errors_metric,
+    check_float,
+    check_truth,
+    finite_or_zero,
+    markov_errors,
+    markov_private,
+    standard_normals,
+)
+from ftnav.sim.scenario import PrivateStates
+
+__all__ = ["Gnss"]
+
+Vec3 = float | tuple[float, float, float]
+
+
+def _metres(p: np.ndarray) -> np.ndarray:
+    """(…, 3) diagonal of ``D_p = diag(R_Mh, R_Nh cos L, 1)`` at ``p = [L, λ, h]``."""
+    RMh, RNh = radii(p[..., 0], p[..., 2])
+    return np.stack([RMh, RNh * np.cos(p[..., 0]), np.ones_like(RMh)], -1)
+
+
+@dataclass(frozen=True, slots=True)
+class Gnss:
+    """GNSS position/velocity receiver (spec §9.1); all parameters in SI units.
+
+    Attributes
+    ----------
+    name : str, sensor name (prefix of error messages).
+    pos_markov_sigma_m : float or (3,) N, E, U, steady-state σ of the position Markov error.
+    pos_markov_tau_s : float or (3,), its correlation time (> 0).
+    vel_markov_sigma_m_s : float or (3,) E, N, U, velocity Markov σ.
+    vel_markov_tau_s : float or (3,), its correlation time (> 0).
+    pos_white_sigma_m : float or (3,) N, E, U, white position noise σ.
+    vel_white_sigma_m_s : float or (3,) E, N, U, white velocity noise σ.
+    markov : ``"white"`` or ``"augment"`` (module docstring).
+    pos_sigma_m, vel_sigma_m_s : float, optional
+        The filter's assumed σ per axis (overrides the value derived from the truth
+        settings: ``√(σ_b² + σ_n²)`` for ``"white"``, ``σ_n`` for ``"augment"``).
+    dt : float, s, sample period (Markov simulation, F and Q of the private states).
+
+    Vector fields are stored as tuples of 3 floats.
+
+    Raises
+    ------
+    ValueError
+        ``"<name>.<field>: <reason>"`` for a negative σ, τ ≤ 0, non-finite values or an
+        unknown ``markov`` option.
+    """
+
+    name: str = "gnss"
+    pos_markov_sigma_m: Vec3 = 25.0
+    pos_markov_tau_s: Vec3 = 100.0
+    vel_markov_sigma_m_s: Vec3 = 0.05
+    vel_markov_tau_s: Vec3 = 100.0
+    pos_white_sigma_m: Vec3 = 1.0
+    vel_white_sigma_m_s: Vec3 = 0.02
+    markov: Literal["white", "augment"] = "white"
+    pos_sigma_m: float | None = None
+    vel_sigma_m_s: float | None = None
+    dt: float = 1.0
+
+    z_per_error: ClassVar[int] = -1
+    components: ClassVar[tuple[str, ...]] = ("pos_N", "pos_E", "pos_U", "vel_E", "vel_N",
+                                             "vel_U")
+
+    def __post_init__(self):
+        check_common(self, ("pos_sigma_m", "vel_sigma_m_s"))
+        for field in ("pos_markov_sigma_m", "vel_markov_sigma_m_s", "pos_white_sigma_m",
+                      "vel_white_sigma_m_s"):
+            object.__setattr__(self, field, check_float(self.name, field, getattr(self, field),
+                                                        low=0.0, n=3))
+        for field in ("pos_markov_tau_s", "vel_markov_tau_s"):
+            object.__setattr__(self, field, check_float(self.name, field, getattr(self, field),
+                                                        low=0.0, strict=True, n=3))
+        check_choice(self.name, "markov", self.markov, ("white", "augment"))
+
+    @property
+    def dim(self) -> int:
+        """Measurement dimension m = 6."""
+        return 6
+
+    @property
+    def _markov_sigma(self) -> np.ndarray:
+        return np.array(self.pos_markov_sigma_m + self.vel_markov_sigma_m_s)
+
+    @property
+    def _markov_tau(self) -> np.ndarray:
+        return np.array(self.pos_markov_tau_s + self.vel_markov_tau_s)
+
+    @property
+    def R(self) -> np.ndarray:
+        """(6, 6) the filter's assumed measurement noise (rows of :attr:`components`)."""
+        var = np.array(self.pos_white_sigma_m + self.vel_white_sigma_m_s) ** 2
+        if self.markov == "white":
+            var = var + self._markov_sigma**2
+        if self.pos_sigma_m is not None:
+            var[:3] = self.pos_sigma_m**2
+        if self.vel_sigma_m_s is not None:
+            var[3:] = self.vel_sigma_m_s**2
+        return np.diag(var)
+
+    @property
+    def private(self) -> PrivateStates | None:
+        """The 6 Markov states for ``markov="augment"`` (``H = −I₆``), else None."""
+        if self.markov != "augment":
+            return None
+        return markov_private(tuple(f"b_{c}" for c in self.components), self._markov_sigma,
+                              self._markov_tau, self.dt, -np.eye(6))
+
+    def simulate_errors(self, truth: AidTruth, seed: int, runs: range,
+                        stream: int) -> AidErrors:
+        """Metric errors ``e = b + n`` (B, K, 6) of runs ``runs`` (module docstring)."""
+        K = check_truth(truth, self.dt, self.name)
+        pos = markov_errors(seed, runs, stream, 0, K, np.array(self.pos_markov_sigma_m),
+                            np.array(self.pos_markov_tau_s), self.dt)
+        vel = markov_errors(seed, runs, stream, 1, K, np.array(self.vel_markov_sigma_m_s),
+                            np.array(self.vel_markov_tau_s), self.dt)
+        white = standard_normals(seed, runs, stream, 2, (K, 6))
+        white *= np.array(self.pos_white_sigma_m + self.vel_white_sigma_m_s)
+        return AidErrors(np.concatenate([pos, vel], -1), white, np.zeros((len(runs), 0)))
+
+    def output(self, truth: AidTruth, errors_metric: np.ndarray,
+               constants: np.ndarray) -> np.ndarray:
+        """Receiver output (B, K, 6) ``[L, λ, h (rad, rad, m), v_E, v_N, v_U (m/s)]``.
+
+        ``p_GNSS = p + D_p(p)⁻¹ e_pos`` (``e_pos`` in N, E, U metres), ``v_GNSS = v + e_vel``.
+        """
+        K = check_truth(truth, self.dt, self.name)
+        e, _ = check_errors_metric(errors_metric, constants, (None, K, 6), 0)
+        d = _metres(np.asarray(truth.p, dtype=float))  # (K, 3) N, E, U per L, λ, h
+        dp = e[..., [0, 1, 2]] / d  # δL = δN/R_Mh, δλ = δE/(R_Nh cos L), δh = δU
+        return np.concatenate([truth.p + dp, truth.v + e[..., 3:]], -1)
+
+    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray,
+                raw_k: np.ndarray) -> Linearized:
+        """``z = [D_p(p̃)(p̃ − p_GNSS); ṽ − v_GNSS]`` (B, 6) and ``H`` at the INS solution.
+
+        Parameters
+        ----------
+        q : (B, 4) INS ``q_b^n`` (unused).  v : (B, 3) m/s.  p : (B, 3) ``[L, λ, h]``.
+        raw_k : (B, 6) receiver output at this epoch (:meth:`output`).
+        """
+        v = as_batch(v, (3,), "v")
+        B = v.shape[0]
+        p = as_batch(p, (3,), "p", B)
+        raw = as_batch(raw_k, (6,), "raw_k", B)
+        d = _metres(p)
+        dpos = p - raw[:, :3]
+        dpos[:, 1] = (dpos[:, 1] + np.pi) % (2.0 * np.pi) - np.pi
+        z = np.concatenate([d * dpos, v - raw[:, 3:]], -1)
+        H = np.zeros((B, 6, N_STATES))
+        H[:, [0, 1, 2], [6, 7, 8]] = d
+        H[:, [3, 4, 5], [3, 4, 5]] = 1.0
+        p_priv = 6 if self.markov == "augment" else 0
+        H_private = np.broadcast_to(-np.eye(6)[:, :p_priv], (B, 6, p_priv)).copy()
+        valid = np.all(np.isfinite(z), -1)
+        return Linearized(finite_or_zero(z), H, H_private, valid)
