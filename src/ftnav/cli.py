@@ -186,7 +186,7 @@ def _cmd_run(args) -> int:
             result = run_scenario(sc, args.runs, args.seed, progress=bar.update)
     elapsed = time.perf_counter() - t0
     metrics = evaluate(result)
-    claims = check_claims(result, metrics)
+    claims = check_claims(result, metrics, ir.local if integrated else None)
     figures = []
     if not args.no_figures:
         if integrated:

@@ -202,13 +202,15 @@ def _tile(a: np.ndarray, M: int) -> np.ndarray:
 
 
 def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSystem,
-                    progress: Callable[[int], None] | None = None
+                    progress: Callable[[int], None] | None = None, check_spd: bool = False
                     ) -> dict[str, tuple[MethodResult, LocalTrack | None]]:
     """Run every fusion method closed-loop over the simulated runs (module docstring).
 
     Each method has its own SINS per run; the SINS of all methods are integrated,
     linearized and measured as one batch of ``methods × runs`` (lock-step), and each
-    filter steps on its slice.
+    filter steps on its slice.  A NaN or inf output raises ``FloatingPointError``;
+    ``check_spd`` also requires every fused covariance to be symmetric positive
+    definite at every epoch.
     """
     names = list(filters)
     M = len(names)
@@ -253,6 +255,9 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
                                               data.oracle[k - 1], lin=lin_k)
             if not (np.isfinite(out.x).all() and np.isfinite(out.P).all()):
                 raise FloatingPointError(f"methods[{nm}]: NaN or inf at epoch {k}")
+            if check_spd and not fused_covariance_ok(out.P):
+                raise FloatingPointError(f"methods[{nm}]: covariance not symmetric positive "
+                                         f"definite at epoch {k}")
             r = rec[j]
             xg = out.x[:, :N_NAV]
             r.nees[:, k - 1] = nees(xg - e_true[p], out.P[:, :N_NAV, :N_NAV])
@@ -291,7 +296,8 @@ class IntegratedResult(NamedTuple):
 
 def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
                      fault_free: bool = True, first_run: int = 0,
-                     progress: Callable[[int], None] | None = None) -> IntegratedResult:
+                     progress: Callable[[int], None] | None = None,
+                     check_spd: bool = False) -> IntegratedResult:
     """Simulate and run every method closed-loop; with faults, also the fault-free twin.
 
     The fault-free twin draws the same random streams with the faults removed and
@@ -309,7 +315,8 @@ def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
     if twin:
         both = _concat(data, simulate_ins(sc.without_faults(), rr, seed))
     results, ff, local, local_ff = {}, {}, {}, {}
-    for name, (res, loc) in run_ins_methods(filters, sc, both, system, progress).items():
+    for name, (res, loc) in run_ins_methods(filters, sc, both, system, progress,
+                                                         check_spd).items():
         if twin:
             results[name], ff[name] = split_result(res, runs)
             local[name] = None if loc is None else LocalTrack(loc.pos[:runs])
@@ -343,7 +350,8 @@ def _concat(a: InsData, b: InsData) -> InsData:
 
 def fused_covariance_ok(P: np.ndarray) -> bool:
     """Symmetric and positive definite (Cholesky succeeds) for every run."""
-    if not np.allclose(P, kf.mT(P), rtol=0, atol=1e-12 * np.abs(P).max()):
+    if not np.allclose(P, kf.mT(P), rtol=0, atol=1e-12 * np.abs(P).max()) or \
+            not (np.diagonal(P, axis1=-2, axis2=-1) > 0).all():
         return False
     try:
         np.linalg.cholesky(P)

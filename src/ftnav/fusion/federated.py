@@ -281,6 +281,10 @@ class FederatedFilter:
             active_next &= state.share > 0
         xs = [p[0] for p in posts]
         Ps = [p[1] for p in posts]
+        if m.isolation == "time-update" and not self.zr:
+            # a flagged local filter discards this epoch's measurement (spec §6.3)
+            xs = [select(flag[:, i], priors[i][0], xs[i]) for i in range(N)]
+            Ps = [select(flag[:, i], priors[i][1], Ps[i]) for i in range(N)]
         share = state.share
         new_master = None
         if self.zr:

@@ -42,6 +42,7 @@ from ftnav.sim.scenario import (
     Fault,
     FaultKind,
     Increment,
+    Isolation,
     LinearModel,
     Method,
     Mode,
@@ -346,6 +347,11 @@ class MethodFile(BaseModel):
         default=_d("uncovered"),
         description="neural: flag pattern no configuration covers -> 'renormalize' or a "
         "configuration name")
+    isolation: Isolation = Field(
+        default=_d("isolation"),
+        description="federated: a flagged local filter runs 'standalone' on its own "
+        "measurements (spec §1.8) or does the 'time-update' only (spec §6.3)",
+    )
 
 
 class EvaluationFile(BaseModel):
@@ -563,6 +569,7 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
         model=me.model,
         threshold=None if me.threshold is None else float(me.threshold),
         uncovered=me.uncovered,
+        isolation=me.isolation,
     )
 
 

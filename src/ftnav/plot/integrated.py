@@ -98,7 +98,11 @@ def vb_noise_figure(sr, method: str, sensor: str = "gnss"):
     R_hat = sr.results[method].R_hat[i]  # (B, K, m) variances
     t = sc.times
     _, scale = fault_profiles(sc.faults, sensor, t, aid.dim)
-    white = getattr(aid, "white_sigma", None)
+    white = None
+    if hasattr(aid, "pos_white_sigma_m"):  # GNSS: true white σ per measurement row
+        white = np.concatenate([np.broadcast_to(np.asarray(aid.pos_white_sigma_m, float), (3,)),
+                                np.broadcast_to(np.asarray(aid.vel_white_sigma_m_s, float),
+                                                (3,))])
     comps = aid.components
     fig, axs = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
     for ax, rows, title in ((axs[0], [0, 1, 2], "position [m]"),

@@ -137,9 +137,141 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
     return out
 
 
-def check_claims(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> list[dict]:
-    """All claims that can be checked on this run."""
+def _horizontal(rmse: dict[str, float]) -> float:
+    return float(np.hypot(rmse["pos_E_m"], rmse["pos_N_m"]))
+
+
+def _window_rmse(res, t, start, end, skip=0.0) -> dict[str, float]:
+    w = (t >= max(start, skip)) & (t < end)
+    e = res.x[:, w]
+    names = ("pos_E_m", "pos_N_m", "pos_U_m")
+    return {n: float(np.sqrt(np.mean(e[..., j] ** 2))) for j, n in enumerate(names)}
+
+
+def _paper002_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> list[dict]:
+    """Paper 002 §4 (spec §12.2): VB-adaptive distributed filter vs FKF with χ² isolation."""
+    sc = result.scenario
+    need = ("ckf", "fkf-chi2", "dkf-vb")
+    if not all(n in result.results for n in need):
+        return []
+    t = sc.times
+    out = []
+    for f in (f for f in sc.faults if f.sensor == "gnss"):
+        label = f"GNSS {f.kind} x{float(f.magnitude[0]):g} on [{f.start:g}, {f.end:g}) s"
+        r = {n: _window_rmse(result.results[n], t, f.start, f.end) for n in need}
+        ff = {n: _window_rmse(result.fault_free[n], t, f.start, f.end) for n in need
+              if n in result.fault_free}
+        hz = {n: _horizontal(v) for n, v in r.items()}
+        hz_ff = {n: _horizontal(v) for n, v in ff.items()}
+        out.append(_claim(
+            f"p002-adaptive-{f.kind}", "paper 002 §4 (Fig. 2-3)",
+            f"Under the {label}, the distributed filter with VB noise adaptation keeps a "
+            "smaller horizontal error than the federated filter with chi-square isolation",
+            {"horizontal_rmse_m": hz, "horizontal_rmse_fault_free_m": hz_ff},
+            hz["dkf-vb"] < hz["fkf-chi2"],
+            "RMS over runs and the anomaly window; fault-free: same noise without anomaly"))
+        grow = hz["fkf-chi2"] / hz_ff.get("fkf-chi2", np.nan)
+        i = sc.sensor_names.index("gnss")
+        flags = result.results["fkf-chi2"].flag
+        w = (t >= f.start) & (t < f.end)
+        rate = float(flags[:, w, i].mean()) if flags is not None else float("nan")
+        out.append(_claim(
+            f"p002-fkf-isolates-{f.kind}", "paper 002 §4",
+            f"Under the {label}, the federated filter isolates GNSS and its horizontal error "
+            "grows above its fault-free level",
+            {"gnss_flag_rate_in_window": rate, "horizontal_growth": grow},
+            rate > 0.1 and grow > 1.0,
+            "a x5 noise step is a soft fault: the chi-square test flags only the epochs whose "
+            "residual exceeds the threshold"))
+        up = {n: r[n]["pos_U_m"] for n in need}
+        out.append(_claim(
+            f"p002-height-{f.kind}", "paper 002 §4",
+            f"Under the {label}, height stays accurate in every method (air data)",
+            {"up_rmse_m": up}, max(up.values()) < 3.0 * max(1.0, min(up.values())),
+            "holds when the worst method's height error is within 3x of the best"))
+    vb = result.results["dkf-vb"]
+    steps = [f for f in sc.faults if f.sensor == "gnss" and f.kind == "noise-scale"]
+    if steps and "gnss" in sc.sensor_names:
+        f = steps[0]
+        aid = sc.aids[sc.sensor_names.index("gnss")].sensor
+        sigma0 = np.broadcast_to(np.asarray(aid.pos_white_sigma_m, float), (3,))
+        k = int(np.searchsorted(t, f.start + 300.0))
+        if k < t.size:
+            est = np.sqrt(vb.R_hat[sc.sensor_names.index("gnss")][:, k, :3]).mean(0)
+            truth = sigma0 * float(f.magnitude[0])
+            err = np.abs(est / truth - 1.0)
+            out.append(_claim(
+                "p002-vb-sigma", "paper 002 Fig. 4-5, spec §7",
+                "300 s after the GNSS noise step begins, the VB estimate of the GNSS position "
+                "noise standard deviation is within 25 % of the truth",
+                {"estimate_m": est.tolist(), "truth_m": truth.tolist(),
+                 "relative_error": err.tolist()}, bool((err <= 0.25).all()),
+                "mean over runs of sqrt(R-hat) per position component"))
+    return out
+
+
+def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics], local) -> list[dict]:
+    """Paper 001 §4 (Fig. 4-5): federated filter with χ² fault detection, SINS/GPS/TAN/DNS."""
+    sc = result.scenario
+    out = []
+    name = next((n for n, x in ((x.name, x) for x in sc.methods)
+                 if x.architecture == "federated" and x.detector != "none" and n in m), None)
+    if name is not None and m[name].detection:
+        det = {s: m[name].detection[s] for s in sc.sensor_names
+               if any(f.sensor == s and f.kind != "outage" for f in sc.faults)}
+        rates = {s: d["rate"] for s, d in det.items()}
+        rec = {s: d["mean_recovery_s"] for s, d in det.items()}
+        holds = all(r >= 0.95 for r in rates.values()) and all(
+            v is not None and v <= 15.0 for v in rec.values())
+        out.append(_claim(
+            "p001-isolation", "paper 001 §3.3, §4 (Fig. 5)",
+            "The federated filter's chi-square tests detect the failed aid (detection rate "
+            ">= 0.95) and re-admit it within 15 s after the fault clears",
+            {"detection_rate": rates, "mean_recovery_s": rec,
+             "false_alarm_rate": {s: d["false_alarm_rate"] for s, d in det.items()}}, holds,
+            "false alarms count every epoch outside the aid's own windows, including the "
+            "SINS fault window, where every residual is inconsistent"))
+    if local is not None and name is not None and local.get(name) is not None and \
+            name in result.fault_free:
+        t = sc.times
+        w = t >= sc.evaluation.skip_initial
+        pos = local[name].pos[:, w]  # fault-free? local tracks of the faulty run
+        loc_h = {s: float(np.sqrt(np.mean(pos[:, :, i, 0] ** 2 + pos[:, :, i, 1] ** 2)))
+                 for i, s in enumerate(sc.sensor_names)}
+        ff = result.fault_free[name].x[:, w]
+        fused = float(np.sqrt(np.mean(ff[..., 0] ** 2 + ff[..., 1] ** 2)))
+        out.append(_claim(
+            "p001-fused-vs-local", "paper 001 Fig. 4",
+            "The fused position is more accurate than every local SINS/aid filter",
+            {"fused_horizontal_rmse_m": fused, "local_horizontal_rmse_m": loc_h},
+            all(fused <= v for v in loc_h.values()),
+            "local tracks are those of the run with faults; fused is fault-free"))
+    sins = [f for f in sc.faults if f.sensor == "sins"]
+    if sins and name is not None and name in result.fault_free:
+        f = sins[0]
+        t = sc.times
+        hz = _horizontal(_window_rmse(result.results[name], t, f.start, f.end))
+        hz_ff = _horizontal(_window_rmse(result.fault_free[name], t, f.start, f.end))
+        out.append(_claim(
+            "p001-sins-fault", "paper 001 §3.3 (configuration c5)",
+            "When the SINS itself fails, the federated filter keeps its accuracy "
+            "(the paper's neuron centre has a dedicated 'SINS faulty' configuration)",
+            {"horizontal_rmse_m": hz, "horizontal_rmse_fault_free_m": hz_ff},
+            hz <= 2.0 * hz_ff,
+            "every local filter shares the SINS, so the chi-square tests flag all aids at once; "
+            "the neuron centre on the SINS model is not trained in this reproduction yet"))
+    return out
+
+
+def check_claims(result: ScenarioResult, metrics: dict[str, MethodMetrics],
+                 local=None) -> list[dict]:
+    """All claims that can be checked on this run (``local``: integrated local tracks)."""
     claims = _equivalence_claims(result, metrics)
-    if result.scenario.name == "seed000":
+    name = result.scenario.name
+    if name == "seed000":
         claims += _paper000_claims(result, metrics)
+    elif name == "seed001":
+        claims += _paper001_claims(result, metrics, local)
+    elif name == "seed002":
+        claims += _paper002_claims(result, metrics)
     return claims

@@ -28,6 +28,7 @@ AdaptiveNoise = Literal["none", "vb", "vb-literal"]
 Prior = Literal["local", "global"]
 TraceMode = Literal["scaled", "raw"]
 Increment = Literal["direct", "difference"]
+Isolation = Literal["standalone", "time-update"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,6 +144,7 @@ class Method:
     model: str | None = None
     threshold: float | None = None
     uncovered: str = "renormalize"
+    isolation: Isolation = "standalone"
 
 
 @dataclass(frozen=True, slots=True)
