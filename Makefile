@@ -31,6 +31,7 @@ bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_federated.py
 	$(PY) benchmarks/bench_mechanization.py
 	$(PY) benchmarks/bench_learned.py
+	$(PY) benchmarks/bench_integrated.py
 
 clean:
 	rm -rf $(VENV) results build *.egg-info src/*.egg-info

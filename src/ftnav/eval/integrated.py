@@ -239,7 +239,7 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
         z, H, avail = [], [], np.zeros((M * B, N), bool)
         for i, aid in enumerate(sc.aids):
             raw = _tile(data.raw[i][:, k - 1], M)
-            lin = aid.sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw))
+            lin = aid.sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw, nan=1.0))
             ok = _tile(data.available[:, k - 1, i], M) & lin.valid & \
                 np.isfinite(lin.z).all(-1)
             z.append(np.where(ok[:, None], lin.z, np.nan))

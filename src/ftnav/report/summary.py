@@ -43,7 +43,8 @@ def _detector_rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
     header = ["method", "detector", "sensor", "Pd", "events", "false alarms", "median delay [ep]",
               "recovery [s]", f"{st} in fault", f"{st} out of fault"]
     rows = []
-    faulty = list(dict.fromkeys(f.sensor for f in sc.faults if f.kind != "outage"))
+    faulty = list(dict.fromkeys(f.sensor for f in sc.faults if f.kind != "outage"
+                                and f.sensor in sc.sensor_names))  # not the SINS
     detectors = {m.name: m.detector for m in sc.methods}
     for name, m in metrics.items():
         if not m.detection:
