@@ -1,0 +1,109 @@
+"""Bad integrated scenario files: one-line ScenarioError naming the field; CLI exit 2.
+
+Each case edits one line of a valid small file (seed002 flight, GNSS and TAN).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tomllib
+
+import pytest
+
+from ftnav.cli import main
+from ftnav.io.ins_scenario_file import parse_ins_scenario
+from ftnav.io.scenario_file import ScenarioError, load_scenario
+
+GOOD = """
+kind = "integrated"
+name = "small"
+profile = "seed002"
+imu = "seed001"
+
+[filter]
+dt = 1.0
+duration_s = 120.0
+
+[terrain]
+kind = "analytic"
+
+[[aids]]
+type = "gnss"
+pos_white_sigma_m = 1.4
+
+[[aids]]
+type = "tan"
+
+[[faults]]
+sensor = "gnss"
+kind = "bias"
+start = 60.0
+end = 90.0
+magnitude = [30.0, 30.0, 0.0, 0.0, 0.0, 0.0]
+
+[[methods]]
+name = "ckf"
+architecture = "centralized"
+"""
+
+#: (id, old line, new line, field path the message must name)
+BAD = [
+    ("unknown aid parameter", "pos_white_sigma_m = 1.4",
+     "pos_white_sigma_m = 1.4\nbogus_m = 3.0", "aids[0].bogus_m"),
+    ("negative sigma", "pos_white_sigma_m = 1.4", "pos_white_sigma_m = -1.4",
+     "aids[0].pos_white_sigma_m"),
+    ("fault on unknown sensor", 'sensor = "gnss"', 'sensor = "radar"', "faults[0].sensor"),
+    ("bias of the wrong length", "magnitude = [30.0, 30.0, 0.0, 0.0, 0.0, 0.0]",
+     "magnitude = [30.0, 30.0]", "faults[0].magnitude"),
+    ("gyro-bias on an aid", 'kind = "bias"', 'kind = "gyro-bias"', "faults[0].kind"),
+    ("dt not a whole number of IMU periods", "dt = 1.0", "dt = 0.015", "filter.dt"),
+    ("dt an odd number of IMU periods", "dt = 1.0", "dt = 0.01", "filter.dt"),
+    ("duration longer than the profile", "duration_s = 120.0", "duration_s = 5000.0",
+     "filter.duration_s"),
+    ("grid terrain without path", 'kind = "analytic"', 'kind = "grid"', "terrain.path"),
+    ("unknown profile", 'profile = "seed002"', 'profile = "seed999"', "profile"),
+]
+
+
+def _bad(old: str, new: str) -> str:
+    assert GOOD.count(old) == 1, old
+    return GOOD.replace(old, new)
+
+
+def test_the_good_file_is_valid():
+    sc = parse_ins_scenario(tomllib.loads(GOOD))
+    assert sc.sensor_names == ("gnss", "tan") and sc.steps == 120
+
+
+@pytest.mark.parametrize(("old", "new", "field"), [b[1:] for b in BAD], ids=[b[0] for b in BAD])
+def test_bad_file_raises_one_line_scenario_error_naming_the_field(tmp_path, old, new, field):
+    path = tmp_path / "bad.toml"
+    path.write_text(_bad(old, new))
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    err = info.value
+    assert err.path == field
+    assert "\n" not in str(err) and str(err).startswith(f"{field}: ")
+
+
+@pytest.mark.parametrize(("old", "new", "field"), [b[1:] for b in BAD], ids=[b[0] for b in BAD])
+def test_cli_exits_2_with_one_line_on_stderr(tmp_path, capsys, old, new, field):
+    path = tmp_path / "bad.toml"
+    path.write_text(_bad(old, new))
+    code = main(["run", str(path), "--runs", "2", "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert field in err, err
+    assert not (tmp_path / "out" / "metrics.json").exists()
+
+
+def test_console_script_reports_a_bad_file_without_traceback(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text(_bad("pos_white_sigma_m = 1.4", "pos_white_sigma_m = -1.4"))
+    proc = subprocess.run([sys.executable, "-m", "ftnav.cli", "run", str(path), "--quiet"],
+                          capture_output=True, text=True, cwd=tmp_path)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
+    assert "aids[0].pos_white_sigma_m" in proc.stderr
