@@ -184,9 +184,21 @@ def _cmd_run(args) -> int:
             result = ir.result
         else:
             result = run_scenario(sc, args.runs, args.seed, progress=bar.update)
+    second = None
+    if integrated and sc.test_profile is not None:
+        # learned methods are also scored on a flight they were not trained on
+        from dataclasses import replace
+
+        sc2 = replace(sc, name=f"{sc.name}@{sc.test_profile.name}", profile=sc.test_profile,
+                      test_profile=None)
+        with tqdm(total=len(sc2.methods) * sc2.steps, disable=True if args.quiet else None,
+                  unit="epoch", desc=f"{sc2.name} x{args.runs}", file=sys.stderr,
+                  mininterval=0.5) as bar:
+            ir2 = run_ins_scenario(sc2, args.runs, args.seed, progress=bar.update)
+        second = (ir2.result, evaluate(ir2.result))
     elapsed = time.perf_counter() - t0
     metrics = evaluate(result)
-    claims = check_claims(result, metrics, ir.local if integrated else None)
+    claims = check_claims(result, metrics, ir.local if integrated else None, second)
     figures = []
     if not args.no_figures:
         if integrated:
@@ -197,7 +209,10 @@ def _cmd_run(args) -> int:
             from ftnav.plot.figures import save_all
 
             figures = [p.name for p in save_all(result, out)]
-    write_metrics(metrics_to_json(result, metrics, claims), out / "metrics.json")
+    doc = metrics_to_json(result, metrics, claims)
+    if second is not None:
+        doc["second_trajectory"] = metrics_to_json(*second)
+    write_metrics(doc, out / "metrics.json")
     (out / "report.md").write_text(markdown_report(result, metrics, claims, figures))
     written = ["metrics.json", "report.md", *figures]
     if args.save_estimates:
@@ -205,6 +220,9 @@ def _cmd_run(args) -> int:
     print(f"{sc.name}: {args.runs} runs, seed {args.seed}, {len(sc.methods)} methods, "
           f"{elapsed:.1f} s")
     print(results_table(result, metrics))
+    if second is not None:
+        print(f"\nSame methods on a flight not used for training ({second[0].scenario.name}):")
+        print(results_table(*second))
     detectors = detector_table(result, metrics)
     if detectors:
         print("\nDetectors side by side (learned and statistical):")
@@ -317,6 +335,8 @@ def _cmd_train_fusion(args) -> int:
 
     sc = _resolve(args.scenario)
     out = _output_file(args.out)
+    if getattr(sc, "kind", "linear") == "integrated":
+        return _train_ins_fusion(sc, out, args)
     settings = FusionTraining(runs=args.runs, holdout_runs=args.holdout, seed=args.seed,
                               projection=args.projection, free_input=args.free_input)
     import numpy as np
@@ -338,6 +358,28 @@ def _cmd_train_fusion(args) -> int:
           f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s")
     print(fusion_table(model, report))
     print(f"Written: {', '.join(written)}")
+    return 0
+
+
+def _train_ins_fusion(sc, out: Path, args) -> int:
+    """``train-fusion`` on an integrated scenario (paper 001's five configurations)."""
+    from ftnav.eval.ins_training import ins_configurations, train_ins_fusion
+
+    t0 = time.perf_counter()
+    total = sc.steps * len(ins_configurations(sc))
+    with _bar(total, args.quiet, f"train-fusion {sc.name}") as bar:
+        try:
+            model = train_ins_fusion(sc, runs=args.runs, seed=args.seed, progress=bar.update)
+        except ValueError as e:
+            raise UsageError(" ".join(str(e).split())) from None
+    model.save(out)
+    print(f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
+          f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s")
+    print("weights of the position neurons (" + ", ".join(model.inputs) + "):")
+    for j, st in ((6, "dL"), (7, "dlambda"), (8, "dh")):
+        for c, w in zip(model.configurations, model.weights[:, j], strict=True):
+            print(f"  {st:8s} {c:8s} " + " ".join(f"{v:.3f}" for v in w))
+    print(f"Written: {out}")
     return 0
 
 

@@ -172,6 +172,8 @@ class _Recorder:
         self.R_hat = [np.empty((B, K, m)) for m in dims]
         self.nan = np.zeros((B, N), dtype=int)
         self.local = None
+        self.features = None
+        self.truth = None
         self.shape = (B, K, N)
 
     def detection(self, k, out):
@@ -190,10 +192,14 @@ class _Recorder:
         for i, r in enumerate(out.R_hat):
             self.R_hat[i][:, k] = r
         self.nan += out.nan
+        if out.features is not None:
+            if self.features is None:
+                self.features = np.empty((B, K, out.features.shape[-1]))
+            self.features[:, k] = out.features
 
     def result(self) -> tuple[MethodResult, LocalTrack | None]:
         res = MethodResult(self.x, self.P, self.nees, self.beta, self.stat, self.thr, self.raw,
-                           self.flag, tuple(self.R_hat), self.nan)
+                           self.flag, tuple(self.R_hat), self.nan, self.features)
         return res, (None if self.local is None else LocalTrack(self.local))
 
 
@@ -202,7 +208,8 @@ def _tile(a: np.ndarray, M: int) -> np.ndarray:
 
 
 def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSystem,
-                    progress: Callable[[int], None] | None = None, check_spd: bool = False
+                    progress: Callable[[int], None] | None = None, check_spd: bool = False,
+                    true_states: np.ndarray | None = None
                     ) -> dict[str, tuple[MethodResult, LocalTrack | None]]:
     """Run every fusion method closed-loop over the simulated runs (module docstring).
 
@@ -210,7 +217,9 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
     linearized and measured as one batch of ``methods × runs`` (lock-step), and each
     filter steps on its slice.  A NaN or inf output raises ``FloatingPointError``;
     ``check_spd`` also requires every fused covariance to be symmetric positive
-    definite at every epoch.
+    definite at every epoch.  ``true_states`` (B, K, n), if given, is filled with the
+    true error state before feedback (navigation errors of the first method's SINS,
+    then the IMU's true biases): the targets of learned fusion.
     """
     names = list(filters)
     M = len(names)
@@ -247,6 +256,12 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
             avail[:, i] = ok
         e_true = ins_errors(ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1],
                             truth.p[k - 1])
+        if true_states is not None:
+            j_imu = k * spe - 1
+            it = data.imu_truth
+            true_states[:, k - 1] = np.concatenate(
+                [e_true[:B], it.gyro_bias, it.gyro_markov[:, j_imu], it.accel_markov[:, j_imu]],
+                -1)[:, :true_states.shape[-1]]
         deltas = []
         for j, nm in enumerate(names):
             p = parts[j]

@@ -43,6 +43,7 @@ from ftnav.fusion.local import (
     local_update,
     make_detector,
     residual_statistic,
+    select,
     valid_measurement,
 )
 from ftnav.fusion.system import LinearSystem
@@ -172,10 +173,14 @@ class NeuralFusion:
     collect : training-data mode: no model needed (equal weights), the stacked
         inputs (B, N_in·n_c) are reported in ``StepOutput.features``.
     free_input : with ``collect``, include the free propagation as an input.
+    untrained : fusion without a model: ``"uniform"`` (equal weights) or
+        ``"inverse-variance"`` (per state, weights ∝ 1/σ² over the unflagged inputs,
+        the optimum for independent errors).  Closed-loop collection needs the latter:
+        its fused estimate is fed back to the SINS.
     """
 
     def __init__(self, system: LinearSystem, method: Method, model: NeuronModel | None = None,
-                 collect: bool = False, free_input: bool = False):
+                 collect: bool = False, free_input: bool = False, untrained: str = "uniform"):
         name = f"methods[{method.name}]"
         if method.detector in ("rbf", "state-chi2"):
             raise ValueError(f"{name}.detector: the neural architecture selects its "
@@ -195,6 +200,7 @@ class NeuralFusion:
                 raise ValueError(f"{name}.uncovered: expected 'renormalize' or one of "
                                  f"{list(model.configurations)}, got {method.uncovered!r}")
         self.model = model
+        self.untrained = untrained
         self.free_input = model.free_input if model is not None else bool(free_input)
         self.n_inputs = self.N + int(self.free_input)
         self.locals = [system.local(i) for i in range(self.N)]
@@ -227,11 +233,12 @@ class NeuralFusion:
         xf_pr = Pf_pr = None
         if m.prior == "global":
             xf_pr, Pf_pr = kf.predict(state.xf, state.Pf, F, Q)
-        xs, Ps, stat, R_hat = [], [], [], []
+        xs, Ps, stat, R_hat, priors = [], [], [], [], []
         for i, (lm, s) in enumerate(zip(self.locals, self.system.sensors, strict=True)):
             Fi, Qi = self.system.local_transition(i, k, lin=lin)
             H = lm.H if lin is None else lin.H[i]
             x_pr, P_pr = kf.predict(state.x[i], state.P[i], Fi, Qi)
+            priors.append((x_pr, P_pr))
             up = local_update(x_pr, P_pr, z[i], usable[:, i], H, s.R, None)
             xs.append(up.x)
             Ps.append(up.P)
@@ -248,6 +255,9 @@ class NeuralFusion:
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
         det_state, det_out = detect(m, self.detector, state.detector, stat, dof, usable, oracle)
         flags = np.zeros((stat.shape[0], N), dtype=bool) if det_out is None else det_out.flag
+        if m.isolation == "time-update":  # a flagged local filter discards its measurement
+            xs = [select(flags[:, i], priors[i][0], xs[i]) for i in range(N)]
+            Ps = [select(flags[:, i], priors[i][1], Ps[i]) for i in range(N)]
 
         free = kf.Gaussian(*kf.predict(state.free.x, state.free.P, F, Q))
         u = [x[:, :nc] for x in xs]
@@ -256,7 +266,13 @@ class NeuralFusion:
             u.append(free.x)
             sd.append(np.sqrt(np.diagonal(free.P, axis1=-2, axis2=-1)))
         u, sd = np.stack(u, -1), np.stack(sd, -1)  # (B, n_c, N_in)
-        if self.model is None:
+        if self.model is None and self.untrained == "inverse-variance":
+            keep = np.ones(u.shape[0::2], bool)  # (B, N_in)
+            keep[:, :N] = ~flags
+            keep[~keep.any(1)] = True  # every input flagged: use them all
+            W = np.where(keep[:, None, :], 1.0 / np.maximum(sd, 1e-300) ** 2, 0.0)
+            W = W / W.sum(-1, keepdims=True)
+        elif self.model is None:
             W = np.full(u.shape, 1.0 / self.n_inputs)
         else:
             W = select_weights(self.model, flags, m.uncovered)

@@ -349,7 +349,7 @@ class MethodFile(BaseModel):
         "configuration name")
     isolation: Isolation = Field(
         default=_d("isolation"),
-        description="federated: a flagged local filter runs 'standalone' on its own "
+        description="federated, neural: a flagged local filter runs 'standalone' on its own "
         "measurements (spec §1.8) or does the 'time-update' only (spec §6.3)",
     )
 

@@ -258,20 +258,49 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics], local)
             "(the paper's neuron centre has a dedicated 'SINS faulty' configuration)",
             {"horizontal_rmse_m": hz, "horizontal_rmse_fault_free_m": hz_ff},
             hz <= 2.0 * hz_ff,
-            "every local filter shares the SINS, so the chi-square tests flag all aids at once; "
-            "the neuron centre on the SINS model is not trained in this reproduction yet"))
+            "every local filter shares the SINS, so the chi-square tests flag all aids at once "
+            "and the federated filter coasts; the neuron centre's 'sins' bank is the paper's "
+            "answer (claim p001-neural)"))
     return out
 
 
+def _neural_vs_fkf(result: ScenarioResult, m: dict[str, MethodMetrics], label: str,
+                   cid: str) -> list[dict]:
+    """Paper 001 §4: the neuron centre against the federated filter, over the fault windows."""
+    methods = {x.name: x for x in result.scenario.methods}
+    neural = next((n for n, x in methods.items() if x.architecture == "neural" and n in m), None)
+    fkf = next((n for n, x in methods.items() if x.architecture == "federated" and n in m), None)
+    if neural is None or fkf is None or m[neural].rmse_fault is None:
+        return []
+    hz = {n: _horizontal(m[n].rmse_fault) for n in (neural, fkf)}
+    hz_ff = {n: _horizontal(m[n].fault_free["rmse"]) for n in (neural, fkf)
+             if m[n].fault_free}
+    return [_claim(
+        cid, "paper 001 §4",
+        f"The neuron fusion centre is more accurate than the federated filter when a "
+        f"sub-system fails ({label})",
+        {"horizontal_rmse_in_fault_windows_m": hz, "horizontal_rmse_fault_free_m": hz_ff},
+        hz[neural] < hz[fkf],
+        "in-window RMSE over every fault window (GPS, TAN, DNS and SINS), mean over runs")]
+
+
 def check_claims(result: ScenarioResult, metrics: dict[str, MethodMetrics],
-                 local=None) -> list[dict]:
-    """All claims that can be checked on this run (``local``: integrated local tracks)."""
+                 local=None, second=None) -> list[dict]:
+    """All claims that can be checked on this run.
+
+    ``local``: integrated local tracks; ``second``: ``(result, metrics)`` of the same
+    methods on a flight not used for training (paper 001).
+    """
     claims = _equivalence_claims(result, metrics)
     name = result.scenario.name
     if name == "seed000":
         claims += _paper000_claims(result, metrics)
     elif name == "seed001":
         claims += _paper001_claims(result, metrics, local)
+        claims += _neural_vs_fkf(result, metrics, "training flight", "p001-neural")
+        if second is not None:
+            claims += _neural_vs_fkf(*second, f"flight {second[0].scenario.name}, not used "
+                                     "for training", "p001-neural-other-flight")
     elif name == "seed002":
         claims += _paper002_claims(result, metrics)
     return claims

@@ -1,0 +1,107 @@
+"""Training the neuron fusion centre on an integrated-navigation scenario (paper 001 §3-§4).
+
+Configurations (spec §5.4, paper 001 §3.3): ``healthy``, one per aid (that aid's local
+filter flagged) and ``sins`` (every aid flagged at once: the SINS that all local filters
+share has failed) -- the paper's five for SINS/GPS/TAN/DNS.
+
+Training data (:func:`train_ins_fusion`): for each configuration the scenario is flown
+closed loop with that element faulty from ``fault_start`` to the end (the magnitude of
+the scenario's first fault of that element; without one, the configuration is
+skipped).  The collecting filter is the neural architecture's own independent local
+filters, fused by inverse variances over the unflagged inputs with the true fault
+flags (``oracle``); its fused estimate is fed back, as in operation.  Targets are the
+true 18 error states (navigation errors before feedback, the IMU's true biases).  The
+neurons of each (configuration, state) pair are trained by projected LMS on centred
+inputs (spec §5.3), exactly as :func:`ftnav.fusion.neural_training.train_fusion` does
+for linear scenarios.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from ftnav.core.lms import lms_train
+from ftnav.eval.integrated import build_ins_system, run_ins_methods
+from ftnav.fusion.neural import NeuralFusion, NeuronModel
+from ftnav.sim.ins_data import simulate_ins
+from ftnav.sim.ins_scenario import SINS, InsFault, InsScenario
+from ftnav.sim.scenario import Method
+
+__all__ = ["train_ins_fusion", "ins_configurations"]
+
+_SAMPLE_STREAM = 0x4E49
+
+
+def ins_configurations(sc: InsScenario) -> list[tuple[str, np.ndarray, InsFault | None]]:
+    """(name, flag pattern (N,), training fault) of every configuration with a fault to learn."""
+    N = len(sc.aids)
+    out = [("healthy", np.zeros(N, bool), None)]
+    for i, name in enumerate(sc.sensor_names):
+        f = next((f for f in sc.faults if f.sensor == name and f.kind in ("bias", "ramp")), None)
+        if f is not None:
+            pattern = np.zeros(N, bool)
+            pattern[i] = True
+            out.append((name, pattern, f))
+    f = next((f for f in sc.faults if f.sensor == SINS), None)
+    if f is not None:
+        out.append((SINS, np.ones(N, bool), f))
+    return out
+
+
+def train_ins_fusion(sc: InsScenario, runs: int = 4, seed: int = 1, *, fault_start: float = 150.0,
+                     skip: float = 60.0, max_samples: int = 4000, mu: float = 0.1,
+                     epochs: int = 200, progress: Callable[[int], None] | None = None
+                     ) -> NeuronModel:
+    """Train the neuron banks of the scenario's integrated system (module docstring)."""
+    if sc.error_model.n != 18:
+        raise ValueError("filter.states: neuron training needs the 18-state model")
+    system = build_ins_system(sc)
+    nc = system.n_common
+    collect_method = Method(name="collect", architecture="neural", detector="oracle")
+    configs = ins_configurations(sc)
+    end = sc.steps * sc.dt
+    pick = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(_SAMPLE_STREAM,)))
+    Us, ts, names, patterns = [], [], [], []
+    for name, pattern, fault in configs:
+        faults = () if fault is None else (replace(fault, start=fault_start, end=end + 1.0),)
+        variant = replace(sc, faults=faults)
+        data = simulate_ins(variant, range(runs), seed)
+        filt = NeuralFusion(system, collect_method, collect=True, untrained="inverse-variance")
+        truth = np.empty((runs, sc.steps, nc))
+        res, _ = run_ins_methods({"collect": filt}, variant, data, system, progress,
+                                 true_states=truth)["collect"]
+        U = res.features.reshape(runs, sc.steps, -1, nc)  # (B, K, N_in, nc)
+        t = sc.times
+        window = (t >= (skip if fault is None else fault_start + skip))
+        u = U[:, window].reshape(-1, *U.shape[2:])
+        tt = truth[:, window].reshape(-1, nc)
+        M = min(max_samples, u.shape[0])
+        idx = np.sort(pick.choice(u.shape[0], M, replace=False))
+        u, tt = u[idx], tt[idx]
+        ubar = u.mean(1)
+        Us.append(np.moveaxis(u - ubar[:, None, :], 2, 0))  # (nc, M, N_in)
+        ts.append((tt - ubar).T)
+        names.append(name)
+        patterns.append(pattern)
+    M = min(x.shape[1] for x in Us)
+    Us = [x[:, :M] for x in Us]
+    ts = [x[:, :M] for x in ts]
+    # scale each neuron's inputs to unit size: the states mix radians and metres
+    U_all, t_all = np.concatenate(Us), np.concatenate(ts)
+    scale = np.sqrt((U_all ** 2).mean((1, 2), keepdims=True)) + 1e-300
+    lms = lms_train(U_all / scale, t_all / scale[..., 0], projection="simplex", step="nlms",
+                    mu=mu, epochs=epochs, rng=pick)
+    C = len(names)
+    weights = lms.weights.reshape(C, nc, -1)
+    rmse = (np.sqrt(lms.mse).reshape(C, nc) * scale[:, 0, 0].reshape(C, nc))
+    provenance = {"scenario": sc.name, "profile": sc.profile.name, "runs": runs, "seed": seed,
+                  "fault_start_s": fault_start, "samples_per_neuron": M,
+                  "collect": "closed loop, inverse-variance fusion with oracle flags",
+                  "lms": {"projection": "simplex", "step": "nlms", "mu": mu, "epochs": epochs,
+                          "epochs_run": int(lms.epochs_run), "converged": bool(lms.converged)}}
+    return NeuronModel(tuple(names), np.array(patterns), tuple(sc.sensor_names),
+                       tuple(system.model.states), weights, rmse, system.compatibility(),
+                       provenance)
