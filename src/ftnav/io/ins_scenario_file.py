@@ -252,8 +252,10 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
         if name in names or name == SINS:
             raise _err(f"aids[{i}].name", f"duplicate or reserved name {name!r}", origin)
         names.append(name)
+        # errors are simulated and private states propagated at every filter epoch; the
+        # schedule (every, offset) only masks the epochs without output
         s = sensor_from_table(a.type, {"name": name, **extra}, f"aids[{i}]", origin, terrain,
-                              fl.dt * a.every)
+                              fl.dt)
         aids.append(AidSpec(s, a.every, a.offset))
     faults = []
     for i, x in enumerate(f.faults):
