@@ -25,7 +25,7 @@ import numpy as np
 
 from ftnav.nav.error_model import ErrorModelParams
 from ftnav.sim.imu import ImuErrors
-from ftnav.sim.scenario import Evaluation, Method
+from ftnav.sim.scenario import Evaluation, Method, fault_window_mask
 from ftnav.sim.trajectory import Profile
 
 __all__ = ["InsFault", "AidSpec", "InsScenario", "METRIC_STATES", "SINS", "INS_FAULT_KINDS",
@@ -155,15 +155,7 @@ class InsScenario:
 
     def fault_mask(self, sensor: str | None = None, detectable_only: bool = False) -> np.ndarray:
         """(steps,) bool, epochs inside a fault window (of ``sensor`` if given)."""
-        t = self.times
-        mask = np.zeros(self.steps, dtype=bool)
-        for f in self.faults:
-            if sensor is not None and f.sensor != sensor:
-                continue
-            if detectable_only and f.kind == "outage":
-                continue
-            mask |= (t >= f.start) & (t < f.end)
-        return mask
+        return fault_window_mask(self.times, self.faults, sensor, detectable_only)
 
     def without_faults(self) -> InsScenario:
         from dataclasses import replace

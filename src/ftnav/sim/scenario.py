@@ -186,15 +186,7 @@ class Scenario:
         sensor : restrict to faults of this sensor (all sensors if None).
         detectable_only : leave out outages (no data, nothing to detect).
         """
-        t = self.times
-        mask = np.zeros(self.steps, dtype=bool)
-        for f in self.faults:
-            if sensor is not None and f.sensor != sensor:
-                continue
-            if detectable_only and f.kind == "outage":
-                continue
-            mask |= (t >= f.start) & (t < f.end)
-        return mask
+        return fault_window_mask(self.times, self.faults, sensor, detectable_only)
 
     def without_faults(self) -> Scenario:
         """The same scenario with no faults (the paper's Fig. 3 condition)."""
@@ -202,3 +194,20 @@ class Scenario:
             self.name, self.dt, self.steps, self.model, self.sensors, (), self.methods,
             self.evaluation, self.description,
         )
+
+
+def fault_window_mask(times: np.ndarray, faults, sensor: str | None = None,
+                      detectable_only: bool = False) -> np.ndarray:
+    """Boolean mask of the ``times`` inside a fault window ``[start, end)``.
+
+    ``sensor`` restricts to that sensor's faults; ``detectable_only`` leaves out
+    outages (no data, nothing to detect).
+    """
+    mask = np.zeros(times.shape, dtype=bool)
+    for f in faults:
+        if sensor is not None and f.sensor != sensor:
+            continue
+        if detectable_only and f.kind == "outage":
+            continue
+        mask |= (times >= f.start) & (times < f.end)
+    return mask
