@@ -58,9 +58,26 @@ def dcm_to_euler(C: np.ndarray) -> np.ndarray:
 
 
 def quat_to_dcm(q: np.ndarray) -> np.ndarray:
-    """``C_b^n`` from the scalar-first quaternion ``q_b^n`` (normalized first)."""
-    f, batch = _flat(q, (4,))
-    return Rotation.from_quat(f[:, [1, 2, 3, 0]]).as_matrix().reshape(batch + (3, 3))
+    """``C_b^n`` from the scalar-first quaternion ``q_b^n`` (normalized first).
+
+    The closed-form rotation matrix of a unit quaternion (the same as scipy's
+    ``Rotation.from_quat(...).as_matrix()``, tested; written out because it runs at
+    every filter epoch and scipy's per-call overhead dominated the integrated runs).
+    """
+    q = np.asarray(q, dtype=float)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    C = np.empty(q.shape[:-1] + (3, 3))
+    C[..., 0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
+    C[..., 0, 1] = 2.0 * (q1 * q2 - q0 * q3)
+    C[..., 0, 2] = 2.0 * (q1 * q3 + q0 * q2)
+    C[..., 1, 0] = 2.0 * (q1 * q2 + q0 * q3)
+    C[..., 1, 1] = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
+    C[..., 1, 2] = 2.0 * (q2 * q3 - q0 * q1)
+    C[..., 2, 0] = 2.0 * (q1 * q3 - q0 * q2)
+    C[..., 2, 1] = 2.0 * (q2 * q3 + q0 * q1)
+    C[..., 2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+    return C
 
 
 def dcm_to_quat(C: np.ndarray) -> np.ndarray:

@@ -182,8 +182,12 @@ class NavState(NamedTuple):
 
 
 def _mat(rows, batch):
-    """Stack a nested 3×3 list of scalars/arrays into (batch, 3, 3)."""
-    return np.stack([np.stack([np.broadcast_to(e, batch) for e in r], -1) for r in rows], -2)
+    """Fill (batch, 3, 3) from a nested 3×3 list of scalars/arrays (one allocation)."""
+    out = np.empty(batch + (3, 3))
+    for i, r in enumerate(rows):
+        for j, e in enumerate(r):
+            out[..., i, j] = e
+    return out
 
 
 def _nav_blocks(L, h, v, f_n):
