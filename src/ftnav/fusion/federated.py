@@ -243,6 +243,9 @@ class FederatedFilter:
         det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle,
                                     feats)
         flag = np.zeros((B, N), dtype=bool) if det_out is None else det_out.flag
+        if m.common_mode == "keep" and N > 1:
+            # every aid flagged at once: the shared reference (the SINS) failed, not the aids
+            flag = flag & ~flag.all(1, keepdims=True)
 
         # ---- fusion over the active set (spec §1.3 step 3) --------------------------
         newly = state.active & flag

@@ -37,6 +37,7 @@ from pydantic_core import PydanticCustomError
 from ftnav.sim.scenario import (
     AdaptiveNoise,
     Architecture,
+    CommonMode,
     Detector,
     Evaluation,
     Fault,
@@ -352,6 +353,11 @@ class MethodFile(BaseModel):
         description="federated, neural: a flagged local filter runs 'standalone' on its own "
         "measurements (spec §1.8) or does the 'time-update' only (spec §6.3)",
     )
+    common_mode: CommonMode = Field(
+        default=_d("common_mode"),
+        description="federated: when every aid is flagged at once, 'isolate' them all or "
+        "'keep' them (the shared SINS failed, not the aids)",
+    )
 
 
 class EvaluationFile(BaseModel):
@@ -570,6 +576,7 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
         threshold=None if me.threshold is None else float(me.threshold),
         uncovered=me.uncovered,
         isolation=me.isolation,
+        common_mode=me.common_mode,
     )
 
 

@@ -29,6 +29,7 @@ Prior = Literal["local", "global"]
 TraceMode = Literal["scaled", "raw"]
 Increment = Literal["direct", "difference"]
 Isolation = Literal["standalone", "time-update"]
+CommonMode = Literal["isolate", "keep"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,6 +146,7 @@ class Method:
     threshold: float | None = None
     uncovered: str = "renormalize"
     isolation: Isolation = "standalone"
+    common_mode: CommonMode = "isolate"
 
 
 @dataclass(frozen=True, slots=True)

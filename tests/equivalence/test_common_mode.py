@@ -1,0 +1,48 @@
+"""``common_mode = "keep"``: every local flagged at once means the shared reference failed.
+
+Oracle flags from zero-magnitude faults (the data are untouched): when all three
+sensors are flagged over the same window, a federated filter with
+``common_mode = "keep"`` fuses them all and equals the filter without a detector;
+with the default ``"isolate"`` it does not (the test has teeth); when only one sensor
+is flagged, ``keep`` isolates it exactly as ``isolate`` does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from equivalence_problems import assert_same, drive, random_scenario, simulate_problem
+
+from ftnav.fusion.federated import FederatedFilter
+from ftnav.fusion.system import LinearSystem
+from ftnav.sim.scenario import Fault, Method
+
+STEPS = 300
+
+
+def _problem(sensors):
+    rng = np.random.default_rng(4242)
+    faults = tuple(Fault(f"z{i}", "bias", 100.0, 200.0, np.zeros(1)) for i in sensors)
+    sc = random_scenario(rng, 3, [1, 1, 1], STEPS, faults=faults)
+    return LinearSystem.from_scenario(sc), simulate_problem(sc, runs=3, seed=5)
+
+
+def _fkf(system, **kw):
+    return FederatedFilter(system, Method(name="f", architecture="federated",
+                                          mode="fusion-reset", **kw))
+
+
+def test_all_flagged_keep_equals_no_detector():
+    system, sim = _problem([0, 1, 2])
+    assert sim.oracle[100:199].all()
+    ref = drive(_fkf(system), sim)
+    keep = drive(_fkf(system, detector="oracle", common_mode="keep"), sim)
+    isolate = drive(_fkf(system, detector="oracle"), sim)
+    assert_same(keep, ref)
+    assert np.abs(isolate.x - ref.x).max() > 1e-3 * np.abs(ref.x).max()
+
+
+def test_single_flag_keep_equals_isolate():
+    system, sim = _problem([1])
+    keep = drive(_fkf(system, detector="oracle", common_mode="keep"), sim)
+    isolate = drive(_fkf(system, detector="oracle"), sim)
+    assert_same(keep, isolate, rtol=0.0)
