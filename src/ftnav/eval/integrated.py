@@ -129,30 +129,31 @@ def ins_errors(q, v, p, q_true, v_true, p_true) -> np.ndarray:
     return np.concatenate([phi, v - v_true, p - p_true], -1)
 
 
-def _metric_errors(e: np.ndarray, p_true: np.ndarray) -> np.ndarray:
-    """(B, 9) output errors in metric states: E/N/U m, E/N/U m/s, φ E/N/U arcmin."""
+#: Order of the metric states (E, N, U position; velocity; φ) in the spec §8.3 error state.
+_METRIC_ORDER = [7, 6, 8, 3, 4, 5, 0, 1, 2]
+
+
+def _metric_scale(p_true: np.ndarray) -> np.ndarray:
+    """(..., 9) metric units per error-state unit, in metric-state order (spec §9, §11)."""
     RM, RN = radii(p_true[..., 0], p_true[..., 2])
-    RMh, RNh = RM + p_true[..., 2], RN + p_true[..., 2]
-    out = np.empty_like(e)
-    out[..., 0] = e[..., 7] * RNh * np.cos(p_true[..., 0])
-    out[..., 1] = e[..., 6] * RMh
-    out[..., 2] = e[..., 8]
-    out[..., 3:6] = e[..., 3:6]
-    out[..., 6:9] = e[..., 0:3] / _ARCMIN
-    return out
+    h = p_true[..., 2]
+    scale = np.empty(p_true.shape[:-1] + (N_NAV,))
+    scale[..., 0] = (RN + h) * np.cos(p_true[..., 0])
+    scale[..., 1] = RM + h
+    scale[..., 2:6] = 1.0
+    scale[..., 6:9] = 1.0 / _ARCMIN
+    return scale
+
+
+def _metric_errors(e: np.ndarray, p_true: np.ndarray) -> np.ndarray:
+    """(..., 9) output errors in metric states: E/N/U m, E/N/U m/s, φ E/N/U arcmin."""
+    return e[..., _METRIC_ORDER] * _metric_scale(p_true)
 
 
 def _metric_variances(P: np.ndarray, p_true: np.ndarray) -> np.ndarray:
     """(B, 9) variances of the metric states from a covariance over ``[φ, δv, δp, ...]``."""
     d = np.diagonal(P, axis1=-2, axis2=-1)[..., :N_NAV]
-    RM, RN = radii(p_true[..., 0], p_true[..., 2])
-    scale = np.ones(N_NAV)[None] * np.ones(d.shape[:-1] + (1,))
-    scale[..., 0] = ((RN + p_true[..., 2]) * np.cos(p_true[..., 0])) ** 2
-    scale[..., 1] = (RM + p_true[..., 2]) ** 2
-    order = [7, 6, 8, 3, 4, 5, 0, 1, 2]
-    out = d[..., order] * np.concatenate([scale[..., :3], scale[..., 3:6],
-                                          np.full(d.shape[:-1] + (3,), _ARCMIN ** -2)], -1)
-    return out
+    return d[..., _METRIC_ORDER] * _metric_scale(p_true) ** 2
 
 
 class LocalTrack(NamedTuple):

@@ -43,6 +43,7 @@ _G = 9.80665
 
 _AID_CLASSES = {"gnss": ("gnss", "Gnss"), "tan": ("tan", "Tan"), "dns": ("dns", "Doppler"),
                 "cns": ("cns", "StarTracker"), "ads": ("ads", "Barometer")}
+AID_TYPES = tuple(_AID_CLASSES)
 
 
 def _aid_class(kind: str) -> type:
@@ -52,7 +53,6 @@ def _aid_class(kind: str) -> type:
     return getattr(importlib.import_module(f"ftnav.sensors.{module}"), cls)
 
 
-AID_TYPES = ("gnss", "tan", "dns", "cns", "ads")
 
 
 class TerrainFile(BaseModel):
@@ -307,7 +307,7 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
     sigma = initial_sigma(fl.initial, imu, np.radians(lat0), fl.states)
     return InsScenario(
         name=f.name, profile=prof, imu=imu,
-        error_model=dataclasses.replace(matched_error_model(imu, fl.states, fl.bias_frame)),
+        error_model=matched_error_model(imu, fl.states, fl.bias_frame),
         initial_sigma=sigma, dt=float(fl.dt), steps=steps, aids=tuple(aids),
         faults=tuple(faults), methods=tuple(methods),
         evaluation=Evaluation(float(ev.skip_initial), float(ev.grace)),

@@ -91,14 +91,17 @@ def _fault_label(fault) -> str:
     return f"fault: {fault.sensor} {fault.kind} [{fault.start:g}, {fault.end:g}) s"
 
 
-def _shade_faults(ax: Axes, scenario: Scenario, injected: bool = True) -> list:
-    """Shade each fault window on ``ax``; returns one legend handle per fault.
+def _shade_faults(ax: Axes, scenario: Scenario, injected: bool = True,
+                  sensor: str | None = None) -> list:
+    """Shade each fault window on ``ax`` (of ``sensor`` only, if given); one handle per fault.
 
     With ``injected=False`` the windows are only outlined (hatched), for runs in
     which the fault was removed, so the eye can still compare the same interval.
     """
     handles = []
     for i, f in enumerate(scenario.faults):
+        if sensor is not None and f.sensor != sensor:
+            continue
         c = _FAULT_COLOURS[i % len(_FAULT_COLOURS)]
         if injected:
             kw = {"facecolor": c, "alpha": 0.15, "edgecolor": "none"}

@@ -22,6 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ftnav.plot.figures import _shade_faults  # noqa: E402
 from ftnav.sim.ins_data import fault_profiles  # noqa: E402
 
 __all__ = ["local_fused_figure", "method_error_figure", "vb_noise_figure", "save_integrated"]
@@ -29,12 +30,6 @@ __all__ = ["local_fused_figure", "method_error_figure", "vb_noise_figure", "save
 _GROUPS = {"position": (slice(0, 3), "m"), "velocity": (slice(3, 6), "m/s"),
            "attitude": (slice(6, 9), "arcmin")}
 _AXES = ("East", "North", "Up")
-
-
-def _shade(ax, scenario, sensor: str | None = None):
-    for f in scenario.faults:
-        if sensor is None or f.sensor == sensor:
-            ax.axvspan(f.start, f.end, color="0.85", zorder=0)
 
 
 def local_fused_figure(ir, method: str, fault_free: bool = False, run: int = 0):
@@ -52,7 +47,7 @@ def local_fused_figure(ir, method: str, fault_free: bool = False, run: int = 0):
                 ax.plot(t, loc.pos[run, :, i, j], lw=0.8, label=f"SINS/{name} local")
         ax.plot(t, res.x[run, :, j], color="k", lw=1.3, label=f"fused ({method})")
         if not fault_free:
-            _shade(ax, sc)
+            _shade_faults(ax, sc)
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     axs[0].legend(fontsize=7, ncol=2)
@@ -78,14 +73,14 @@ def method_error_figure(sr, methods: Sequence[str], quantity: str = "position",
             e = pool[name].x[:, :, sl][:, :, j]
             ax.plot(t, np.sqrt(np.mean(e ** 2, 0)), lw=0.9, label=name)
         if not fault_free:
-            _shade(ax, sc)
+            _shade_faults(ax, sc)
         ax.set_ylabel(f"{_AXES[j]} [{unit}]")
         ax.set_yscale("log")
         ax.grid(alpha=0.3, which="both")
     axs[0].legend(fontsize=8)
     axs[-1].set_xlabel("time [s]")
     fig.suptitle(f"{sc.name}: {quantity} error, RMS over {sr.runs} runs "
-                 f"(shaded: anomaly windows)")
+                 f"(shaded: fault windows)")
     fig.tight_layout()
     return fig
 
@@ -114,7 +109,7 @@ def vb_noise_figure(sr, method: str, sensor: str = "gnss"):
             if white is not None:
                 ax.plot(t, white[j] * scale, "k--", lw=1.0,
                         label="true σ" if j == rows[0] else None)
-        _shade(ax, sc, sensor)
+        _shade_faults(ax, sc, sensor=sensor)
         ax.set_ylabel(title)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, ncol=2)

@@ -235,7 +235,7 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics], local)
             name in result.fault_free:
         t = sc.times
         w = t >= sc.evaluation.skip_initial
-        pos = local[name].pos[:, w]  # fault-free? local tracks of the faulty run
+        pos = local[name].pos[:, w]  # local tracks of the run with faults
         loc_h = {s: float(np.sqrt(np.mean(pos[:, :, i, 0] ** 2 + pos[:, :, i, 1] ** 2)))
                  for i, s in enumerate(sc.sensor_names)}
         ff = result.fault_free[name].x[:, w]

@@ -107,13 +107,11 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
     B = len(runs)
     imu = simulate_imu_errors(traj.dtheta[:n_imu], traj.dv[:n_imu], traj.dt, sc.imu, seed,
                               runs.start, runs=B)
-    dtheta, dv = imu.dtheta, imu.dv
+    dtheta, dv = imu.dtheta, imu.dv  # fresh arrays of this call: faults are added in place
     t_imu = traj.dt * np.arange(1, n_imu + 1)  # end time of each IMU interval
     for f in sc.faults:
         if f.sensor == SINS and f.kind == "gyro-bias":
-            w = _window(t_imu, f)
-            dtheta = dtheta.copy() if dtheta is imu.dtheta else dtheta
-            dtheta[:, w] += np.asarray(f.magnitude) * traj.dt
+            dtheta[:, _window(t_imu, f)] += np.asarray(f.magnitude) * traj.dt
     truth = epoch_truth(traj, n, K)
     init = np.stack([np.random.default_rng(np.random.SeedSequence(
         seed, spawn_key=(r, _INIT_STREAM))).standard_normal(18) for r in runs]) * \

@@ -18,7 +18,7 @@ East/North/Up in arcmin.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal, NamedTuple
 
 import numpy as np
@@ -158,5 +158,4 @@ class InsScenario:
         return fault_window_mask(self.times, self.faults, sensor, detectable_only)
 
     def without_faults(self) -> InsScenario:
-        from dataclasses import replace
         return replace(self, faults=())
