@@ -82,3 +82,17 @@ def test_attitude_error_sign_convention():
     phi = np.array([2e-4, -1e-4, 3e-4])
     C_est = (np.eye(3) - at.skew(phi)) @ C  # spec §0 definition
     np.testing.assert_allclose(at.attitude_error(C_est, C), phi, rtol=1e-3)
+
+
+def test_quaternion_attitude_error_equals_the_dcm_form():
+    """``quat_attitude_error`` is ``attitude_error`` of the two DCMs, up to angles near π."""
+    rng = np.random.default_rng(4)
+    q_true = at.euler_to_quat(rng.uniform(-3, 3, (50, 3)))
+    u = rng.standard_normal((50, 3))
+    r = u / np.linalg.norm(u, axis=1, keepdims=True) * np.geomspace(1e-9, 3.0, 50)[:, None]
+    q_est = at.quat_mul(at.rotvec_to_quat(-r), q_true)  # C̃ = exp(−[r×]) C
+    q_est[::2] *= -1.0  # the sign of a quaternion does not matter
+    phi = at.quat_attitude_error(q_est, q_true)
+    np.testing.assert_allclose(phi, r, rtol=1e-9, atol=1e-15)
+    ref = at.attitude_error(at.quat_to_dcm(q_est), at.quat_to_dcm(q_true))
+    np.testing.assert_allclose(phi, ref, rtol=1e-7, atol=1e-14)

@@ -213,3 +213,34 @@ def test_nis_matches_explicit_formula():
     nu = rng.standard_normal((6, 3))
     ref = np.einsum("bi,bij,bj->b", nu, np.linalg.inv(S), nu)
     np.testing.assert_allclose(kf.nis(nu, S), ref, rtol=1e-10)
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_prior_nis_matches_the_explicit_formula_and_the_update(shared):
+    """``prior_nis`` (one compiled pass) = ``νᵀ S⁻¹ ν`` formed explicitly = ``update``'s NIS."""
+    rng = np.random.default_rng(12)
+    B, n, m = 7, 6, 3
+    x = rng.standard_normal((B, n))
+    P = random_spd(rng, (B,), n)
+    z = rng.standard_normal((B, m))
+    H = rng.standard_normal((m, n) if shared else (B, m, n))
+    R = random_spd(rng, () if shared else (B,), m)
+    nu = z - kf.mv(H, x)
+    S = H @ P @ kf.mT(H) + R
+    ref = np.einsum("bi,bij,bj->b", nu, np.linalg.inv(S), nu)
+    got = kf.prior_nis(x, P, z, H, R)
+    np.testing.assert_allclose(got, ref, rtol=1e-10)
+    np.testing.assert_allclose(got, kf.update(x, P, z, H, R).nis, rtol=1e-10)
+
+
+def test_prior_nis_and_spd_inv_fall_back_where_cholesky_fails():
+    rng = np.random.default_rng(13)
+    x, P = rng.standard_normal((3, 2)), np.broadcast_to(np.eye(2), (3, 2, 2)).copy()
+    R = np.broadcast_to(np.eye(2), (3, 2, 2)).copy()
+    R[1] = np.diag([-3.0, 1.0])  # S = P + R = diag(-2, 2): indefinite
+    z = rng.standard_normal((3, 2))
+    nu = z - x
+    ref = np.einsum("bi,bij,bj->b", nu, np.linalg.inv(P + R), nu)
+    np.testing.assert_allclose(kf.prior_nis(x, P, z, np.eye(2), R), ref, rtol=1e-12)
+    A = P + R
+    np.testing.assert_allclose(spd_inv(A), np.linalg.inv(A), rtol=1e-12)

@@ -15,12 +15,13 @@ from __future__ import annotations
 
 from math import factorial
 
+import numba
 import numpy as np
 from scipy.linalg import expm
 
 from ftnav.core.kalman import mT, symmetrize
 
-__all__ = ["van_loan", "series", "markov_discrete"]
+__all__ = ["van_loan", "series", "series_reference", "series_row", "markov_discrete"]
 
 
 def _check(F, GQGt, T):
@@ -74,7 +75,8 @@ def series(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5) -> tuple[np.ndarr
     ``Φ = Σ_{j=0}^{order} (F T)^j / j!`` and ``Q_k = Σ_{j=1}^{order} M_j T^j / j!`` with
     ``M_1 = G q Gᵀ`` and ``M_{j+1} = F M_j + (F M_j)ᵀ`` (symmetrized).  Order 5 at
     T = 1 s matches Van Loan to Φ < 1e-10 and Q < 1e-4 relative on the 18-state
-    SINS model (spec §8.6 f); ``order=1`` gives ``Φ = I + F T``, ``Q = G q Gᵀ T``.
+    SINS model (spec §8.6 f); ``order=1`` gives ``Φ = I + F T``, ``Q = G q Gᵀ T``.  One compiled loop over the batch;
+    :func:`series_reference` is the plain NumPy form (its test oracle).
 
     Parameters
     ----------
@@ -88,6 +90,74 @@ def series(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5) -> tuple[np.ndarr
     Phi : (..., n, n) transition matrix.
     Q : (..., n, n) discrete process-noise covariance.
     """
+    F, GQGt, T, batch = _check(F, GQGt, T)
+    if int(order) != order or order < 1:
+        raise ValueError(f"order must be an integer ≥ 1, got {order}")
+    n = F.shape[-1]
+    Ff = np.ascontiguousarray(np.broadcast_to(F, batch + (n, n))).reshape(-1, n, n)
+    Gf = np.ascontiguousarray(np.broadcast_to(GQGt, batch + (n, n))).reshape(-1, n, n)
+    Tf = np.ascontiguousarray(np.broadcast_to(T[..., 0, 0], batch)).reshape(-1)
+    Phi, Q = np.empty_like(Ff), np.empty_like(Ff)
+    _series_rows(Ff, Gf, Tf, int(order), Phi, Q)
+    return Phi.reshape(batch + (n, n)), Q.reshape(batch + (n, n))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def series_row(F, GQGt, T, order, Phi, Q, X, nxt, Mj, FM):  # pragma: no cover - compiled
+    """:func:`series` of one model (n, n) into ``Phi``, ``Q``; X … FM are (n, n) scratch.
+
+    ``Φ`` by Horner, ``X ← I + (F T / j) X`` for j = order … 1, so every product has
+    the sparse F on the left (its zeros are skipped); the same sum as the series.
+    """
+    n = F.shape[0]
+    for i in range(n):
+        for j in range(n):
+            X[i, j] = 1.0 if i == j else 0.0
+            Mj[i, j] = GQGt[i, j]
+            Q[i, j] = GQGt[i, j] * T
+    for k in range(order, 0, -1):  # X ← I + (F T / k) X
+        for i in range(n):
+            for j in range(n):
+                nxt[i, j] = 1.0 if i == j else 0.0
+            for p in range(n):
+                a = F[i, p]
+                if a != 0.0:
+                    a *= T / k
+                    for j in range(n):
+                        nxt[i, j] += a * X[p, j]
+        X[:, :] = nxt
+    Phi[:, :] = X
+    coef = T
+    for k in range(2, order + 1):  # M ← F M + (F M)ᵀ, Q += M T^k / k!
+        coef *= T / k
+        FM[:, :] = 0.0
+        for i in range(n):
+            for p in range(n):
+                a = F[i, p]
+                if a != 0.0:
+                    for j in range(n):
+                        FM[i, j] += a * Mj[p, j]
+        for i in range(n):
+            for j in range(n):
+                Mj[i, j] = FM[i, j] + FM[j, i]
+                Q[i, j] += Mj[i, j] * coef
+    for i in range(n):  # symmetrize
+        for j in range(i):
+            v = 0.5 * (Q[i, j] + Q[j, i])
+            Q[i, j] = v
+            Q[j, i] = v
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _series_rows(F, GQGt, T, order, Phi, Q):  # pragma: no cover - compiled
+    n = F.shape[1]
+    X, nxt, Mj, FM = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    for b in range(F.shape[0]):
+        series_row(F[b], GQGt[b], T[b], order, Phi[b], Q[b], X, nxt, Mj, FM)
+
+
+def series_reference(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """Plain NumPy form of :func:`series` (the compiled kernel's test oracle)."""
     F, GQGt, T, batch = _check(F, GQGt, T)
     if int(order) != order or order < 1:
         raise ValueError(f"order must be an integer ≥ 1, got {order}")

@@ -21,6 +21,7 @@ import numpy as np
 from ftnav.core.linalg import (
     flat,
     fuse_kernel,
+    nis_kernel,
     predict_kernel,
     spd_inv,
     spd_solve,
@@ -33,6 +34,7 @@ __all__ = [
     "symmetrize",
     "mT",
     "mv",
+    "prior_nis",
     "predict",
     "update",
     "nis",
@@ -159,6 +161,31 @@ def update_reference(x, P, z, H, R) -> Update:
     return Update(x_post, P_post, nu, S, nis(nu, S))
 
 
+
+
+def prior_nis(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray,
+              R: np.ndarray) -> np.ndarray:
+    """NIS of ``z`` against the prior ``(x, P)``: ``νᵀ S⁻¹ ν``, ``ν = z − H x``,
+    ``S = H P Hᵀ + R`` (spec §3.1), shape (...); one compiled pass, no update.
+
+    Shapes as in :func:`update`.  Where ``S`` is not numerically SPD the value is
+    computed by :func:`nis` with an LU solve.
+    """
+    n, m = x.shape[-1], z.shape[-1]
+    batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
+                                R.shape[:-2])
+    xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
+    Hf, Rf = flat(H, batch, (m, n), True), flat(R, batch, (m, m), True)
+    q = np.empty(xf.shape[0])
+    ok = nis_kernel(xf, Pf, zf, Hf, Rf, q)
+    if not ok.all():
+        bad = ~ok
+        Hb = Hf[bad] if Hf.shape[0] > 1 else Hf[0]
+        Rb = Rf[bad] if Rf.shape[0] > 1 else Rf[0]
+        nu = zf[bad] - mv(Hb, xf[bad])
+        S = symmetrize(Hb @ Pf[bad] @ mT(Hb) + Rb)
+        q[bad] = np.einsum("...i,...i->...", nu, np.linalg.solve(S, nu[..., None])[..., 0])
+    return q.reshape(batch)
 
 
 def nis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:

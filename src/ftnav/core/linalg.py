@@ -21,7 +21,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["spd_solve", "spd_inv", "predict_kernel", "update_kernel", "fuse_kernel", "flat"]
+__all__ = ["spd_solve", "spd_inv", "predict_kernel", "update_kernel", "nis_kernel",
+           "fuse_kernel", "flat"]
 
 #: compile options of every kernel: cached, GIL released, NumPy error model
 #: (no zero-division checks; a failed Cholesky is detected explicitly instead)
@@ -34,8 +35,10 @@ PARALLEL_MIN = 64
 
 def _n_chunks(M: int) -> int:
     """Chunks of a batch of M for the thread pool (a few per thread); 0 = run serially."""
+    if M < PARALLEL_MIN:
+        return 0
     threads = numba.get_num_threads()
-    return 0 if M < PARALLEL_MIN or threads == 1 else min(M, 4 * threads)
+    return 0 if threads == 1 else min(M, 4 * threads)
 
 
 def _run_batch(rows, par, M: int, *args) -> None:
@@ -110,10 +113,7 @@ def spd_solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """
     shape = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
     n, k = A.shape[-1], B.shape[-1]
-    A3 = np.ascontiguousarray(np.broadcast_to(A, shape + (n, n)), dtype=np.float64).reshape(
-        -1, n, n)
-    B3 = np.ascontiguousarray(np.broadcast_to(B, shape + (n, k)), dtype=np.float64).reshape(
-        -1, n, k)
+    A3, B3 = flat(A, shape, (n, n)), flat(B, shape, (n, k))
     if n == 1:
         return (B3 / A3).reshape(shape + (n, k))
     out = np.empty_like(B3)
@@ -124,11 +124,49 @@ def spd_solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return out.reshape(shape + (n, k))
 
 
+@numba.njit(**_JIT)
+def _inv_rows(lo, hi, A, out, ok):  # pragma: no cover - compiled
+    n = A.shape[1]
+    L = np.empty((n, n))
+    Li = np.zeros((n, n))
+    for b in range(lo, hi):
+        if not _chol(A[b], L):
+            ok[b] = False
+            continue
+        _tri_inv(L, Li)
+        for i in range(n):  # A⁻¹ = L⁻ᵀ L⁻¹, lower triangle mirrored
+            for j in range(i + 1):
+                s = 0.0
+                for p in range(i, n):
+                    s += Li[p, i] * Li[p, j]
+                out[b, i, j] = s
+                out[b, j, i] = s
+
+
+@numba.njit(parallel=True, **_JIT)
+def _inv_par(C, A, out, ok):  # pragma: no cover - compiled
+    M = A.shape[0]
+    for c in numba.prange(C):
+        _inv_rows(c * M // C, (c + 1) * M // C, A, out, ok)
+
+
 def spd_inv(A: np.ndarray) -> np.ndarray:
-    """Inverse of SPD ``A (..., n, n)``, symmetrized."""
+    """Inverse of SPD ``A (..., n, n)``, symmetric by construction.
+
+    ``A⁻¹ = L⁻ᵀ L⁻¹`` from the compiled Cholesky factor; a matrix whose factorization
+    fails falls back to LU (``numpy.linalg.inv``), symmetrized.
+    """
     n = A.shape[-1]
-    X = spd_solve(A, np.broadcast_to(np.eye(n), A.shape))
-    return 0.5 * (X + np.swapaxes(X, -1, -2))
+    batch = A.shape[:-2]
+    A3 = flat(A, batch, (n, n))
+    out = np.empty_like(A3)
+    ok = np.ones(A3.shape[0], dtype=np.bool_)
+    _run_batch(_inv_rows, _inv_par, A3.shape[0], A3, out, ok)
+    if not ok.all():
+        bad = ~ok
+        X = np.linalg.inv(A3[bad])
+        out[bad] = 0.5 * (X + np.swapaxes(X, -1, -2))
+    return out.reshape(A.shape)
 
 
 @numba.njit(**_JIT)
@@ -287,6 +325,65 @@ def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):
     return ok
 
 
+@numba.njit(**_JIT)
+def _nis_rows(lo, hi, x, P, z, H, R, nis_out, ok):  # pragma: no cover - compiled
+    n = x.shape[1]
+    m = z.shape[1]
+    PHt = np.empty((n, m))
+    S = np.empty((m, m))
+    L = np.empty((m, m))
+    nu = np.empty(m)
+    w = np.empty(m)
+    for b in range(lo, hi):
+        h = b if H.shape[0] > 1 else 0
+        e = b if R.shape[0] > 1 else 0
+        for i in range(n):
+            for c in range(m):
+                s = 0.0
+                for p in range(n):
+                    s += P[b, i, p] * H[h, c, p]
+                PHt[i, c] = s
+        for r in range(m):
+            s = z[b, r]
+            for p in range(n):
+                s -= H[h, r, p] * x[b, p]
+            nu[r] = s
+            for c in range(r + 1):  # lower triangle of the symmetrized S
+                s = 0.5 * (R[e, r, c] + R[e, c, r])
+                for p in range(n):
+                    s += 0.5 * (H[h, r, p] * PHt[p, c] + H[h, c, p] * PHt[p, r])
+                S[r, c] = s
+        if not _chol(S, L):
+            ok[b] = False
+            continue
+        q = 0.0
+        for r in range(m):  # |L⁻¹ ν|²
+            s = nu[r]
+            for p in range(r):
+                s -= L[r, p] * w[p]
+            w[r] = s / L[r, r]
+            q += w[r] * w[r]
+        nis_out[b] = q
+
+
+@numba.njit(parallel=True, **_JIT)
+def _nis_par(C, x, P, z, H, R, nis_out, ok):  # pragma: no cover - compiled
+    M = x.shape[0]
+    for c in numba.prange(C):
+        _nis_rows(c * M // C, (c + 1) * M // C, x, P, z, H, R, nis_out, ok)
+
+
+def nis_kernel(x, P, z, H, R, nis_out):
+    """``νᵀ S⁻¹ ν`` with ``ν = z − H x``, ``S = H P Hᵀ + R`` for flat batches.
+
+    Returns False where S is not numerically SPD (the caller falls back).
+    """
+    M = x.shape[0]
+    ok = np.ones(M, dtype=np.bool_)
+    _run_batch(_nis_rows, _nis_par, M, x, P, z, H, R, nis_out, ok)
+    return ok
+
+
 def flat(a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...],
          shared: bool = False) -> np.ndarray:
     """View ``a`` as ``(prod(batch),) + core`` float64 (broadcasting it to ``batch``).
@@ -296,6 +393,8 @@ def flat(a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...],
     """
     if shared and a.ndim == len(core):
         return np.ascontiguousarray(a, dtype=np.float64).reshape((1,) + core)
+    if a.shape == batch + core and a.dtype == np.float64 and a.flags.c_contiguous:
+        return a.reshape((-1,) + core)  # fast path: nothing to broadcast or copy
     return np.ascontiguousarray(np.broadcast_to(a, batch + core), dtype=np.float64).reshape(
         (-1,) + core)
 

@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ftnav.core.kalman import Update, mT, mv, nis, symmetrize
-from ftnav.core.linalg import spd_solve
+from ftnav.core.kalman import Update, mT, mv, update
 
 __all__ = ["vb_predict", "vb_update", "noise_estimate"]
 
@@ -57,8 +56,6 @@ def vb_update(
         ``"literal"``; a plain KF with this R reproduces the update (spec §6.4).
     """
     alpha_post = alpha + 0.5
-    n = x.shape[-1]
-    I = np.eye(n)
     if variant == "literal":
         nu = z - mv(H, x)
         hph = np.diagonal(H @ P @ mT(H), axis1=-2, axis2=-1)
@@ -71,15 +68,9 @@ def vb_update(
         raise ValueError(f"vb variant: unknown value {variant!r} (expected 'sarkka' or 'literal')")
     for _ in range(iterations):
         R = noise_estimate(alpha_post, beta_iter)
-        nu = z - mv(H, x)
-        PHt = P @ mT(H)
-        S = symmetrize(H @ PHt + R)
-        K = mT(spd_solve(S, mT(PHt)))
-        x_post = x + mv(K, nu)
-        A = I - K @ H
-        P_post = symmetrize(A @ P @ mT(A) + K @ R @ mT(K))
+        up = update(x, P, z, H, R)  # Joseph form with this iteration's R (compiled)
         if variant == "sarkka":
-            res = z - mv(H, x_post)
-            hph = np.diagonal(H @ P_post @ mT(H), axis1=-2, axis2=-1)
+            res = z - mv(H, up.x)
+            hph = np.einsum("...ij,...jk,...ik->...i", H, up.P, H)
             beta_iter = beta + 0.5 * res**2 + 0.5 * hph
-    return Update(x_post, P_post, nu, S, nis(nu, S)), alpha_post, beta_iter, R
+    return up, alpha_post, beta_iter, R

@@ -125,7 +125,7 @@ def initial_ins_state(data: InsData) -> InsState:
 
 def ins_errors(q, v, p, q_true, v_true, p_true) -> np.ndarray:
     """(B, 9) true navigation error states ``[φ, δv, δL δλ δh]`` (spec §8.3 order)."""
-    phi = attitude.attitude_error(attitude.quat_to_dcm(q), attitude.quat_to_dcm(q_true))
+    phi = attitude.quat_attitude_error(q, q_true)
     return np.concatenate([phi, v - v_true, p - p_true], -1)
 
 

@@ -263,6 +263,4 @@ def detect(
 def residual_statistic(x, P, z, use, H, R):
     """NIS of a prior (B, n), (B, n, n) against z (B, m); 0 where not used."""
     z0 = np.where(use[:, None], z, 0.0)
-    nu = z0 - kf.mv(H, x)
-    S = kf.symmetrize(H @ P @ kf.mT(H) + R)
-    return np.where(use, kf.nis(nu, S), 0.0)
+    return np.where(use, kf.prior_nis(x, P, z0, H, R), 0.0)

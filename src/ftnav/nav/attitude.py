@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 __all__ = [
     "skew", "euler_to_dcm", "dcm_to_euler", "dcm_to_quat", "quat_to_dcm", "euler_to_quat",
     "quat_to_euler", "quat_mul", "quat_conj", "rotvec_to_quat", "quat_to_rotvec",
-    "attitude_error", "heading_deg", "wrap_angle",
+    "attitude_error", "quat_attitude_error", "heading_deg", "wrap_angle",
 ]
 
 
@@ -148,6 +148,15 @@ def attitude_error(C_est: np.ndarray, C_true: np.ndarray) -> np.ndarray:
     D = np.swapaxes(C_est @ np.swapaxes(C_true, -1, -2), -1, -2)
     f, batch = _flat(D, (3, 3))
     return Rotation.from_matrix(f).as_rotvec().reshape(batch + (3,))
+
+
+def quat_attitude_error(q_est: np.ndarray, q_true: np.ndarray) -> np.ndarray:
+    """:func:`attitude_error` of the attitudes of two quaternions ``q_b^n`` (…, 4).
+
+    ``C_true C̃ᵀ`` is the DCM of ``q_true ⊗ q̃*``, so φ is that quaternion's rotation
+    vector; no DCM is formed (this runs at every epoch of the closed-loop runner).
+    """
+    return quat_to_rotvec(quat_mul(q_true, quat_conj(q_est)))
 
 
 def heading_deg(psi: np.ndarray) -> np.ndarray:

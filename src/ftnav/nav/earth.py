@@ -95,3 +95,4 @@ def enu_metres(p_est, p_true):
 # compiled scalar forms for the mechanization kernel
 radii_nb = numba.njit(cache=True)(radii)
 gravity_nb = numba.njit(cache=True)(gravity)
+gravity_gradient_nb = numba.njit(cache=True)(gravity_gradient)

@@ -38,11 +38,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
+import numba
 import numpy as np
 
-from ftnav.core.discretize import series, van_loan
+from ftnav.core.discretize import series, series_row, van_loan
 from ftnav.nav.attitude import skew
-from ftnav.nav.earth import OMEGA_IE, gravity_gradient, omega_en_n, omega_ie_n, radii
+from ftnav.nav.earth import (
+    OMEGA_IE,
+    gravity_gradient,
+    gravity_gradient_nb,
+    omega_en_n,
+    omega_ie_n,
+    radii,
+    radii_nb,
+)
 
 __all__ = [
     "STATES_18", "STATES_15", "ErrorModelParams", "ContinuousModel", "NavState",
@@ -249,6 +258,10 @@ def continuous_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams) -> C
     ``F_vp = [v×](2M1 + M2) + F_g`` etc. as printed in spec §8.3 (PSINS ``etm.m``).
     The blocks neglect ∂R_M/∂L and ∂R_N/∂L (an O(e²) effect, spec §8.6 c).
 
+    Built by one compiled loop over the batch (it runs at every filter epoch of the
+    closed-loop runner); :func:`continuous_model_reference` is the same model in
+    plain NumPy, its test oracle.
+
     Parameters
     ----------
     L, lam, h : (...) latitude (rad), longitude (rad, unused), height (m).
@@ -261,6 +274,145 @@ def continuous_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams) -> C
     -------
     ContinuousModel with ``F`` (..., n, n), ``G`` (..., n, 12), ``q`` (12,).
     """
+    L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
+    n = params.n
+    M = int(np.prod(batch))
+    F, G = np.zeros((M, n, n)), np.zeros((M, n, 12))
+    _model_rows(*_flat_inputs(L, h, v, f_b, C, M), params.bias_frame == "body", n,
+                np.asarray(params.gyro_markov_tau, float),
+                np.asarray(params.accel_markov_tau, float), F, G)
+    return ContinuousModel(F.reshape(batch + (n, n)), G.reshape(batch + (n, 12)),
+                           params.noise_psd)
+
+
+def _flat_inputs(L, h, v, f_b, C, M):
+    return (np.ascontiguousarray(L, float).reshape(M), np.ascontiguousarray(h, float).reshape(M),
+            np.ascontiguousarray(v, float).reshape(M, 3),
+            np.ascontiguousarray(f_b, float).reshape(M, 3),
+            np.ascontiguousarray(C, float).reshape(M, 3, 3))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _skew_into(F, r, c, sign, a0, a1, a2):  # pragma: no cover - compiled
+    """``F[r:r+3, c:c+3] += sign·[a×]``."""
+    F[r, c + 1] += -sign * a2
+    F[r, c + 2] += sign * a1
+    F[r + 1, c] += sign * a2
+    F[r + 1, c + 2] += -sign * a0
+    F[r + 2, c] += -sign * a1
+    F[r + 2, c + 1] += sign * a0
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _model_row(L, h, v, f_b, C, body, n, tau_g, tau_a, F, G):  # pragma: no cover
+    """F (n, n) and G (n, 12) of :func:`continuous_model` at one INS solution (zeroed)."""
+    Fav = np.zeros((3, 3))
+    Fap = np.zeros((3, 3))
+    Fvp = np.zeros((3, 3))
+    Cb = np.zeros((3, 3))
+    if True:
+        s, c = np.sin(L), np.cos(L)
+        t = s / c
+        RMh, RNh = radii_nb(L, h)
+        vE, vN, vU = v[0], v[1], v[2]
+        wie = (0.0, OMEGA_IE * c, OMEGA_IE * s)
+        wen = (-vN / RMh, vE / RNh, vE * t / RNh)
+        dgdL, dgdh = gravity_gradient_nb(L, h)
+        fn = np.zeros(3)
+        for i in range(3):
+            for j in range(3):
+                fn[i] += C[i, j] * f_b[j]
+                Cb[i, j] = C[i, j] if body else (1.0 if i == j else 0.0)
+        # F_av, M1 + M2 (F_ap) and F_vp = [v×](2 M1 + M2) + F_g
+        Fav[:] = 0.0
+        Fav[0, 1] = -1.0 / RMh
+        Fav[1, 0] = 1.0 / RNh
+        Fav[2, 0] = t / RNh
+        m1 = np.zeros((3, 3))
+        m1[1, 0] = -OMEGA_IE * s
+        m1[2, 0] = OMEGA_IE * c
+        m2 = np.zeros((3, 3))
+        m2[0, 2] = vN / RMh**2
+        m2[1, 2] = -vE / RNh**2
+        m2[2, 0] = vE / (RNh * c**2)
+        m2[2, 2] = -vE * t / RNh**2
+        Vx = np.array([[0.0, -vU, vN], [vU, 0.0, -vE], [-vN, vE, 0.0]])
+        for i in range(3):
+            for j in range(3):
+                Fap[i, j] = m1[i, j] + m2[i, j]
+                a = 0.0
+                d = 0.0
+                for p in range(3):
+                    a += Vx[i, p] * (2.0 * m1[p, j] + m2[p, j])
+                    d += Vx[i, p] * Fav[p, j]
+                Fvp[i, j] = a
+                F[0 + i, 3 + j] = Fav[i, j]
+                F[0 + i, 6 + j] = Fap[i, j]
+                F[3 + i, 3 + j] = d
+        Fvp[2, 0] += -dgdL
+        Fvp[2, 2] += -dgdh
+        for i in range(3):
+            for j in range(3):
+                F[3 + i, 6 + j] = Fvp[i, j]
+        _skew_into(F, 0, 0, -1.0, wie[0] + wen[0], wie[1] + wen[1], wie[2] + wen[2])
+        _skew_into(F, 3, 0, 1.0, fn[0], fn[1], fn[2])
+        _skew_into(F, 3, 3, -1.0, 2.0 * wie[0] + wen[0], 2.0 * wie[1] + wen[1],
+                   2.0 * wie[2] + wen[2])
+        F[6, 4] = 1.0 / RMh
+        F[7, 3] = 1.0 / (RNh * c)
+        F[8, 5] = 1.0
+        F[6, 8] = -vN / RMh**2
+        F[7, 6] = vE * t / (RNh * c)
+        F[7, 8] = -vE / (RNh**2 * c)
+        for i in range(3):
+            for j in range(3):
+                F[i, 9 + j] = -Cb[i, j]
+                G[i, j] = -Cb[i, j]
+                G[3 + i, 3 + j] = Cb[i, j]
+                if n == 18:
+                    F[i, 12 + j] = -Cb[i, j]
+                    F[3 + i, 15 + j] = Cb[i, j]
+                else:
+                    F[3 + i, 12 + j] = Cb[i, j]
+            if n == 18:
+                F[12 + i, 12 + i] = -1.0 / tau_g[i]
+                F[15 + i, 15 + i] = -1.0 / tau_a[i]
+                G[12 + i, 6 + i] = 1.0
+                G[15 + i, 9 + i] = 1.0
+            else:
+                G[9 + i, 6 + i] = 1.0
+                G[12 + i, 9 + i] = 1.0
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _model_rows(L, h, v, f_b, C, body, n, tau_g, tau_a, F, G):  # pragma: no cover
+    for b in range(L.shape[0]):
+        _model_row(L[b], h[b], v[b], f_b[b], C[b], body, n, tau_g, tau_a, F[b], G[b])
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _discrete_rows(L, h, v, f_b, C, body, n, tau_g, tau_a, q, T, order, Phi,
+                   Q):  # pragma: no cover - compiled
+    """Φ, Q (M, n, n) of :func:`discrete_model` with ``method="series"``, one loop."""
+    F, G, GQGt = np.empty((n, n)), np.empty((n, 12)), np.empty((n, n))
+    X, nxt, Mj, FM = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
+    for b in range(L.shape[0]):
+        F[:, :] = 0.0
+        G[:, :] = 0.0
+        _model_row(L[b], h[b], v[b], f_b[b], C[b], body, n, tau_g, tau_a, F, G)
+        for i in range(n):
+            for j in range(i + 1):
+                acc = 0.0
+                for w in range(12):
+                    acc += G[i, w] * q[w] * G[j, w]
+                GQGt[i, j] = acc
+                GQGt[j, i] = acc
+        series_row(F, GQGt, T, order, Phi[b], Q[b], X, nxt, Mj, FM)
+
+
+def continuous_model_reference(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams
+                               ) -> ContinuousModel:
+    """Plain NumPy form of :func:`continuous_model` (the compiled kernel's test oracle)."""
     L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
     n = params.n
     f_n = (C @ f_b[..., None])[..., 0]
@@ -311,10 +463,22 @@ def discrete_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams, T: flo
     """
     if method not in ("van-loan", "series"):
         raise ValueError(f"method must be 'van-loan' or 'series', got {method!r}")
-    m = continuous_model(L, lam, h, v_enu, f_b, C_bn, params)
     if method == "van-loan":
+        m = continuous_model(L, lam, h, v_enu, f_b, C_bn, params)
         return van_loan(m.F, m.GQGt, T)
-    return series(m.F, m.GQGt, T, order)
+    T = float(T)
+    if not np.isfinite(T) or T <= 0.0:
+        raise ValueError("T must be positive and finite")
+    if int(order) != order or order < 1:
+        raise ValueError(f"order must be an integer ≥ 1, got {order}")
+    L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
+    n, M = params.n, int(np.prod(batch))
+    Phi, Q = np.empty((M, n, n)), np.empty((M, n, n))
+    _discrete_rows(*_flat_inputs(L, h, v, f_b, C, M), params.bias_frame == "body", n,
+                   np.asarray(params.gyro_markov_tau, float),
+                   np.asarray(params.accel_markov_tau, float), params.noise_psd, float(T),
+                   int(order), Phi, Q)
+    return Phi.reshape(batch + (n, n)), Q.reshape(batch + (n, n))
 
 
 @dataclass(frozen=True, slots=True)
