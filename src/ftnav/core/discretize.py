@@ -75,8 +75,9 @@ def series(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5) -> tuple[np.ndarr
     ``Φ = Σ_{j=0}^{order} (F T)^j / j!`` and ``Q_k = Σ_{j=1}^{order} M_j T^j / j!`` with
     ``M_1 = G q Gᵀ`` and ``M_{j+1} = F M_j + (F M_j)ᵀ`` (symmetrized).  Order 5 at
     T = 1 s matches Van Loan to Φ < 1e-10 and Q < 1e-4 relative on the 18-state
-    SINS model (spec §8.6 f); ``order=1`` gives ``Φ = I + F T``, ``Q = G q Gᵀ T``.  One compiled loop over the batch;
-    :func:`series_reference` is the plain NumPy form (its test oracle).
+    SINS model (spec §8.6 f); ``order=1`` gives ``Φ = I + F T``, ``Q = G q Gᵀ T``.
+    One compiled loop over the batch; :func:`series_reference` is the plain NumPy
+    form (its test oracle).
 
     Parameters
     ----------
@@ -156,7 +157,8 @@ def _series_rows(F, GQGt, T, order, Phi, Q):  # pragma: no cover - compiled
         series_row(F[b], GQGt[b], T[b], order, Phi[b], Q[b], X, nxt, Mj, FM)
 
 
-def series_reference(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5) -> tuple[np.ndarray, np.ndarray]:
+def series_reference(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Plain NumPy form of :func:`series` (the compiled kernel's test oracle)."""
     F, GQGt, T, batch = _check(F, GQGt, T)
     if int(order) != order or order < 1:

@@ -41,7 +41,7 @@ from typing import Literal, NamedTuple
 import numba
 import numpy as np
 
-from ftnav.core.discretize import series, series_row, van_loan
+from ftnav.core.discretize import series_row, van_loan
 from ftnav.nav.attitude import skew
 from ftnav.nav.earth import (
     OMEGA_IE,
