@@ -38,7 +38,8 @@ from ftnav.sim.ins_data import InsData, simulate_ins
 from ftnav.sim.ins_scenario import InsScenario
 from ftnav.sim.scenario import LinearModel, Sensor
 
-__all__ = ["build_ins_system", "run_ins_scenario", "run_ins_methods", "IntegratedSimulation",
+__all__ = ["build_ins_system", "run_ins_scenario", "run_ins_methods", "chunk_runs",
+           "IntegratedSimulation",
            "ins_errors", "initial_ins_state"]
 
 _ARCMIN = np.pi / 180.0 / 60.0
@@ -310,18 +311,46 @@ class IntegratedResult(NamedTuple):
     local_fault_free: dict[str, LocalTrack | None]
 
 
+#: memory budget of one batch's simulated IMU increments and IMU-error truth (bytes)
+CHUNK_BYTES = 1 << 30
+
+
+def chunk_runs(sc: InsScenario, twin: bool = True) -> int:
+    """Runs per batch so the batch's IMU arrays stay within :data:`CHUNK_BYTES`.
+
+    Per run and per SINS: the increments ``dθ``, ``Δv`` and the IMU-error truth
+    (gyro and accelerometer Markov states), ``4 × 3`` float64 per 100 Hz sample; the
+    fault-free twin doubles it.  A 3600 s flight gives 15 runs per batch.
+    """
+    per_run = sc.samples_per_epoch * sc.steps * 12 * 8 * (2 if twin else 1)
+    return max(1, CHUNK_BYTES // per_run)
+
+
 def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
                      fault_free: bool = True, first_run: int = 0,
                      progress: Callable[[int], None] | None = None,
-                     check_spd: bool = False) -> IntegratedResult:
+                     check_spd: bool = False, chunk: int | None = None) -> IntegratedResult:
     """Simulate and run every method closed-loop; with faults, also the fault-free twin.
 
     The fault-free twin draws the same random streams with the faults removed and
     runs in the same batch (2·runs), as in :func:`ftnav.eval.montecarlo.run_scenario`.
+    Runs are processed in batches of ``chunk`` (default :func:`chunk_runs`, which
+    bounds the memory of the simulated IMU data); every run draws its own random
+    streams, so the results do not depend on the batching.  The simulated data are
+    kept in ``result.simulation.data`` when everything ran as one batch, else None.
     """
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
     methods = sc.methods if methods is None else methods
+    chunk = chunk_runs(sc, fault_free and bool(sc.faults)) if chunk is None else int(chunk)
+    if chunk < 1:
+        raise ValueError(f"chunk: must be >= 1, got {chunk}")
+    if runs > chunk:
+        parts = [run_ins_scenario(sc, min(chunk, runs - s), seed, methods=methods,
+                                  fault_free=fault_free, first_run=first_run + s,
+                                  progress=progress, check_spd=check_spd, chunk=chunk)
+                 for s in range(0, runs, chunk)]
+        return _merge_chunks(parts, runs)
     system = build_ins_system(sc)
     filters = {m.name: build_filter(system, m) for m in methods}
     rr = range(first_run, first_run + runs)
@@ -343,6 +372,31 @@ def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
     sr = ScenarioResult(sc, runs, seed, IntegratedSimulation(zeros, data), results,
                         IntegratedSimulation(zeros) if twin else None, ff)
     return IntegratedResult(sr, local, local_ff)
+
+
+def _merge_chunks(parts: list[IntegratedResult], runs: int) -> IntegratedResult:
+    """One result from batches of consecutive runs (the run axis concatenated)."""
+    def cat(arrays):
+        first = arrays[0]
+        if first is None:
+            return None
+        if isinstance(first, tuple):
+            return tuple(cat(list(a)) for a in zip(*arrays, strict=True))
+        return np.concatenate(arrays, 0)
+
+    def methods(dicts):
+        return {name: type(dicts[0][name])(*cat([d[name] for d in dicts]))
+                if dicts[0][name] is not None else None for name in dicts[0]}
+
+    r0 = parts[0].result
+    sc = r0.scenario
+    zeros = np.zeros((runs, sc.steps, N_NAV))
+    sr = ScenarioResult(sc, runs, r0.seed, IntegratedSimulation(zeros),
+                        methods([p.result.results for p in parts]),
+                        None if r0.fault_free_simulation is None else IntegratedSimulation(zeros),
+                        methods([p.result.fault_free for p in parts]))
+    return IntegratedResult(sr, methods([p.local for p in parts]),
+                            methods([p.local_fault_free for p in parts]))
 
 
 def _concat(a: InsData, b: InsData) -> InsData:
