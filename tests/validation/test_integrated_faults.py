@@ -7,7 +7,9 @@ fault kind — bias, ramp, noise-scale, noise-ramp, outage, stuck — and then t
 covariance check on (``check_spd=True``: every fused covariance symmetric positive
 definite at every epoch, else ``FloatingPointError``): the fusion-reset federated
 filter with the residual χ² test (global prior, time-update isolation) and the
-distributed filter with VB on the GNSS.
+distributed filter with VB on the GNSS; a third, the same federated filter with a
+common-mode quorum (every aid flagged but one: the SINS failed, keep them all), runs the
+SINS fault through.
 
 Oracle: the run completes, every output is finite, and the horizontal position error
 stays bounded (< 500 m; the measured maxima are in the test messages).
@@ -70,6 +72,17 @@ sharing = "equal"
 detector = "residual-chi2"
 prior = "global"
 isolation = "time-update"
+
+[[methods]]
+name = "fkf-chi2-quorum"
+architecture = "federated"
+mode = "fusion-reset"
+sharing = "equal"
+detector = "residual-chi2"
+prior = "global"
+isolation = "time-update"
+common_mode = "keep"
+common_mode_quorum = 4
 
 [[methods]]
 name = "dkf-vb"
@@ -153,4 +166,19 @@ def test_every_fault_runs_finite_with_spd_covariances_and_bounded_error(scenario
     "fusion, and the horizontal error grows to ~6.7 km by 3600 s (never re-admitted)"))
 def test_federated_chi2_error_stays_bounded_through_the_sins_fault(results):
     h = _horizontal(results.results["fkf-chi2"])
+    assert h.max() < BOUND_M, f"max horizontal error {h.max():.1f} m"
+
+
+def test_common_mode_quorum_keeps_the_aids_through_the_sins_fault(scenario, results):
+    """Quorum 4 of 5: the gyro step flags every aid but the barometer (height only).
+
+    Before the SINS fault no aid fault flags four aids at once, so the filter is
+    bit-identical to ``fkf-chi2`` there: every genuine aid fault is still isolated.
+    """
+    plain, quorum = results.results["fkf-chi2"], results.results["fkf-chi2-quorum"]
+    before_sins = scenario.times < SINS_FAULT[0]
+    np.testing.assert_array_equal(quorum.x[:, before_sins], plain.x[:, before_sins])
+    assert (plain.flag[:, before_sins].sum(-1) < 4).all()
+    assert (plain.flag[:, ~before_sins].sum(-1) >= 4).any()  # the rule has work to do
+    h = _horizontal(quorum)
     assert h.max() < BOUND_M, f"max horizontal error {h.max():.1f} m"

@@ -287,6 +287,12 @@ BAD: list[tuple[str, Callable[[], dict], str]] = [
     ("pfa-nan", _add_method(false_alarm_probability=NAN),
      r"^methods\[2\]\.false_alarm_probability: is NaN or inf"),
     ("window-zero", _add_method(window=0), r"^methods\[2\]\.window: must be >= 1"),
+    ("quorum-without-keep", _add_method(common_mode_quorum=2),
+     r"^methods\[2\]\.common_mode_quorum: only used with common_mode = 'keep'"),
+    ("quorum-one", _add_method(common_mode="keep", common_mode_quorum=1),
+     r"^methods\[2\]\.common_mode_quorum: must be >= 2"),
+    ("quorum-above-sensors", _add_method(common_mode="keep", common_mode_quorum=4),
+     r"^methods\[2\]\.common_mode_quorum: must be <= the number of sensors \(3\)"),
     ("reset-interval-zero", _add_method(reset_interval=0), r"^methods\[2\]\.reset_interval: "),
     ("n_on-zero", _add_method(n_on=0), r"^methods\[2\]\.n_on: must be >= 1"),
     ("n_off-zero", _add_method(n_off=0), r"^methods\[2\]\.n_off: must be >= 1"),
@@ -475,6 +481,8 @@ def test_round_trip_all_options() -> None:
                          "vb_sensors": ["pos1"]})
     d["methods"].append({"name": "learned", "architecture": "neural", "model": "m.npz",
                          "uncovered": "pos1", "detector": "residual-chi2"})
+    d["methods"].append({"name": "quorum", "detector": "residual-chi2", "common_mode": "keep",
+                         "common_mode_quorum": 2})
     d["model"]["Q_true"] = [[2.0, 0, 0], [0, 0.0, 0], [0, 0, 0.0]]
     sc = parse_scenario(d)
     _assert_same(sc, parse_scenario(scenario_to_dict(sc)))

@@ -102,6 +102,10 @@ class FederatedFilter:
                 raise ValueError(f"{name}.detector: {method.detector!r} needs local priors; "
                                  "zero-reset locals have none")
         N = system.n_sensors
+        q = method.common_mode_quorum
+        if q is not None and not (method.common_mode == "keep" and 2 <= q <= N):
+            raise ValueError(f"{name}.common_mode_quorum: needs common_mode 'keep' and "
+                             f"2 <= quorum <= {N}, got {q} with {method.common_mode!r}")
         if method.sharing == "fixed" and len(method.betas) != N:
             raise ValueError(f"{name}.betas: expected {N} values, got {len(method.betas)}")
         self.system = system
@@ -244,8 +248,10 @@ class FederatedFilter:
                                     feats)
         flag = np.zeros((B, N), dtype=bool) if det_out is None else det_out.flag
         if m.common_mode == "keep" and N > 1:
-            # every aid flagged at once: the shared reference (the SINS) failed, not the aids
-            flag = flag & ~flag.all(1, keepdims=True)
+            # at least a quorum of the aids (by default every one) flagged at once: the
+            # shared reference (the SINS) failed, not the aids, so none is isolated
+            quorum = N if m.common_mode_quorum is None else m.common_mode_quorum
+            flag = flag & ~(flag.sum(1, keepdims=True) >= quorum)
 
         # ---- fusion over the active set (spec §1.3 step 3) --------------------------
         newly = state.active & flag

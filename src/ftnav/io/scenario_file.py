@@ -358,6 +358,11 @@ class MethodFile(BaseModel):
         description="federated: when every aid is flagged at once, 'isolate' them all or "
         "'keep' them (the shared SINS failed, not the aids)",
     )
+    common_mode_quorum: int | None = Field(
+        default=_d("common_mode_quorum"), ge=2,
+        description="federated, common_mode 'keep': keep every aid when at least this many "
+        "are flagged at the same epoch (default: all of them)",
+    )
 
 
 class EvaluationFile(BaseModel):
@@ -544,6 +549,13 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
     if me.model is not None and not needs_model:
         raise _fail("only used with detector = 'rbf' or architecture = 'neural'",
                     "methods", i, "model")
+    if me.common_mode_quorum is not None:
+        if me.common_mode != "keep":
+            raise _fail(f"only used with common_mode = 'keep' (common_mode is "
+                        f"{me.common_mode!r})", "methods", i, "common_mode_quorum")
+        if me.common_mode_quorum > len(sensors):
+            raise _fail(f"must be <= the number of sensors ({len(sensors)})",
+                        "methods", i, "common_mode_quorum")
     if me.mode == "rescale" and not me.reconstructed:
         raise _fail(
             "'rescale' is a reconstruction (spec §1.5); set reconstructed = true to use it",
@@ -577,6 +589,7 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
         uncovered=me.uncovered,
         isolation=me.isolation,
         common_mode=me.common_mode,
+        common_mode_quorum=me.common_mode_quorum,
     )
 
 

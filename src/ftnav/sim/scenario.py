@@ -147,6 +147,7 @@ class Method:
     uncovered: str = "renormalize"
     isolation: Isolation = "standalone"
     common_mode: CommonMode = "isolate"
+    common_mode_quorum: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
