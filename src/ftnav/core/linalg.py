@@ -22,11 +22,11 @@ import numba
 import numpy as np
 
 __all__ = ["spd_solve", "spd_inv", "predict_kernel", "update_kernel", "nis_kernel",
-           "fuse_kernel", "flat"]
+           "vb_kernel", "fuse_kernel", "flat"]
 
 #: compile options of every kernel: cached, GIL released, NumPy error model
 #: (no zero-division checks; a failed Cholesky is detected explicitly instead)
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
+_JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"reassoc", "contract"})
 
 
 #: smallest batch worth the thread pool (below it the serial loop runs directly)
@@ -181,11 +181,14 @@ def _predict_rows(lo, hi, x, P, F, Q, x_out, P_out):  # pragma: no cover - compi
             for j in range(n):
                 s += F[f, i, j] * x[b, j]
             x_out[b, i] = s
+            # row i of F P as a sum of rows of P (contiguous; zeros of F skipped)
             for j in range(n):
-                s = 0.0
-                for p in range(n):
-                    s += F[f, i, p] * P[b, p, j]
-                FP[i, j] = s
+                FP[i, j] = 0.0
+            for p in range(n):
+                a = F[f, i, p]
+                if a != 0.0:
+                    for j in range(n):
+                        FP[i, j] += a * P[b, p, j]
         for i in range(n):
             for j in range(i + 1):
                 s = 0.0
@@ -220,7 +223,7 @@ def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
     PHt = np.empty((n, m))
     L = np.empty((m, m))
     K = np.empty((n, m))
-    A = np.empty((n, n))
+    A = np.empty((n, m))
     AP = np.empty((n, n))
     KR = np.empty((n, m))
     w = np.empty(m)
@@ -274,34 +277,34 @@ def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
             w[r] = s / L[r, r]
             q += w[r] * w[r]
         nis_out[b] = q
+        # Joseph form (I − K H) P (I − K H)ᵀ + K R Kᵀ, with the products associated so
+        # each costs O(n² m): A P = P − K (P Hᵀ)ᵀ and (A P) Aᵀ = A P − (A P Hᵀ) Kᵀ
         for i in range(n):
             s = x[b, i]
             for r in range(m):
                 s += K[i, r] * nu_out[b, r]
             x_out[b, i] = s
-            for j in range(n):
-                s = 1.0 if i == j else 0.0
-                for r in range(m):
-                    s -= K[i, r] * H[h, r, j]
-                A[i, j] = s
             for c in range(m):
                 s = 0.0
                 for r in range(m):
                     s += K[i, r] * R[e, r, c]
                 KR[i, c] = s
-        for i in range(n):
             for j in range(n):
-                s = 0.0
-                for p in range(n):
-                    s += A[i, p] * P[b, p, j]
+                s = P[b, i, j]
+                for r in range(m):
+                    s -= K[i, r] * PHt[j, r]
                 AP[i, j] = s
         for i in range(n):
-            for j in range(i + 1):
+            for c in range(m):
                 s = 0.0
                 for p in range(n):
-                    s += AP[i, p] * A[j, p]
+                    s += AP[i, p] * H[h, c, p]
+                A[i, c] = s  # (A P Hᵀ)[i, c]
+        for i in range(n):
+            for j in range(i + 1):
+                s = AP[i, j]
                 for c in range(m):
-                    s += KR[i, c] * K[j, c]
+                    s += (KR[i, c] - A[i, c]) * K[j, c]
                 # lower triangle only, mirrored: the symmetrized Joseph covariance
                 P_out[b, i, j] = s
                 P_out[b, j, i] = s
@@ -381,6 +384,55 @@ def nis_kernel(x, P, z, H, R, nis_out):
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
     _run_batch(_nis_rows, _nis_par, M, x, P, z, H, R, nis_out, ok)
+    return ok
+
+
+@numba.njit(**_JIT)
+def _vb_rows(lo, hi, x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out,
+             nis_out, beta_out, R_out, ok):  # pragma: no cover - compiled
+    M, m = z.shape
+    n = x.shape[1]
+    for b in range(lo, hi):
+        h = b if H.shape[0] > 1 else 0
+        for j in range(m):
+            beta_out[b, j] = beta[b, j]
+        for _ in range(iterations):
+            for r in range(m):
+                for c in range(m):
+                    R_out[b, r, c] = beta_out[b, r] / alpha_post[b, r] if r == c else 0.0
+            _update_rows(b, b + 1, x, P, z, H, R_out, x_out, P_out, nu_out, S_out, nis_out,
+                         ok)
+            if not ok[b]:
+                break
+            for r in range(m):  # β = β⁻ + ½ (z − H x⁺)² + ½ (H P⁺ Hᵀ)_rr
+                res = z[b, r]
+                hph = 0.0
+                for p in range(n):
+                    res -= H[h, r, p] * x_out[b, p]
+                    acc = 0.0
+                    for q in range(n):
+                        acc += P_out[b, p, q] * H[h, r, q]
+                    hph += H[h, r, p] * acc
+                beta_out[b, r] = beta[b, r] + 0.5 * res * res + 0.5 * hph
+
+
+@numba.njit(parallel=True, **_JIT)
+def _vb_par(C, x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out,
+            nis_out, beta_out, R_out, ok):  # pragma: no cover - compiled
+    M = x.shape[0]
+    for c in numba.prange(C):
+        _vb_rows(c * M // C, (c + 1) * M // C, x, P, z, H, alpha_post, beta, iterations, x_out,
+                 P_out, nu_out, S_out, nis_out, beta_out, R_out, ok)
+
+
+def vb_kernel(x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out, nis_out,
+              beta_out, R_out):
+    """Särkkä VB iterations (spec §7.2) for flat batches: each a Joseph update with
+    ``R = diag(β/α)`` then ``β = β⁻ + ½ν⁺² + ½ diag(H P⁺ Hᵀ)``; False where S is not SPD."""
+    M = x.shape[0]
+    ok = np.ones(M, dtype=np.bool_)
+    _run_batch(_vb_rows, _vb_par, M, x, P, z, H, alpha_post, beta, iterations, x_out, P_out,
+               nu_out, S_out, nis_out, beta_out, R_out, ok)
     return ok
 
 

@@ -9,8 +9,9 @@ from __future__ import annotations
 import numpy as np
 
 from ftnav.core.kalman import Update, mT, mv, update
+from ftnav.core.linalg import flat, vb_kernel
 
-__all__ = ["vb_predict", "vb_update", "noise_estimate"]
+__all__ = ["vb_predict", "vb_update", "vb_update_reference", "noise_estimate"]
 
 
 def vb_predict(alpha: np.ndarray, beta: np.ndarray, rho: float) -> tuple[np.ndarray, np.ndarray]:
@@ -54,7 +55,52 @@ def vb_update(
     R : (..., m, m) the noise the returned posterior used: ``diag(β⁽ᴺ⁻¹⁾/α)`` for
         ``"sarkka"`` (one fixed-point step behind the returned ``β/α``), ``β/α`` for
         ``"literal"``; a plain KF with this R reproduces the update (spec §6.4).
+
+    The ``"sarkka"`` iterations run in one compiled loop over the batch
+    (:func:`ftnav.core.linalg.vb_kernel`); :func:`vb_update_reference` is the plain
+    NumPy form and the fallback where ``S`` is not numerically positive definite.
     """
+    if variant != "sarkka" or iterations < 1:
+        return vb_update_reference(x, P, z, H, alpha, beta, iterations=iterations,
+                                   variant=variant)
+    n, m = x.shape[-1], z.shape[-1]
+    batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
+                                alpha.shape[:-1], beta.shape[:-1])
+    xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
+    Hf = flat(H, batch, (m, n), True)
+    alpha_post = flat(alpha, batch, (m,)) + 0.5
+    bf = flat(beta, batch, (m,))
+    M = xf.shape[0]
+    x_out, P_out = np.empty((M, n)), np.empty((M, n, n))
+    nu, S, q = np.empty((M, m)), np.empty((M, m, m)), np.empty(M)
+    b_out, R = np.empty((M, m)), np.empty((M, m, m))
+    ok = vb_kernel(xf, Pf, zf, Hf, alpha_post, bf, int(iterations), x_out, P_out, nu, S, q,
+                   b_out, R)
+    if not ok.all():
+        bad = ~ok
+        Hb = Hf[bad] if Hf.shape[0] > 1 else Hf[0]
+        up, _, b_out[bad], R[bad] = vb_update_reference(
+            xf[bad], Pf[bad], zf[bad], Hb, alpha_post[bad] - 0.5, bf[bad],
+            iterations=iterations, variant=variant)
+        x_out[bad], P_out[bad], nu[bad], S[bad], q[bad] = up
+    return (Update(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)),
+                   nu.reshape(batch + (m,)), S.reshape(batch + (m, m)), q.reshape(batch)),
+            alpha_post.reshape(batch + (m,)), b_out.reshape(batch + (m,)),
+            R.reshape(batch + (m, m)))
+
+
+def vb_update_reference(
+    x: np.ndarray,
+    P: np.ndarray,
+    z: np.ndarray,
+    H: np.ndarray,
+    alpha: np.ndarray,
+    beta: np.ndarray,
+    *,
+    iterations: int = 3,
+    variant: str = "sarkka",
+) -> tuple[Update, np.ndarray, np.ndarray, np.ndarray]:
+    """Plain NumPy form of :func:`vb_update` (its test oracle; also the fallback)."""
     alpha_post = alpha + 0.5
     if variant == "literal":
         nu = z - mv(H, x)

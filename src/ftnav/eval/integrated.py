@@ -33,14 +33,14 @@ from ftnav.fusion.system import Linearization, LinearSystem
 from ftnav.nav import attitude
 from ftnav.nav.earth import radii
 from ftnav.nav.error_model import discrete_model
-from ftnav.nav.mechanization import InsState, feedback, integrate
+from ftnav.nav.mechanization import InsState, feedback, integrate, navigation_errors
 from ftnav.sim.ins_data import InsData, simulate_ins
 from ftnav.sim.ins_scenario import InsScenario
 from ftnav.sim.scenario import LinearModel, Sensor
 
 __all__ = ["build_ins_system", "run_ins_scenario", "run_ins_methods", "chunk_runs",
            "IntegratedSimulation",
-           "ins_errors", "initial_ins_state"]
+           "initial_ins_state"]
 
 _ARCMIN = np.pi / 180.0 / 60.0
 N_NAV = 9
@@ -122,12 +122,6 @@ def initial_ins_state(data: InsData) -> InsState:
     v = traj.v[0] + e[:, 3:6]
     p = traj.p[0] + e[:, 6:9]
     return InsState(q / np.linalg.norm(q, axis=-1, keepdims=True), v, p, np.zeros((B, 3)))
-
-
-def ins_errors(q, v, p, q_true, v_true, p_true) -> np.ndarray:
-    """(B, 9) true navigation error states ``[φ, δv, δL δλ δh]`` (spec §8.3 order)."""
-    phi = attitude.quat_attitude_error(q, q_true)
-    return np.concatenate([phi, v - v_true, p - p_true], -1)
 
 
 #: Order of the metric states (E, N, U position; velocity; φ) in the spec §8.3 error state.
@@ -256,7 +250,7 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
             z.append(np.where(ok[:, None], lin.z, np.nan))
             H.append(np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1)))
             avail[:, i] = ok
-        e_true = ins_errors(ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1],
+        e_true = navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1],
                             truth.p[k - 1])
         if true_states is not None:
             j_imu = k * spe - 1
@@ -296,7 +290,7 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
         if feedback_on:
             d = np.concatenate(deltas, 0)
             ins = feedback(ins, d[:, 0:3], d[:, 3:6], d[:, 6:9])
-            e_out = _metric_errors(ins_errors(ins.q, ins.v, ins.p, truth.q[k - 1],
+            e_out = _metric_errors(navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1],
                                               truth.v[k - 1], truth.p[k - 1]), truth.p[k - 1])
             for j in range(M):
                 rec[j].x[:, k - 1] = e_out[parts[j]]

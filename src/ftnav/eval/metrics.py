@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.stats import chi2
 
-from ftnav.core.linalg import spd_solve
+from ftnav.core.kalman import prior_nis
 
 __all__ = [
     "ErrorStats",
@@ -151,8 +151,9 @@ def nees(err: np.ndarray, P: np.ndarray) -> np.ndarray:
     batch = np.broadcast_shapes(err.shape[:-1], P.shape[:-2])
     n = err.shape[-1]
     e = np.broadcast_to(err, (*batch, n))
-    x = spd_solve(np.broadcast_to(P, (*batch, n, n)), e[..., None])[..., 0]
-    return np.einsum("...i,...i->...", e, x)
+    # eᵀ P⁻¹ e is the NIS of z = e against the prior (0, P) with H = I, R = 0: one
+    # compiled Cholesky pass (LU where P is not numerically positive definite)
+    return prior_nis(np.zeros_like(e), P, e, np.eye(n), np.zeros((n, n)))
 
 
 def chi2_band(dof_total: int, runs: int, confidence: float = 0.95) -> tuple[float, float]:

@@ -103,8 +103,10 @@ class CentralizedFilter:
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
         R_now = [predicted_noise(state.noise[i], s.R, m.vb_rho)
                  for i, s in enumerate(self.system.sensors)]
+        # the residual test's statistic (spec §3.1); no other detector reads it
         stat = np.stack([residual_statistic(x, P, z[i], usable[:, i], Hs[i], R_now[i])
-                         for i in range(self.n_filters)], 1)
+                         for i in range(self.n_filters)], 1) \
+            if m.detector == "residual-chi2" else np.zeros(usable.shape)
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
         feats = None
         if m.detector == "rbf":

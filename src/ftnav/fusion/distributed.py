@@ -25,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ftnav.core import kalman as kf
+from ftnav.core.linalg import spd_solve
 from ftnav.fdi.chi2 import DetectorState
 from ftnav.fdi.features import detector_features, whitened_innovation
 from ftnav.fusion.local import (
@@ -127,7 +128,9 @@ class DistributedFilter:
             priors.append(prior)
             R = predicted_noise(state.noise[i], s.R, m.vb_rho)
             base = kf.Gaussian(xg_pr, Pg_pr) if m.prior == "global" else prior
-            stat.append(residual_statistic(*base, z[i], usable[:, i], Hs[i], R))
+            # the residual test's statistic (spec §3.1); no other detector reads it
+            stat.append(residual_statistic(*base, z[i], usable[:, i], Hs[i], R)
+                        if m.detector == "residual-chi2" else np.zeros(usable.shape[0]))
             if self.features is not None:
                 fb = kf.Gaussian(xg_pr, Pg_pr) if self.feature_prior == "global" else prior
                 innov.append(whitened_innovation(*fb, z[i], usable[:, i], Hs[i], R))
@@ -167,8 +170,7 @@ class DistributedFilter:
             up = self._update(i, priors[i], z[i], use[:, i], state.noise[i], Hs[i])
             H = Hs[i]
             if m.increment == "direct":
-                HtRinv = kf.mT(np.linalg.solve(up.R, np.broadcast_to(
-                    H, up.R.shape[:-1] + H.shape[-1:])))
+                HtRinv = kf.mT(spd_solve(up.R, H))  # (R⁻¹ H)ᵀ, R SPD
                 dY = HtRinv @ H
                 dy = kf.mv(HtRinv, np.where(use[:, i, None], z[i], 0.0))
             else:

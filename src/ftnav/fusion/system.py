@@ -209,6 +209,8 @@ class LinearSystem:
         if common_scale is None:
             return Fi, Qi
         nc = self.n_common
+        if Qi.shape[-1] == nc:  # no private states: the whole Q is shared
+            return Fi, Qi * np.asarray(common_scale, dtype=float)[..., None, None]
         mask = np.zeros_like(Qi)
         mask[:nc, :nc] = 1.0
         scale = np.asarray(common_scale, dtype=float)[..., None, None]

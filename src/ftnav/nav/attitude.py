@@ -13,6 +13,7 @@ is written here, batched, and also compiled (:mod:`ftnav.nav.mechanization`).
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -61,23 +62,31 @@ def quat_to_dcm(q: np.ndarray) -> np.ndarray:
     """``C_b^n`` from the scalar-first quaternion ``q_b^n`` (normalized first).
 
     The closed-form rotation matrix of a unit quaternion (the same as scipy's
-    ``Rotation.from_quat(...).as_matrix()``, tested; written out because it runs at
-    every filter epoch and scipy's per-call overhead dominated the integrated runs).
+    ``Rotation.from_quat(...).as_matrix()``, tested), in one compiled loop: it runs
+    several times at every filter epoch and scipy's per-call overhead dominated the
+    integrated runs.
     """
     q = np.asarray(q, dtype=float)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    q0, q1, q2, q3 = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    C = np.empty(q.shape[:-1] + (3, 3))
-    C[..., 0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
-    C[..., 0, 1] = 2.0 * (q1 * q2 - q0 * q3)
-    C[..., 0, 2] = 2.0 * (q1 * q3 + q0 * q2)
-    C[..., 1, 0] = 2.0 * (q1 * q2 + q0 * q3)
-    C[..., 1, 1] = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
-    C[..., 1, 2] = 2.0 * (q2 * q3 - q0 * q1)
-    C[..., 2, 0] = 2.0 * (q1 * q3 - q0 * q2)
-    C[..., 2, 1] = 2.0 * (q2 * q3 + q0 * q1)
-    C[..., 2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
-    return C
+    flat = np.ascontiguousarray(q).reshape(-1, 4)
+    C = np.empty((flat.shape[0], 3, 3))
+    _quat_to_dcm_rows(flat, C)
+    return C.reshape(q.shape[:-1] + (3, 3))
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _quat_to_dcm_rows(q, C):  # pragma: no cover - compiled
+    for b in range(q.shape[0]):
+        n = np.sqrt(q[b, 0] ** 2 + q[b, 1] ** 2 + q[b, 2] ** 2 + q[b, 3] ** 2)
+        q0, q1, q2, q3 = q[b, 0] / n, q[b, 1] / n, q[b, 2] / n, q[b, 3] / n
+        C[b, 0, 0] = 1.0 - 2.0 * (q2 * q2 + q3 * q3)
+        C[b, 0, 1] = 2.0 * (q1 * q2 - q0 * q3)
+        C[b, 0, 2] = 2.0 * (q1 * q3 + q0 * q2)
+        C[b, 1, 0] = 2.0 * (q1 * q2 + q0 * q3)
+        C[b, 1, 1] = 1.0 - 2.0 * (q1 * q1 + q3 * q3)
+        C[b, 1, 2] = 2.0 * (q2 * q3 - q0 * q1)
+        C[b, 2, 0] = 2.0 * (q1 * q3 - q0 * q2)
+        C[b, 2, 1] = 2.0 * (q2 * q3 + q0 * q1)
+        C[b, 2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
 
 
 def dcm_to_quat(C: np.ndarray) -> np.ndarray:

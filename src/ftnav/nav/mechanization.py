@@ -36,7 +36,7 @@ from ftnav.nav import attitude
 from ftnav.nav.earth import OMEGA_IE, gravity_nb, radii_nb
 
 __all__ = ["InsState", "NavSolution", "ALGORITHMS", "init_state", "integrate",
-           "apply_correction", "feedback"]
+           "apply_correction", "feedback", "navigation_errors"]
 
 ALGORITHMS = {"single-sample": 1, "two-sample": 2}
 
@@ -292,10 +292,61 @@ def apply_correction(q: np.ndarray, v: np.ndarray, p: np.ndarray, phi: np.ndarra
     ``q ← q(φ̂) ⊗ q̃`` (i.e. ``C ← exp([φ̂×]) C̃ ≈ (I + [φ̂×]) C̃``), ``v ← ṽ − δv̂``,
     ``p ← p̃ − δp̂``; errors are computed − true (spec §0).  Used for output correction
     (the solution is corrected, the filter state is kept) and by :func:`feedback`.
+    Shapes (B, 4) and (B, 3) run one compiled loop; other shapes broadcast (NumPy).
     """
+    q, v, p, phi, dv, dp = (np.asarray(a, dtype=float) for a in (q, v, p, phi, dv, dp))
+    if q.ndim == 2 and all(a.shape == q.shape[:1] + (3,) for a in (v, p, phi, dv, dp)):
+        qc = np.empty_like(q)
+        _correct_rows(np.ascontiguousarray(q), np.ascontiguousarray(phi), qc)
+        return qc, v - dv, p - dp
     qc = attitude.quat_mul(attitude.rotvec_to_quat(phi), q)
     qc = qc / np.linalg.norm(qc, axis=-1, keepdims=True)
-    return qc, np.asarray(v) - dv, np.asarray(p) - dp
+    return qc, v - dv, p - dp
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _correct_rows(q, phi, out):  # pragma: no cover - compiled
+    for b in range(q.shape[0]):
+        r0, r1, r2, r3 = _rv2q(phi[b, 0], phi[b, 1], phi[b, 2])
+        c0, c1, c2, c3 = _qmul(r0, r1, r2, r3, q[b, 0], q[b, 1], q[b, 2], q[b, 3])
+        n = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2 + c3 * c3)
+        out[b, 0], out[b, 1], out[b, 2], out[b, 3] = c0 / n, c1 / n, c2 / n, c3 / n
+
+
+def navigation_errors(q: np.ndarray, v: np.ndarray, p: np.ndarray, q_true: np.ndarray,
+                      v_true: np.ndarray, p_true: np.ndarray) -> np.ndarray:
+    """(B, 9) true navigation error states ``[φ, δv, δL δλ δh]`` (spec §8.3 order).
+
+    ``φ`` is :func:`ftnav.nav.attitude.quat_attitude_error` (the rotation vector of
+    ``q_true ⊗ q̃*``), ``δv = ṽ − v``, ``δp = p̃ − p``; ``q``, ``v``, ``p`` (B, ·) are the
+    INS solutions and the truth (4,), (3,), (3,) is shared.  One compiled loop.
+    """
+    q = np.ascontiguousarray(q, dtype=float)
+    out = np.empty((q.shape[0], 9))
+    _errors_rows(q, np.ascontiguousarray(v, dtype=float), np.ascontiguousarray(p, dtype=float),
+                 np.asarray(q_true, float), np.asarray(v_true, float),
+                 np.asarray(p_true, float), out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _errors_rows(q, v, p, qt, vt, pt, out):  # pragma: no cover - compiled
+    for b in range(q.shape[0]):
+        # q_true ⊗ q̃*, sign fixed to a non-negative scalar part
+        e0, e1, e2, e3 = _qmul(qt[0], qt[1], qt[2], qt[3], q[b, 0], -q[b, 1], -q[b, 2],
+                               -q[b, 3])
+        n = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
+        sg = 1.0 / n if e0 >= 0.0 else -1.0 / n
+        e0, e1, e2, e3 = e0 * sg, e1 * sg, e2 * sg, e3 * sg
+        sv = np.sqrt(e1 * e1 + e2 * e2 + e3 * e3)
+        if sv < 1e-12:
+            k = 2.0 / e0
+        else:
+            k = 2.0 * np.arctan2(sv, e0) / sv
+        out[b, 0], out[b, 1], out[b, 2] = k * e1, k * e2, k * e3
+        for i in range(3):
+            out[b, 3 + i] = v[b, i] - vt[i]
+            out[b, 6 + i] = p[b, i] - pt[i]
 
 
 def feedback(state: InsState, phi: np.ndarray, dv: np.ndarray, dp: np.ndarray) -> InsState:

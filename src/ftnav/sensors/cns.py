@@ -90,12 +90,11 @@ def euler_jacobian(a: np.ndarray) -> np.ndarray:
     a = np.asarray(a, dtype=float)
     th, psi = a[..., 0], a[..., 2]
     c, s, ct, tt = np.cos(psi), np.sin(psi), np.cos(th), np.tan(th)
-    z = np.zeros_like(th)
-    return np.stack([
-        np.stack([-c, -s, z], -1),
-        np.stack([s / ct, -c / ct, z], -1),
-        np.stack([-tt * s, tt * c, -np.ones_like(th)], -1),
-    ], -2)
+    J = np.zeros(a.shape[:-1] + (3, 3))
+    J[..., 0, 0], J[..., 0, 1] = -c, -s
+    J[..., 1, 0], J[..., 1, 1] = s / ct, -c / ct
+    J[..., 2, 0], J[..., 2, 1], J[..., 2, 2] = -tt * s, tt * c, -1.0
+    return J
 
 
 def _rotation(eta: np.ndarray) -> np.ndarray:
