@@ -15,6 +15,13 @@ prior (time update only) at k, gets ``β_i = 0`` from the sharing at the end of
 k and runs standalone (``Q_i = Q``) on its own measurements; a recovery flagged
 at epoch k re-admits it at the next sharing, so it is fused again from k+1
 (with reset interval 1).  ``no-reset`` re-admits a recovered filter at once.
+
+``no-reset`` with ``isolation = "time-update"``: a flagged local filter discards its
+measurements, so its estimate is its last healthy one propagated (spec §6.3); nothing
+of the fault enters it and, the locals staying independent, it stays in the fusion with
+its share (``Q/β_i``) instead of being dropped.  The fused solution keeps the
+information it had before the fault (e.g. the TAN height while TAN is isolated) rather
+than falling back on the remaining aids alone.
 """
 
 from __future__ import annotations
@@ -228,7 +235,9 @@ class FederatedFilter:
                 R_hat.append(np.diagonal(up.R, axis1=-2, axis2=-1))
                 if self.state_test is not None:
                     props.append(kf.predict(*state.propagator[i], Fi, Qi))
-            if self.global_prior:  # covers zero-reset
+            if m.detector != "residual-chi2":  # no other detector reads the statistic
+                stat.append(np.zeros(B))
+            elif self.global_prior:  # covers zero-reset
                 stat.append(self._residual(i, *self._against_global(i, xg_pr, Pg_pr, priors[i]),
                                            z[i], use, state.noise[i], Hs[i]))
             else:
@@ -287,7 +296,9 @@ class FederatedFilter:
         reset_epoch = m.mode != "no-reset" and k % m.reset_interval == 0
         active_next = r.copy() if (reset_epoch or m.mode == "no-reset") else state.active & r
         if m.mode == "no-reset":
-            active_next &= state.share > 0
+            # time-update isolation leaves a flagged local uncontaminated: keep fusing it
+            active_next = (state.share > 0) if m.isolation == "time-update" and not self.zr \
+                else active_next & (state.share > 0)
         xs = [p[0] for p in posts]
         Ps = [p[1] for p in posts]
         if m.isolation == "time-update" and not self.zr:

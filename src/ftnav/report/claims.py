@@ -275,13 +275,20 @@ def _neural_vs_fkf(result: ScenarioResult, m: dict[str, MethodMetrics], label: s
     hz = {n: _horizontal(m[n].rmse_fault) for n in (neural, fkf)}
     hz_ff = {n: _horizontal(m[n].fault_free["rmse"]) for n in (neural, fkf)
              if m[n].fault_free}
+    note = "in-window RMSE over every fault window (GPS, TAN, DNS and SINS), mean over runs"
+    if len(hz_ff) == 2 and hz_ff[neural] > 2.0 * hz_ff[fkf]:
+        note += (f"; without faults the neuron centre is far less accurate ({hz_ff[neural]:.0f} "
+                 f"vs {hz_ff[fkf]:.0f} m): its weights are learned on closed-loop flights whose "
+                 "SINS the collecting fusion keeps accurate, where TAN's terrain-slope fix is "
+                 "informative; with its own output fed back the position error outgrows the "
+                 "SITAN linearization and the TAN-weighted North error drifts "
+                 "(docs/claims.md)")
     return [_claim(
         cid, "paper 001 §4",
         f"The neuron fusion centre is more accurate than the federated filter when a "
         f"sub-system fails ({label})",
         {"horizontal_rmse_in_fault_windows_m": hz, "horizontal_rmse_fault_free_m": hz_ff},
-        hz[neural] < hz[fkf],
-        "in-window RMSE over every fault window (GPS, TAN, DNS and SINS), mean over runs")]
+        hz[neural] < hz[fkf], note)]
 
 
 def check_claims(result: ScenarioResult, metrics: dict[str, MethodMetrics],
