@@ -44,8 +44,8 @@ def test_runs_in_batches_equal_one_batch(seed002):
 def test_default_batch_bounds_the_imu_memory(seed002):
     full = dataclasses.replace(seed002, steps=3600)
     n = chunk_runs(full)
-    per_run = full.samples_per_epoch * 3600 * 12 * 8 * 2
+    per_run = full.samples_per_epoch * 3600 * 6 * 8 * 2
     assert n * per_run <= CHUNK_BYTES < (n + 1) * per_run
-    assert n == 15
+    assert n == 62
     with pytest.raises(ValueError, match="chunk"):
         run_ins_scenario(seed002, 2, seed=1, chunk=0)

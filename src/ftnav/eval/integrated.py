@@ -233,6 +233,7 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
     truth = data.truth
     every = spe // (2 if sc.algorithm == "two-sample" else 1)
     parts = [slice(j * B, (j + 1) * B) for j in range(M)]
+    d_all, P_all = np.empty((M * B, N_NAV)), np.empty((M * B, N_NAV, N_NAV))
     for k in range(1, K + 1):
         sl = slice((k - 1) * spe, k * spe)
         dth, dvel = _tile(data.dtheta[:, sl], M), _tile(data.dv[:, sl], M)
@@ -253,12 +254,10 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
         e_true = navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1],
                             truth.p[k - 1])
         if true_states is not None:
-            j_imu = k * spe - 1
             it = data.imu_truth
             true_states[:, k - 1] = np.concatenate(
-                [e_true[:B], it.gyro_bias, it.gyro_markov[:, j_imu], it.accel_markov[:, j_imu]],
+                [e_true[:B], it.gyro_bias, it.gyro_markov[:, k - 1], it.accel_markov[:, k - 1]],
                 -1)[:, :true_states.shape[-1]]
-        deltas = []
         for j, nm in enumerate(names):
             p = parts[j]
             lin_k = Linearization(Phi[p], Q[p], tuple(h[p] for h in H))
@@ -271,7 +270,7 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
                                          f"definite at epoch {k}")
             r = rec[j]
             xg = out.x[:, :N_NAV]
-            r.nees[:, k - 1] = nees(xg - e_true[p], out.P[:, :N_NAV, :N_NAV])
+            d_all[p], P_all[p] = xg, out.P[:, :N_NAV, :N_NAV]
             locs = None if zr[j] else local_estimates(states[j], N_NAV)
             if locs is not None:
                 if r.local is None:
@@ -282,13 +281,16 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
                 states[j] = shift_estimates(states[j], xg, information=zr[j])
             else:
                 r.x[:, k - 1] = _metric_errors(e_true[p] - xg, truth.p[k - 1])
-            r.P[:, k - 1] = _metric_variances(out.P, truth.p[k - 1])
             r.detection(k - 1, out)
-            deltas.append(xg)
             if progress is not None:
                 progress(1)
+        # NEES and variances of every method in one batch
+        eps = nees(d_all - e_true, P_all)
+        var = _metric_variances(P_all, truth.p[k - 1])
+        for j in range(M):
+            rec[j].nees[:, k - 1], rec[j].P[:, k - 1] = eps[parts[j]], var[parts[j]]
         if feedback_on:
-            d = np.concatenate(deltas, 0)
+            d = d_all
             ins = feedback(ins, d[:, 0:3], d[:, 3:6], d[:, 6:9])
             e_out = _metric_errors(navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1],
                                               truth.v[k - 1], truth.p[k - 1]), truth.p[k - 1])
@@ -305,18 +307,19 @@ class IntegratedResult(NamedTuple):
     local_fault_free: dict[str, LocalTrack | None]
 
 
-#: memory budget of one batch's simulated IMU increments and IMU-error truth (bytes)
-CHUNK_BYTES = 1 << 30
+#: memory budget of one batch's simulated IMU increments (bytes); the simulation's
+#: temporaries roughly double it at its peak
+CHUNK_BYTES = 2 << 30
 
 
 def chunk_runs(sc: InsScenario, twin: bool = True) -> int:
-    """Runs per batch so the batch's IMU arrays stay within :data:`CHUNK_BYTES`.
+    """Runs per batch so the batch's IMU increments stay within :data:`CHUNK_BYTES`.
 
-    Per run and per SINS: the increments ``dθ``, ``Δv`` and the IMU-error truth
-    (gyro and accelerometer Markov states), ``4 × 3`` float64 per 100 Hz sample; the
-    fault-free twin doubles it.  A 3600 s flight gives 15 runs per batch.
+    Per run and per SINS: the increments ``dθ``, ``Δv``, ``2 × 3`` float64 per IMU
+    sample; the fault-free twin doubles it.  A 3600 s flight at 100 Hz gives 62 runs
+    per batch.
     """
-    per_run = sc.samples_per_epoch * sc.steps * 12 * 8 * (2 if twin else 1)
+    per_run = sc.samples_per_epoch * sc.steps * 6 * 8 * (2 if twin else 1)
     return max(1, CHUNK_BYTES // per_run)
 
 

@@ -36,7 +36,8 @@ class InsData(NamedTuple):
     trajectory : the true flight (shared by all runs).
     truth : truth at the K filter epochs.
     dtheta, dv : (B, K·n, 3) measured IMU increments (n samples per filter epoch).
-    imu_truth : the true IMU errors of each run.
+    imu_truth : the true IMU errors of each run; the Markov drifts (B, K, 3) at the K
+        filter epochs (the value over each epoch's last IMU interval).
     init_error : (B, 18) initial INS error (only the 9 navigation states are applied;
         the bias states are the IMU's own truth).
     raw : per aid, the raw output at the K epochs (B, K, ...), NaN where there is none.
@@ -108,6 +109,11 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
     imu = simulate_imu_errors(traj.dtheta[:n_imu], traj.dv[:n_imu], traj.dt, sc.imu, seed,
                               runs.start, runs=B)
     dtheta, dv = imu.dtheta, imu.dv  # fresh arrays of this call: faults are added in place
+    # the Markov truth at the filter epochs only (the last IMU interval of each epoch):
+    # the IMU-rate arrays would double the memory of a batch
+    imu_truth = imu.truth._replace(gyro_markov=imu.truth.gyro_markov[:, n - 1::n].copy(),
+                                   accel_markov=imu.truth.accel_markov[:, n - 1::n].copy())
+    del imu
     t_imu = traj.dt * np.arange(1, n_imu + 1)  # end time of each IMU interval
     for f in sc.faults:
         if f.sensor == SINS and f.kind == "gyro-bias":
@@ -140,4 +146,4 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
         raw[~ok] = np.nan
         raws.append(raw)
         avail[:, :, i] = ok
-    return InsData(traj, truth, dtheta, dv, imu.truth, init, tuple(raws), avail, oracle, runs)
+    return InsData(traj, truth, dtheta, dv, imu_truth, init, tuple(raws), avail, oracle, runs)
