@@ -244,3 +244,18 @@ def test_prior_nis_and_spd_inv_fall_back_where_cholesky_fails():
     np.testing.assert_allclose(kf.prior_nis(x, P, z, np.eye(2), R), ref, rtol=1e-12)
     A = P + R
     np.testing.assert_allclose(spd_inv(A), np.linalg.inv(A), rtol=1e-12)
+
+
+@pytest.mark.parametrize("shapes", [((3, 2), (3, 2), ()), ((), ()), ((4,), (1,)),
+                                    ((2, 1), (5,)), ((3,), ())])
+def test_batch_shape_equals_numpy_broadcast_shapes(shapes):
+    from ftnav.core.linalg import batch_shape
+
+    assert batch_shape(*shapes) == np.broadcast_shapes(*shapes)
+
+
+def test_batch_shape_refuses_what_does_not_broadcast():
+    from ftnav.core.linalg import batch_shape
+
+    with pytest.raises(ValueError):
+        batch_shape((3,), (4,))

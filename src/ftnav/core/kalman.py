@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ftnav.core.linalg import (
+    batch_shape,
     flat,
     fuse_kernel,
     nis_kernel,
@@ -97,7 +98,7 @@ def predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> Gauss
     Q : (..., n, n) process-noise covariance Γ Q_k Γᵀ.
     """
     n = x.shape[-1]
-    batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], F.shape[:-2], Q.shape[:-2])
+    batch = batch_shape(x.shape[:-1], P.shape[:-2], F.shape[:-2], Q.shape[:-2])
     xf = flat(x, batch, (n,))
     x_out, P_out = np.empty_like(xf), np.empty((xf.shape[0], n, n))
     predict_kernel(xf, flat(P, batch, (n, n)), flat(F, batch, (n, n), True),
@@ -129,7 +130,7 @@ def update(
     R : (..., m, m) measurement-noise covariance.
     """
     n, m = x.shape[-1], z.shape[-1]
-    batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
+    batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
                                 R.shape[:-2])
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf, Rf = flat(H, batch, (m, n), True), flat(R, batch, (m, m), True)
@@ -172,7 +173,7 @@ def prior_nis(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray,
     computed by :func:`nis` with an LU solve.
     """
     n, m = x.shape[-1], z.shape[-1]
-    batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
+    batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
                                 R.shape[:-2])
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf, Rf = flat(H, batch, (m, n), True), flat(R, batch, (m, m), True)
@@ -256,7 +257,7 @@ def fuse(
         If the total information is not positive definite (nothing fused).
     """
     N, n = x.shape[-2:]
-    batch = np.broadcast_shapes(x.shape[:-2], P.shape[:-3], weight.shape[:-1])
+    batch = batch_shape(x.shape[:-2], P.shape[:-3], weight.shape[:-1])
     xf, Pf = flat(x, batch, (N, n)), flat(P, batch, (N, n, n))
     wf = flat(weight, batch, (N,))
     M = xf.shape[0]

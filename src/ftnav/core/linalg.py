@@ -22,7 +22,7 @@ import numba
 import numpy as np
 
 __all__ = ["spd_solve", "spd_inv", "predict_kernel", "update_kernel", "nis_kernel",
-           "vb_kernel", "fuse_kernel", "flat"]
+           "vb_kernel", "fuse_kernel", "flat", "batch_shape"]
 
 #: compile options of every kernel: cached, GIL released, NumPy error model
 #: (no zero-division checks; a failed Cholesky is detected explicitly instead)
@@ -111,7 +111,7 @@ def spd_solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     Leading axes broadcast.  Uses a compiled Cholesky solve; any matrix whose
     factorization fails falls back to LU.
     """
-    shape = np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
+    shape = batch_shape(A.shape[:-2], B.shape[:-2])
     n, k = A.shape[-1], B.shape[-1]
     A3, B3 = flat(A, shape, (n, n)), flat(B, shape, (n, k))
     if n == 1:
@@ -434,6 +434,15 @@ def vb_kernel(x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_
     _run_batch(_vb_rows, _vb_par, M, x, P, z, H, alpha_post, beta, iterations, x_out, P_out,
                nu_out, S_out, nis_out, beta_out, R_out, ok)
     return ok
+
+
+def batch_shape(*shapes: tuple[int, ...]) -> tuple[int, ...]:
+    """``numpy.broadcast_shapes`` of the leading (batch) shapes, with a fast path for the
+    common case where every shape is ``()`` or one and the same batch shape."""
+    first = max(shapes, key=len)
+    if all(s == first or s == () for s in shapes):
+        return first
+    return np.broadcast_shapes(*shapes)
 
 
 def flat(a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...],

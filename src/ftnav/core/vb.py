@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ftnav.core.kalman import Update, mT, mv, update
-from ftnav.core.linalg import flat, vb_kernel
+from ftnav.core.linalg import batch_shape, flat, vb_kernel
 
 __all__ = ["vb_predict", "vb_update", "vb_update_reference", "noise_estimate"]
 
@@ -64,7 +64,7 @@ def vb_update(
         return vb_update_reference(x, P, z, H, alpha, beta, iterations=iterations,
                                    variant=variant)
     n, m = x.shape[-1], z.shape[-1]
-    batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
+    batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
                                 alpha.shape[:-1], beta.shape[:-1])
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf = flat(H, batch, (m, n), True)
