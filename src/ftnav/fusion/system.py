@@ -155,6 +155,8 @@ class LinearSystem:
         With ``lin``: the epoch's per-run matrix, (B, m, n_aug).
         """
         s = self.sensors[i]
+        if lin is not None and self.n_aug == self.n_common:
+            return lin.H[i]  # no private states: the augmented state is the common one
         index = self.local(i).aug_index
         if lin is not None:
             Hl = lin.H[i]

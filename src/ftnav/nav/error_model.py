@@ -232,6 +232,9 @@ def _nav_blocks(L, h, v, f_n):
 def _nav_inputs(L, h, v_enu, f_b, C_bn):
     L, h = np.asarray(L, dtype=float), np.asarray(h, dtype=float)
     v, f_b, C = (np.asarray(a, dtype=float) for a in (v_enu, f_b, C_bn))
+    batch = L.shape
+    if h.shape == batch and v.shape == f_b.shape == batch + (3,) and C.shape == batch + (3, 3):
+        return L, h, v, f_b, C, batch  # one batch shape already: nothing to broadcast
     if v.shape[-1:] != (3,) or f_b.shape[-1:] != (3,) or C.shape[-2:] != (3, 3):
         raise ValueError(f"v_enu and f_b must be (..., 3) and C_bn (..., 3, 3); got "
                          f"{v.shape}, {f_b.shape}, {C.shape}")
