@@ -63,6 +63,10 @@ BAD = [
      "filter.duration_s"),
     ("grid terrain without path", 'kind = "analytic"', 'kind = "grid"', "terrain.path"),
     ("unknown profile", 'profile = "seed002"', 'profile = "seed999"', "profile"),
+    ("unknown GNSS Markov handling", "pos_white_sigma_m = 1.4",
+     'pos_white_sigma_m = 1.4\nmarkov = "ignore"', "aids[0].markov"),
+    ("differencing an aid that skips epochs", "pos_white_sigma_m = 1.4",
+     'pos_white_sigma_m = 1.4\nmarkov = "difference"\nevery = 2', "aids[0].every"),
 ]
 
 

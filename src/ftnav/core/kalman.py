@@ -36,6 +36,7 @@ __all__ = [
     "mT",
     "mv",
     "prior_nis",
+    "differenced_measurement",
     "predict",
     "update",
     "nis",
@@ -187,6 +188,38 @@ def prior_nis(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray,
         S = symmetrize(Hb @ Pf[bad] @ mT(Hb) + Rb)
         q[bad] = np.einsum("...i,...i->...", nu, np.linalg.solve(S, nu[..., None])[..., 0])
     return q.reshape(batch)
+
+
+def differenced_measurement(z: np.ndarray, H: np.ndarray, z_prev: np.ndarray,
+                            H_prev: np.ndarray, Phi: np.ndarray, psi: np.ndarray,
+                            shift: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Measurement differencing for first-order Markov measurement errors.
+
+    Bryson & Henrikson (1968).  With ``z_k = H_k x_k + b_k + n_k``,
+    ``b_k = ψ b_{k−1} + w_{k−1}`` (ψ diagonal) and ``x_k = Φ (x_{k−1} − s) + u``, where
+    ``s`` is a correction removed from the state between the epochs (closed-loop
+    feedback; 0 without it)::
+
+        z* = z_k − ψ (z_{k−1} − H_{k−1} s),   H* = H_k − ψ H_{k−1} Φ⁻¹,
+        z* − H* x_k = w_{k−1} + n_k − ψ n_{k−1} + ψ H_{k−1} Φ⁻¹ u.
+
+    Parameters
+    ----------
+    z, z_prev : (..., m) measurements at k and k−1.
+    H, H_prev : (..., m, n) their measurement matrices.
+    Phi : (..., n, n) transition from k−1 to k (invertible).
+    psi : (m,) Markov factors ``e^{−T/τ}``.
+    shift : (..., n) correction removed from the state after the k−1 update, or None.
+
+    Returns
+    -------
+    z_star : (..., m).   H_star : (..., m, n).
+    """
+    psi = np.asarray(psi, dtype=float)
+    prev = z_prev if shift is None else z_prev - mv(H_prev, shift)
+    # H_{k−1} Φ⁻¹ = (Φ⁻ᵀ H_{k−1}ᵀ)ᵀ: one LU solve per run, no inverse formed
+    HPhi_inv = mT(np.linalg.solve(mT(Phi), mT(H_prev)))
+    return z - psi * prev, H - psi[:, None] * HPhi_inv
 
 
 def nis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:

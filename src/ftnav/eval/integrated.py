@@ -234,6 +234,9 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
     every = spe // (2 if sc.algorithm == "two-sample" else 1)
     parts = [slice(j * B, (j + 1) * B) for j in range(M)]
     d_all, P_all = np.empty((M * B, N_NAV)), np.empty((M * B, N_NAV, N_NAV))
+    psi = [getattr(a.sensor, "difference_factor", None) for a in sc.aids]
+    previous = [None] * N  # last raw (z, H, usable) of each differenced aid
+    shift = None  # the correction fed back after the last epoch, over the common states
     for k in range(1, K + 1):
         sl = slice((k - 1) * spe, k * spe)
         dth, dvel = _tile(data.dtheta[:, sl], M), _tile(data.dv[:, sl], M)
@@ -248,8 +251,19 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
             lin = aid.sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw, nan=1.0))
             ok = _tile(data.available[:, k - 1, i], M) & lin.valid & \
                 np.isfinite(lin.z).all(-1)
-            z.append(np.where(ok[:, None], lin.z, np.nan))
-            H.append(np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1)))
+            zi, Hi = lin.z, np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1))
+            if psi[i] is not None:  # measurement differencing of a Markov error (GNSS)
+                this = (zi, Hi, ok)
+                if previous[i] is None:
+                    ok = np.zeros_like(ok)  # nothing to difference with yet
+                else:
+                    z_prev, H_prev, ok_prev = previous[i]
+                    zi, Hi = kf.differenced_measurement(zi, Hi, z_prev, H_prev, Phi, psi[i],
+                                                        shift)
+                    ok = ok & ok_prev
+                previous[i] = this
+            z.append(np.where(ok[:, None], zi, np.nan))
+            H.append(Hi)
             avail[:, i] = ok
         e_true = navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1],
                             truth.p[k - 1])
@@ -292,6 +306,7 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
         if feedback_on:
             d = d_all
             ins = feedback(ins, d[:, 0:3], d[:, 3:6], d[:, 6:9])
+            shift = np.concatenate([d, np.zeros((M * B, n - N_NAV))], 1)
             e_out = _metric_errors(navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1],
                                               truth.v[k - 1], truth.p[k - 1]), truth.p[k - 1])
             for j in range(M):

@@ -256,7 +256,10 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
         # schedule (every, offset) only masks the epochs without output
         s = sensor_from_table(a.type, {"name": name, **extra}, f"aids[{i}]", origin, terrain,
                               fl.dt)
-        aids.append(AidSpec(s, a.every, a.offset))
+        try:
+            aids.append(AidSpec(s, a.every, a.offset))
+        except ValueError as exc:
+            raise _err(f"aids[{i}].every", str(exc).split(": ", 1)[1], origin) from None
     faults = []
     for i, x in enumerate(f.faults):
         p = f"faults[{i}]"

@@ -15,7 +15,12 @@ error, so ``z = H x − e`` (``z_per_error = −1``).
 
 Coloured-noise handling ``markov`` [A]: ``"white"`` lumps the Markov part into
 ``R = diag(σ_b² + σ_n²)``; ``"augment"`` adds the 6 Markov errors as private states
-(order of :attr:`Gnss.components`) with ``H_private = −I₆``, ``R = diag(σ_n²)``.
+(order of :attr:`Gnss.components`) with ``H_private = −I₆``, ``R = diag(σ_n²)``;
+``"difference"`` differences consecutive measurements (Bryson & Henrikson 1968,
+:func:`ftnav.core.kalman.differenced_measurement`): ``z* = z_k − ψ z_{k−1}`` with
+``ψ = e^{−dt/τ}`` (:attr:`Gnss.difference_factor`) removes the Markov part up to its
+driving noise, ``R* = diag(σ_b²(1 − ψ²) + (1 + ψ²) σ_n²)``; the correlation of ``z*``
+with the previous epoch's white noise and with the process noise is neglected.
 
 Random components (spawn key ``c``): 0 position Markov, 1 velocity Markov, 2 white.
 """
@@ -70,10 +75,11 @@ class Gnss:
     vel_markov_tau_s : float or (3,), its correlation time (> 0).
     pos_white_sigma_m : float or (3,) N, E, U, white position noise σ.
     vel_white_sigma_m_s : float or (3,) E, N, U, white velocity noise σ.
-    markov : ``"white"`` or ``"augment"`` (module docstring).
+    markov : ``"white"``, ``"augment"`` or ``"difference"`` (module docstring).
     pos_sigma_m, vel_sigma_m_s : float, optional
         The filter's assumed σ per axis (overrides the value derived from the truth
-        settings: ``√(σ_b² + σ_n²)`` for ``"white"``, ``σ_n`` for ``"augment"``).
+        settings: ``√(σ_b² + σ_n²)`` for ``"white"``, ``σ_n`` for ``"augment"``, the
+        differenced noise for ``"difference"``).
     dt : float, s, sample period (Markov simulation, F and Q of the private states).
 
     Vector fields are stored as tuples of 3 floats.
@@ -92,7 +98,7 @@ class Gnss:
     vel_markov_tau_s: Vec3 = 100.0
     pos_white_sigma_m: Vec3 = 1.0
     vel_white_sigma_m_s: Vec3 = 0.02
-    markov: Literal["white", "augment"] = "white"
+    markov: Literal["white", "augment", "difference"] = "white"
     pos_sigma_m: float | None = None
     vel_sigma_m_s: float | None = None
     dt: float = 1.0
@@ -110,7 +116,7 @@ class Gnss:
         for field in ("pos_markov_tau_s", "vel_markov_tau_s"):
             object.__setattr__(self, field, check_float(self.name, field, getattr(self, field),
                                                         low=0.0, strict=True, n=3))
-        check_choice(self.name, "markov", self.markov, ("white", "augment"))
+        check_choice(self.name, "markov", self.markov, ("white", "augment", "difference"))
 
     @property
     def dim(self) -> int:
@@ -131,11 +137,25 @@ class Gnss:
         var = np.array(self.pos_white_sigma_m + self.vel_white_sigma_m_s) ** 2
         if self.markov == "white":
             var = var + self._markov_sigma**2
+        elif self.markov == "difference":
+            psi = self.difference_factor
+            var = self._markov_sigma**2 * (1.0 - psi**2) + (1.0 + psi**2) * var
         if self.pos_sigma_m is not None:
             var[:3] = self.pos_sigma_m**2
         if self.vel_sigma_m_s is not None:
             var[3:] = self.vel_sigma_m_s**2
         return np.diag(var)
+
+    @property
+    def difference_factor(self) -> np.ndarray | None:
+        """(6,) ``ψ = e^{−dt/τ}`` of each component for ``markov="difference"``, else None.
+
+        The closed-loop runner then passes ``z_k − ψ z_{k−1}`` and the matching ``H*`` to
+        the filters (:func:`ftnav.core.kalman.differenced_measurement`).
+        """
+        if self.markov != "difference":
+            return None
+        return np.exp(-self.dt / self._markov_tau)
 
     @property
     def private(self) -> PrivateStates | None:

@@ -85,6 +85,13 @@ class AidSpec:
     def dim(self) -> int:
         return self.sensor.dim
 
+    def __post_init__(self):
+        if getattr(self.sensor, "difference_factor", None) is not None and \
+                (self.every != 1 or self.offset != 0):
+            raise ValueError(f"{self.sensor.name}.markov: 'difference' needs the aid at every "
+                             f"filter epoch (every = 1, offset = 0), got every = {self.every}, "
+                             f"offset = {self.offset}")
+
     def available(self, steps: int) -> np.ndarray:
         """(steps,) bool schedule mask of the epochs k = 1..steps."""
         k = np.arange(1, steps + 1)
