@@ -125,6 +125,19 @@ def spd_solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(**_JIT)
+def _gram_lower(Li, out):  # pragma: no cover - compiled
+    """``out = Liᵀ Li`` for lower-triangular ``Li`` (= A⁻¹ when ``Li = L⁻¹``), mirrored."""
+    n = Li.shape[0]
+    for i in range(n):
+        for j in range(i + 1):
+            s = 0.0
+            for p in range(i, n):
+                s += Li[p, i] * Li[p, j]
+            out[i, j] = s
+            out[j, i] = s
+
+
+@numba.njit(**_JIT)
 def _inv_rows(lo, hi, A, out, ok):  # pragma: no cover - compiled
     n = A.shape[1]
     L = np.empty((n, n))
@@ -134,13 +147,7 @@ def _inv_rows(lo, hi, A, out, ok):  # pragma: no cover - compiled
             ok[b] = False
             continue
         _tri_inv(L, Li)
-        for i in range(n):  # A⁻¹ = L⁻ᵀ L⁻¹, lower triangle mirrored
-            for j in range(i + 1):
-                s = 0.0
-                for p in range(i, n):
-                    s += Li[p, i] * Li[p, j]
-                out[b, i, j] = s
-                out[b, j, i] = s
+        _gram_lower(Li, out[b])
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -216,6 +223,45 @@ def predict_kernel(x, P, F, Q, x_out, P_out):
 
 
 @numba.njit(**_JIT)
+def _innovation(b, x, P, z, H, R, PHt, nu, S):  # pragma: no cover - compiled
+    """Row b: ``P Hᵀ`` (n, m), ``ν = z − H x`` (m,) and the symmetrized ``S = H P Hᵀ + R``."""
+    n = x.shape[1]
+    m = z.shape[1]
+    h = b if H.shape[0] > 1 else 0
+    e = b if R.shape[0] > 1 else 0
+    for i in range(n):
+        for c in range(m):
+            s = 0.0
+            for p in range(n):
+                s += P[b, i, p] * H[h, c, p]
+            PHt[i, c] = s
+    for r in range(m):
+        s = z[b, r]
+        for p in range(n):
+            s -= H[h, r, p] * x[b, p]
+        nu[r] = s
+        for c in range(r + 1):
+            s = 0.5 * (R[e, r, c] + R[e, c, r])
+            for p in range(n):
+                s += 0.5 * (H[h, r, p] * PHt[p, c] + H[h, c, p] * PHt[p, r])
+            S[r, c] = s
+            S[c, r] = s
+
+
+@numba.njit(**_JIT)
+def _whitened_norm(L, nu, w):  # pragma: no cover - compiled
+    """``νᵀ S⁻¹ ν = |L⁻¹ ν|²`` for the Cholesky factor L of S (w: (m,) scratch)."""
+    q = 0.0
+    for r in range(nu.shape[0]):
+        s = nu[r]
+        for p in range(r):
+            s -= L[r, p] * w[p]
+        w[r] = s / L[r, r]
+        q += w[r] * w[r]
+    return q
+
+
+@numba.njit(**_JIT)
 def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
                  ok):  # pragma: no cover - compiled
     n = x.shape[1]
@@ -230,27 +276,7 @@ def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
     for b in range(lo, hi):
         h = b if H.shape[0] > 1 else 0
         e = b if R.shape[0] > 1 else 0
-        for i in range(n):
-            for c in range(m):
-                s = 0.0
-                for p in range(n):
-                    s += P[b, i, p] * H[h, c, p]
-                PHt[i, c] = s
-        for r in range(m):
-            s = z[b, r]
-            for p in range(n):
-                s -= H[h, r, p] * x[b, p]
-            nu_out[b, r] = s
-            for c in range(m):
-                s = 0.5 * (R[e, r, c] + R[e, c, r])
-                for p in range(n):
-                    s += H[h, r, p] * PHt[p, c]
-                S_out[b, r, c] = s
-        for r in range(m):  # symmetrize S
-            for c in range(r):
-                v = 0.5 * (S_out[b, r, c] + S_out[b, c, r])
-                S_out[b, r, c] = v
-                S_out[b, c, r] = v
+        _innovation(b, x, P, z, H, R, PHt, nu_out[b], S_out[b])
         if not _chol(S_out[b], L):
             ok[b] = False
             continue
@@ -268,15 +294,7 @@ def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
                 w[r] = s / L[r, r]
             for r in range(m):
                 K[i, r] = w[r]
-        # nis = νᵀ S⁻¹ ν = |L⁻¹ ν|²
-        q = 0.0
-        for r in range(m):
-            s = nu_out[b, r]
-            for p in range(r):
-                s -= L[r, p] * w[p]
-            w[r] = s / L[r, r]
-            q += w[r] * w[r]
-        nis_out[b] = q
+        nis_out[b] = _whitened_norm(L, nu_out[b], w)
         # Joseph form (I − K H) P (I − K H)ᵀ + K R Kᵀ, with the products associated so
         # each costs O(n² m): A P = P − K (P Hᵀ)ᵀ and (A P) Aᵀ = A P − (A P Hᵀ) Kᵀ
         for i in range(n):
@@ -338,35 +356,11 @@ def _nis_rows(lo, hi, x, P, z, H, R, nis_out, ok):  # pragma: no cover - compile
     nu = np.empty(m)
     w = np.empty(m)
     for b in range(lo, hi):
-        h = b if H.shape[0] > 1 else 0
-        e = b if R.shape[0] > 1 else 0
-        for i in range(n):
-            for c in range(m):
-                s = 0.0
-                for p in range(n):
-                    s += P[b, i, p] * H[h, c, p]
-                PHt[i, c] = s
-        for r in range(m):
-            s = z[b, r]
-            for p in range(n):
-                s -= H[h, r, p] * x[b, p]
-            nu[r] = s
-            for c in range(r + 1):  # lower triangle of the symmetrized S
-                s = 0.5 * (R[e, r, c] + R[e, c, r])
-                for p in range(n):
-                    s += 0.5 * (H[h, r, p] * PHt[p, c] + H[h, c, p] * PHt[p, r])
-                S[r, c] = s
+        _innovation(b, x, P, z, H, R, PHt, nu, S)
         if not _chol(S, L):
             ok[b] = False
             continue
-        q = 0.0
-        for r in range(m):  # |L⁻¹ ν|²
-            s = nu[r]
-            for p in range(r):
-                s -= L[r, p] * w[p]
-            w[r] = s / L[r, r]
-            q += w[r] * w[r]
-        nis_out[b] = q
+        nis_out[b] = _whitened_norm(L, nu, w)
 
 
 @numba.njit(parallel=True, **_JIT)
@@ -528,13 +522,7 @@ def _fuse_rows(lo, hi, x, P, w, Y0, y0, x_out, P_out, ok):  # pragma: no cover -
             ok[b] = False
             continue
         _tri_inv(L, Li)
-        for i in range(n):
-            for j in range(i + 1):
-                s = 0.0
-                for p in range(i, n):
-                    s += Li[p, i] * Li[p, j]
-                P_out[b, i, j] = s
-                P_out[b, j, i] = s
+        _gram_lower(Li, P_out[b])
         for i in range(n):
             s = 0.0
             for j in range(n):
