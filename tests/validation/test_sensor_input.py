@@ -26,7 +26,7 @@ BAD_PARAMETERS = [
     (Gnss, {"pos_markov_tau_s": 0.0}, "gnss.pos_markov_tau_s"),
     (Gnss, {"vel_markov_tau_s": (100.0, -1.0, 100.0)}, "gnss.vel_markov_tau_s"),
     (Gnss, {"pos_white_sigma_m": -0.1}, "gnss.pos_white_sigma_m"),
-    (Gnss, {"markov": "difference"}, "gnss.markov"),
+    (Gnss, {"markov": "lumped"}, "gnss.markov"),
     (Gnss, {"pos_sigma_m": 0.0}, "gnss.pos_sigma_m"),
     (Gnss, {"dt": 0.0}, "gnss.dt"),
     (Gnss, {"name": ""}, "name"),
