@@ -39,8 +39,7 @@ from ftnav.sim.ins_scenario import InsScenario
 from ftnav.sim.scenario import LinearModel, Sensor
 
 __all__ = ["build_ins_system", "run_ins_scenario", "run_ins_methods", "chunk_runs",
-           "IntegratedSimulation",
-           "initial_ins_state"]
+           "IntegratedSimulation", "initial_ins_state"]
 
 _ARCMIN = np.pi / 180.0 / 60.0
 N_NAV = 9
@@ -235,6 +234,7 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
     parts = [slice(j * B, (j + 1) * B) for j in range(M)]
     d_all, P_all = np.empty((M * B, N_NAV)), np.empty((M * B, N_NAV, N_NAV))
     psi = [getattr(a.sensor, "difference_factor", None) for a in sc.aids]
+    differencing = any(p is not None for p in psi)
     previous = [None] * N  # last raw (z, H, usable) of each differenced aid
     shift = None  # the correction fed back after the last epoch, over the common states
     for k in range(1, K + 1):
@@ -266,7 +266,7 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
             H.append(Hi)
             avail[:, i] = ok
         e_true = navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1],
-                            truth.p[k - 1])
+                                   truth.p[k - 1])
         if true_states is not None:
             it = data.imu_truth
             true_states[:, k - 1] = np.concatenate(
@@ -304,11 +304,12 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
         for j in range(M):
             rec[j].nees[:, k - 1], rec[j].P[:, k - 1] = eps[parts[j]], var[parts[j]]
         if feedback_on:
-            d = d_all
-            ins = feedback(ins, d[:, 0:3], d[:, 3:6], d[:, 6:9])
-            shift = np.concatenate([d, np.zeros((M * B, n - N_NAV))], 1)
+            ins = feedback(ins, d_all[:, 0:3], d_all[:, 3:6], d_all[:, 6:9])
+            if differencing:
+                shift = np.concatenate([d_all, np.zeros((M * B, n - N_NAV))], 1)
             e_out = _metric_errors(navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1],
-                                              truth.v[k - 1], truth.p[k - 1]), truth.p[k - 1])
+                                                     truth.v[k - 1], truth.p[k - 1]),
+                                   truth.p[k - 1])
             for j in range(M):
                 rec[j].x[:, k - 1] = e_out[parts[j]]
     return {nm: rec[j].result() for j, nm in enumerate(names)}
