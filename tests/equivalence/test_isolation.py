@@ -148,3 +148,23 @@ def test_difference_equals_direct_increments(shape):
     diff = drive(DistributedFilter(system, Method("b", architecture="distributed",
                                                   increment="difference"), **kw), sim)
     assert_same(diff, direct, rtol=1e-8)
+
+
+@pytest.mark.parametrize("sharing", ["equal", "trace"])
+def test_no_reset_time_update_isolation_equals_the_missing_measurement(flagged, sharing):
+    """No-reset with ``isolation = "time-update"``: a flagged local filter discards its
+    measurement and stays in the fusion on its coasted estimate, so the filter equals the
+    same no-reset filter without a detector whose sensor 2 has no data while flagged
+    (steps 300..499); the default standalone isolation drops it from the fusion instead."""
+    system, sim = flagged
+    method = Method("nr", mode="no-reset", sharing=sharing)
+    got = drive(FederatedFilter(system, Method("nr", mode="no-reset", sharing=sharing,
+                                               detector="oracle", isolation="time-update")),
+                sim)
+    available = sim.available.copy()
+    available[:, FIRST - 1: END - 1, SENSOR] = False
+    ref = drive(FederatedFilter(system, method), sim, available, np.zeros_like(sim.oracle))
+    assert_same(got, ref)
+    dropped = drive(FederatedFilter(system, Method("nr", mode="no-reset", sharing=sharing,
+                                                   detector="oracle")), sim)
+    assert np.abs(dropped.x - ref.x).max() > 1e-6 * max(1.0, float(np.abs(ref.x).max()))
