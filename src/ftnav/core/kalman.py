@@ -132,7 +132,7 @@ def update(
     """
     n, m = x.shape[-1], z.shape[-1]
     batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
-                                R.shape[:-2])
+                        R.shape[:-2])
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf, Rf = flat(H, batch, (m, n), True), flat(R, batch, (m, m), True)
     M = xf.shape[0]
@@ -175,7 +175,7 @@ def prior_nis(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray,
     """
     n, m = x.shape[-1], z.shape[-1]
     batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
-                                R.shape[:-2])
+                        R.shape[:-2])
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf, Rf = flat(H, batch, (m, n), True), flat(R, batch, (m, m), True)
     q = np.empty(xf.shape[0])

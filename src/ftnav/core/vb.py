@@ -65,7 +65,7 @@ def vb_update(
                                    variant=variant)
     n, m = x.shape[-1], z.shape[-1]
     batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
-                                alpha.shape[:-1], beta.shape[:-1])
+                        alpha.shape[:-1], beta.shape[:-1])
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf = flat(H, batch, (m, n), True)
     alpha_post = flat(alpha, batch, (m,)) + 0.5

@@ -313,78 +313,76 @@ def _model_row(L, h, v, f_b, C, body, n, tau_g, tau_a, F, G):  # pragma: no cove
     Fap = np.zeros((3, 3))
     Fvp = np.zeros((3, 3))
     Cb = np.zeros((3, 3))
-    if True:
-        s, c = np.sin(L), np.cos(L)
-        t = s / c
-        RMh, RNh = radii_nb(L, h)
-        vE, vN, vU = v[0], v[1], v[2]
-        wie = (0.0, OMEGA_IE * c, OMEGA_IE * s)
-        wen = (-vN / RMh, vE / RNh, vE * t / RNh)
-        dgdL, dgdh = gravity_gradient_nb(L, h)
-        fn = np.zeros(3)
-        for i in range(3):
-            for j in range(3):
-                fn[i] += C[i, j] * f_b[j]
-                Cb[i, j] = C[i, j] if body else (1.0 if i == j else 0.0)
-        # F_av, M1 + M2 (F_ap) and F_vp = [v×](2 M1 + M2) + F_g
-        Fav[:] = 0.0
-        Fav[0, 1] = -1.0 / RMh
-        Fav[1, 0] = 1.0 / RNh
-        Fav[2, 0] = t / RNh
-        m1 = np.zeros((3, 3))
-        m1[1, 0] = -OMEGA_IE * s
-        m1[2, 0] = OMEGA_IE * c
-        m2 = np.zeros((3, 3))
-        m2[0, 2] = vN / RMh**2
-        m2[1, 2] = -vE / RNh**2
-        m2[2, 0] = vE / (RNh * c**2)
-        m2[2, 2] = -vE * t / RNh**2
-        Vx = np.array([[0.0, -vU, vN], [vU, 0.0, -vE], [-vN, vE, 0.0]])
-        for i in range(3):
-            for j in range(3):
-                Fap[i, j] = m1[i, j] + m2[i, j]
-                a = 0.0
-                d = 0.0
-                for p in range(3):
-                    a += Vx[i, p] * (2.0 * m1[p, j] + m2[p, j])
-                    d += Vx[i, p] * Fav[p, j]
-                Fvp[i, j] = a
-                F[0 + i, 3 + j] = Fav[i, j]
-                F[0 + i, 6 + j] = Fap[i, j]
-                F[3 + i, 3 + j] = d
-        Fvp[2, 0] += -dgdL
-        Fvp[2, 2] += -dgdh
-        for i in range(3):
-            for j in range(3):
-                F[3 + i, 6 + j] = Fvp[i, j]
-        _skew_into(F, 0, 0, -1.0, wie[0] + wen[0], wie[1] + wen[1], wie[2] + wen[2])
-        _skew_into(F, 3, 0, 1.0, fn[0], fn[1], fn[2])
-        _skew_into(F, 3, 3, -1.0, 2.0 * wie[0] + wen[0], 2.0 * wie[1] + wen[1],
-                   2.0 * wie[2] + wen[2])
-        F[6, 4] = 1.0 / RMh
-        F[7, 3] = 1.0 / (RNh * c)
-        F[8, 5] = 1.0
-        F[6, 8] = -vN / RMh**2
-        F[7, 6] = vE * t / (RNh * c)
-        F[7, 8] = -vE / (RNh**2 * c)
-        for i in range(3):
-            for j in range(3):
-                F[i, 9 + j] = -Cb[i, j]
-                G[i, j] = -Cb[i, j]
-                G[3 + i, 3 + j] = Cb[i, j]
-                if n == 18:
-                    F[i, 12 + j] = -Cb[i, j]
-                    F[3 + i, 15 + j] = Cb[i, j]
-                else:
-                    F[3 + i, 12 + j] = Cb[i, j]
+    s, c = np.sin(L), np.cos(L)
+    t = s / c
+    RMh, RNh = radii_nb(L, h)
+    vE, vN, vU = v[0], v[1], v[2]
+    wie = (0.0, OMEGA_IE * c, OMEGA_IE * s)
+    wen = (-vN / RMh, vE / RNh, vE * t / RNh)
+    dgdL, dgdh = gravity_gradient_nb(L, h)
+    fn = np.zeros(3)
+    for i in range(3):
+        for j in range(3):
+            fn[i] += C[i, j] * f_b[j]
+            Cb[i, j] = C[i, j] if body else (1.0 if i == j else 0.0)
+    # F_av, M1 + M2 (F_ap) and F_vp = [v×](2 M1 + M2) + F_g
+    Fav[0, 1] = -1.0 / RMh
+    Fav[1, 0] = 1.0 / RNh
+    Fav[2, 0] = t / RNh
+    m1 = np.zeros((3, 3))
+    m1[1, 0] = -OMEGA_IE * s
+    m1[2, 0] = OMEGA_IE * c
+    m2 = np.zeros((3, 3))
+    m2[0, 2] = vN / RMh**2
+    m2[1, 2] = -vE / RNh**2
+    m2[2, 0] = vE / (RNh * c**2)
+    m2[2, 2] = -vE * t / RNh**2
+    Vx = np.array([[0.0, -vU, vN], [vU, 0.0, -vE], [-vN, vE, 0.0]])
+    for i in range(3):
+        for j in range(3):
+            Fap[i, j] = m1[i, j] + m2[i, j]
+            a = 0.0
+            d = 0.0
+            for p in range(3):
+                a += Vx[i, p] * (2.0 * m1[p, j] + m2[p, j])
+                d += Vx[i, p] * Fav[p, j]
+            Fvp[i, j] = a
+            F[0 + i, 3 + j] = Fav[i, j]
+            F[0 + i, 6 + j] = Fap[i, j]
+            F[3 + i, 3 + j] = d
+    Fvp[2, 0] += -dgdL
+    Fvp[2, 2] += -dgdh
+    for i in range(3):
+        for j in range(3):
+            F[3 + i, 6 + j] = Fvp[i, j]
+    _skew_into(F, 0, 0, -1.0, wie[0] + wen[0], wie[1] + wen[1], wie[2] + wen[2])
+    _skew_into(F, 3, 0, 1.0, fn[0], fn[1], fn[2])
+    _skew_into(F, 3, 3, -1.0, 2.0 * wie[0] + wen[0], 2.0 * wie[1] + wen[1],
+               2.0 * wie[2] + wen[2])
+    F[6, 4] = 1.0 / RMh
+    F[7, 3] = 1.0 / (RNh * c)
+    F[8, 5] = 1.0
+    F[6, 8] = -vN / RMh**2
+    F[7, 6] = vE * t / (RNh * c)
+    F[7, 8] = -vE / (RNh**2 * c)
+    for i in range(3):
+        for j in range(3):
+            F[i, 9 + j] = -Cb[i, j]
+            G[i, j] = -Cb[i, j]
+            G[3 + i, 3 + j] = Cb[i, j]
             if n == 18:
-                F[12 + i, 12 + i] = -1.0 / tau_g[i]
-                F[15 + i, 15 + i] = -1.0 / tau_a[i]
-                G[12 + i, 6 + i] = 1.0
-                G[15 + i, 9 + i] = 1.0
+                F[i, 12 + j] = -Cb[i, j]
+                F[3 + i, 15 + j] = Cb[i, j]
             else:
-                G[9 + i, 6 + i] = 1.0
-                G[12 + i, 9 + i] = 1.0
+                F[3 + i, 12 + j] = Cb[i, j]
+        if n == 18:
+            F[12 + i, 12 + i] = -1.0 / tau_g[i]
+            F[15 + i, 15 + i] = -1.0 / tau_a[i]
+            G[12 + i, 6 + i] = 1.0
+            G[15 + i, 9 + i] = 1.0
+        else:
+            G[9 + i, 6 + i] = 1.0
+            G[12 + i, 9 + i] = 1.0
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
