@@ -293,6 +293,10 @@ BAD: list[tuple[str, Callable[[], dict], str]] = [
      r"^methods\[2\]\.common_mode_quorum: must be >= 2"),
     ("quorum-above-sensors", _add_method(common_mode="keep", common_mode_quorum=4),
      r"^methods\[2\]\.common_mode_quorum: must be <= the number of sensors \(3\)"),
+    ("intersection-not-neural", _add_method(prior="intersection"),
+     r"^methods\[2\]\.prior: 'intersection' \(covariance intersection of the local priors\) "
+     r"is only used with architecture = 'neural'$"),
+    ("prior-unknown", _add_method(prior="fused"), r"^methods\[2\]\.prior: "),
     ("reset-interval-zero", _add_method(reset_interval=0), r"^methods\[2\]\.reset_interval: "),
     ("n_on-zero", _add_method(n_on=0), r"^methods\[2\]\.n_on: must be >= 1"),
     ("n_off-zero", _add_method(n_off=0), r"^methods\[2\]\.n_off: must be >= 1"),
@@ -480,7 +484,8 @@ def test_round_trip_all_options() -> None:
     d["methods"].append({"name": "x", "sharing": "fixed", "betas": [0.2, 0.3, 0.5],
                          "vb_sensors": ["pos1"]})
     d["methods"].append({"name": "learned", "architecture": "neural", "model": "m.npz",
-                         "uncovered": "pos1", "detector": "residual-chi2"})
+                         "uncovered": "pos1", "detector": "residual-chi2",
+                         "prior": "intersection"})
     d["methods"].append({"name": "quorum", "detector": "residual-chi2", "common_mode": "keep",
                          "common_mode_quorum": 2})
     d["model"]["Q_true"] = [[2.0, 0, 0], [0, 0.0, 0], [0, 0, 0.0]]

@@ -44,6 +44,7 @@ __all__ = [
     "from_information",
     "information_predict",
     "spd_inverse",
+    "intersect",
 ]
 
 
@@ -106,6 +107,29 @@ def predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> Gauss
                    flat(Q, batch, (n, n), True),
                    x_out, P_out)
     return Gaussian(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)))
+
+
+def intersect(x: np.ndarray, P: np.ndarray, omega: np.ndarray | None = None) -> Gaussian:
+    """Covariance intersection ``P⁻¹ = Σ ω_i P_i⁻¹``, ``P⁻¹ x = Σ ω_i P_i⁻¹ x_i``.
+
+    Julier & Uhlmann (ACC 1997): with ``ω_i ≥ 0`` and ``Σ ω_i = 1`` the result is
+    consistent (``P`` bounds the error covariance of ``x``) for *any* cross-covariance
+    of the estimates' errors, which need not be known.  ``omega`` defaults to the
+    equal weights ``1/N``.  Used by the neuron centre's detector (spec §3.1 with the
+    reference of :mod:`ftnav.fusion.neural`).
+
+    Parameters
+    ----------
+    x : (..., N, n) estimates.   P : (..., N, n, n) their covariances.
+    omega : (..., N) weights on the simplex.
+    """
+    N = x.shape[-2]
+    if omega is None:
+        omega = np.full(x.shape[:-1], 1.0 / N)
+    omega = np.asarray(omega, dtype=float)
+    if (omega < 0).any() or np.abs(omega.sum(-1) - 1.0).max() > 1e-12:
+        raise ValueError("omega: covariance intersection needs weights >= 0 that sum to 1")
+    return fuse(x, P, omega)
 
 
 def predict_reference(x, P, F, Q) -> Gaussian:

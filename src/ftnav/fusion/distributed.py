@@ -32,6 +32,7 @@ from ftnav.fusion.local import (
     NoiseState,
     StateTest,
     StepOutput,
+    check_prior,
     detect,
     detector_feature_kinds,
     initial_noise,
@@ -79,6 +80,7 @@ class DistributedFilter:
         if method.mode == "rescale" and not method.reconstructed:
             raise ValueError(f"{name}.mode: 'rescale' is a reconstruction (spec §1.5); "
                              "set reconstructed = true to use it")
+        check_prior(method)
         self.system = system
         self.method = method
         N = system.n_sensors

@@ -38,6 +38,7 @@ from ftnav.fusion.local import (
     NoiseState,
     StateTest,
     StepOutput,
+    check_prior,
     detect,
     detector_feature_kinds,
     initial_noise,
@@ -49,6 +50,7 @@ from ftnav.fusion.local import (
     valid_measurement,
     vb_enabled,
     vb_variant,
+    with_common,
 )
 from ftnav.fusion.system import LinearSystem
 from ftnav.sim.scenario import Method
@@ -108,6 +110,7 @@ class FederatedFilter:
             if method.detector in ("state-chi2", "rbf") or features:
                 raise ValueError(f"{name}.detector: {method.detector!r} needs local priors; "
                                  "zero-reset locals have none")
+        check_prior(method)
         N = system.n_sensors
         q = method.common_mode_quorum
         if q is not None and not (method.common_mode == "keep" and 2 <= q <= N):
@@ -338,16 +341,7 @@ class FederatedFilter:
     # ------------------------------------------------------------------------------
     def _against_global(self, i, xg_pr, Pg_pr, prior):
         """Local filter i's prior with its common block replaced by the fused prior."""
-        nc = self.nc
-        if self.locals[i].n == nc:
-            return xg_pr, Pg_pr
-        x_pr, P_pr = prior
-        x = np.concatenate([xg_pr, x_pr[:, nc:]], 1)
-        P = P_pr.copy()
-        P[:, :nc, :nc] = Pg_pr
-        P[:, :nc, nc:] = 0.0
-        P[:, nc:, :nc] = 0.0
-        return x, P
+        return with_common(prior, xg_pr, Pg_pr)
 
     def _residual(self, i, x, P, z, use, noise, H):
         """NIS of sensor i against the prior (x, P) (spec §3.1)."""

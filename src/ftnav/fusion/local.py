@@ -20,6 +20,8 @@ from ftnav.sim.scenario import Method
 
 __all__ = [
     "select",
+    "with_common",
+    "check_prior",
     "NoiseState",
     "LocalUpdate",
     "local_update",
@@ -29,6 +31,34 @@ __all__ = [
     "load_method_model",
     "StateTest",
 ]
+
+
+def check_prior(method: Method, allowed: tuple[str, ...] = ("local", "global")) -> None:
+    """One-line error unless ``method.prior`` is one the architecture implements."""
+    if method.prior not in allowed:
+        raise ValueError(f"methods[{method.name}].prior: {method.prior!r} is not available "
+                         f"with architecture {method.architecture!r} (expected one of "
+                         f"{list(allowed)})")
+
+
+def with_common(prior: tuple[np.ndarray, np.ndarray], xc: np.ndarray,
+                Pc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A local prior ``(x, P)`` with its common block replaced by ``(xc, Pc)``.
+
+    Private states keep their prior; their cross-covariance with the common block
+    is set to zero.  This is the prior of a residual test against a fused
+    reference (spec §3.1 with ``prior = "global"``).
+    """
+    nc = xc.shape[-1]
+    x, P = prior
+    if x.shape[-1] == nc:
+        return xc, Pc
+    x_g = np.concatenate([xc, x[:, nc:]], 1)
+    P_g = P.copy()
+    P_g[:, :nc, :nc] = Pc
+    P_g[:, :nc, nc:] = 0.0
+    P_g[:, nc:, :nc] = 0.0
+    return x_g, P_g
 
 
 def select(mask: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

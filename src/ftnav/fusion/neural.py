@@ -23,6 +23,26 @@ The fused covariance is not produced by the neuron; ftnav reports the bound
 holds for any correlation between the local errors because w ≥ 0
 (Cauchy-Schwarz), with zero cross terms.  NEES computed with it is
 conservative by construction.
+
+The χ² flags that pick the bank test each aid's residual (spec §3.1) against a
+``prior``:
+
+* ``local``: the local filter's own prior, as in paper 001.  A flagged local
+  coasts (``isolation = "time-update"``); a SINS/TAN filter has no velocity aid,
+  its coasted horizontal error grows, and through the terrain slopes its prior
+  drifts towards a biased clearance until the test passes and the bias is
+  absorbed; once the aid recovers it is flagged against its own biased estimate
+  for ever (measured on seed001, ``docs/claims.md``).
+* ``global``: the predicted neuron output with the bound above, far larger than
+  its error, so the test has little power.
+* ``intersection`` (ftnav's choice for seed001): the covariance intersection of
+  the local priors' common states with equal weights,
+  ``P⁻¹ = Σ P_i⁻¹ / N`` (:func:`ftnav.core.kalman.intersect`), consistent for any
+  correlation between the local errors, and holding every local's information:
+  the TAN filter's height, the GPS filter's position, the Doppler filter's
+  velocity.  A flagged local's coasted prior stays in it (as the no-reset
+  federated filter keeps it, spec §6.3), diluted by the others.  Private states
+  keep the local's prior.
 """
 
 from __future__ import annotations
@@ -45,6 +65,7 @@ from ftnav.fusion.local import (
     residual_statistic,
     select,
     valid_measurement,
+    with_common,
 )
 from ftnav.fusion.system import LinearSystem
 from ftnav.sim.scenario import Method
@@ -167,8 +188,8 @@ class NeuralFusion:
     system : the linear system.
     method : ``architecture = "neural"``; ``model`` (file), ``detector``
         (``residual-chi2``, ``oracle`` or ``none``) and its settings, ``prior``
-        (``local``: each local's own prior; ``global``: the predicted fused
-        estimate), ``uncovered``.
+        (``local``, ``global`` or ``intersection``: the reference of the
+        residual test, module doc), ``uncovered``.
     model : an in-memory model instead of ``method.model``.
     collect : training-data mode: no model needed (equal weights), the stacked
         inputs (B, N_in·n_c) are reported in ``StepOutput.features``.
@@ -230,27 +251,27 @@ class NeuralFusion:
         usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
                           strict=True)
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
-        xf_pr = Pf_pr = None
-        if m.prior == "global":
-            xf_pr, Pf_pr = kf.predict(state.xf, state.Pf, F, Q)
-        xs, Ps, stat, R_hat, priors = [], [], [], [], []
+        xs, Ps, stat, R_hat, priors, Hs = [], [], [], [], [], []
         for i, (lm, s) in enumerate(zip(self.locals, self.system.sensors, strict=True)):
             Fi, Qi = self.system.local_transition(i, k, lin=lin)
             H = lm.H if lin is None else lin.H[i]
             x_pr, P_pr = kf.predict(state.x[i], state.P[i], Fi, Qi)
             priors.append((x_pr, P_pr))
+            Hs.append(H)
             up = local_update(x_pr, P_pr, z[i], usable[:, i], H, s.R, None)
             xs.append(up.x)
             Ps.append(up.P)
             R_hat.append(np.broadcast_to(np.diag(s.R), (up.x.shape[0], s.dim)))
-            if m.prior == "global":
-                x_g = np.concatenate([xf_pr, x_pr[:, nc:]], 1)
-                P_g = P_pr.copy()
-                P_g[:, :nc, :nc] = Pf_pr
-                P_g[:, :nc, nc:] = P_g[:, nc:, :nc] = 0.0
-                stat.append(residual_statistic(x_g, P_g, z[i], usable[:, i], H, s.R))
-            else:
-                stat.append(up.nis)
+            stat.append(up.nis)
+        if m.prior != "local":
+            if m.prior == "global":  # the predicted neuron output and its bound
+                ref = kf.predict(state.xf, state.Pf, F, Q)
+            else:  # covariance intersection of the local priors (module doc)
+                ref = kf.intersect(np.stack([p[0][:, :nc] for p in priors], 1),
+                                   np.stack([p[1][:, :nc, :nc] for p in priors], 1))
+            stat = [residual_statistic(*with_common(priors[i], *ref), z[i], usable[:, i],
+                                       Hs[i], s.R)
+                    for i, s in enumerate(self.system.sensors)]
         stat = np.stack(stat, 1)
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
         det_state, det_out = detect(m, self.detector, state.detector, stat, dof, usable, oracle)
@@ -282,3 +303,4 @@ class NeuralFusion:
         feats = np.swapaxes(u, 1, 2).reshape(u.shape[0], -1) if self.collect else None
         out = StepOutput(xf, Pf, None, det_out, tuple(R_hat), nan, feats)
         return NeuralState(tuple(xs), tuple(Ps), free, xf, Pf, det_state), out
+

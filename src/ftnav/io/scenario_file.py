@@ -556,6 +556,9 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
         if me.common_mode_quorum > len(sensors):
             raise _fail(f"must be <= the number of sensors ({len(sensors)})",
                         "methods", i, "common_mode_quorum")
+    if me.prior == "intersection" and me.architecture != "neural":
+        raise _fail("'intersection' (covariance intersection of the local priors) is only "
+                    "used with architecture = 'neural'", "methods", i, "prior")
     if me.mode == "rescale" and not me.reconstructed:
         raise _fail(
             "'rescale' is a reconstruction (spec §1.5); set reconstructed = true to use it",

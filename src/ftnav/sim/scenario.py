@@ -25,7 +25,7 @@ Sharing = Literal[
 ]
 Detector = Literal["none", "residual-chi2", "state-chi2", "oracle", "rbf"]
 AdaptiveNoise = Literal["none", "vb", "vb-literal"]
-Prior = Literal["local", "global"]
+Prior = Literal["local", "global", "intersection"]
 TraceMode = Literal["scaled", "raw"]
 Increment = Literal["direct", "difference"]
 Isolation = Literal["standalone", "time-update"]
