@@ -259,8 +259,8 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics], local)
             {"horizontal_rmse_m": hz, "horizontal_rmse_fault_free_m": hz_ff},
             hz <= 2.0 * hz_ff,
             "every local filter shares the SINS, so the chi-square tests flag all aids at once "
-            "and the federated filter coasts; the neuron centre's 'sins' bank is the paper's "
-            "answer (claim p001-neural)"))
+            "and the federated filter coasts; the paper's answer, the neuron centre's 'sins' "
+            "bank, is measured by claim p001-neural"))
     return out
 
 
@@ -278,10 +278,9 @@ def _neural_vs_fkf(result: ScenarioResult, m: dict[str, MethodMetrics], label: s
     note = "in-window RMSE over every fault window (GPS, TAN, DNS and SINS), mean over runs"
     if len(hz_ff) == 2 and hz_ff[neural] > 2.0 * hz_ff[fkf]:
         note += (f"; without faults the neuron centre is less accurate ({hz_ff[neural]:.0f} "
-                 f"vs {hz_ff[fkf]:.0f} m): its banks are fixed weights, optimal on closed-loop "
-                 "training flights flown with the true flags, while in operation its own "
-                 "chi-square flags pick the bank and its own output is fed back "
-                 "(docs/claims.md)")
+                 f"vs {hz_ff[fkf]:.0f} m): its banks are fixed weights, and the healthy one "
+                 "trusts GPS for position because the TAN filter has not converged at the "
+                 "start of the flight, where a fixed weight cannot tell (docs/claims.md)")
     return [_claim(
         cid, "paper 001 §4",
         f"The neuron fusion centre is more accurate than the federated filter when a "
