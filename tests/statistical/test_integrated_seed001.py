@@ -1,10 +1,20 @@
 """Seed001 (paper 001, SINS/GPS/TAN/DNS): χ² detection and re-admission of aid faults.
 
-Spec §3.1 (residual test) and §11 (detection metrics).
+Spec §3.1 (residual test), §5.4 (the neuron centre's configuration from the flags),
+§6.3 (time-update isolation) and §11 (detection metrics).
 
 Scenario: the built-in seed001 without its SINS gyro-bias fault (a common-mode fault
-no aid-level test can attribute), 700 s, 4 runs, the no-reset federated filter with the
-residual χ² test against the fused prior (P_FA = 1e-3, n_on = 1, n_off = 5).
+no aid-level test can attribute), 700 s, 8 runs, three methods on the same data:
+
+* ``fkf-nr-chi2``: the no-reset federated filter with the residual χ² test against
+  the fused prior (P_FA = 1e-3, n_on = 1, n_off = 5);
+* ``neural-chi2``: the neuron centre, each aid's residual tested against the
+  covariance intersection of the local priors (``prior = "intersection"``);
+* ``neural-chi2-own``: the same with paper 001's own-residual test (``prior = "local"``).
+
+In every one a flagged local filter discards its measurement (time update only).
+
+**Federated filter.**
 
 Why Pd ≥ 0.95.  The residual of aid i under a bias b is ``ν ~ N(b, S)`` with
 ``S = H P Hᵀ + R``; the statistic ``νᵀ S⁻¹ ν`` is non-central χ²(m, λ) with
@@ -32,6 +42,24 @@ re-admitted in one run of 4), and a no-reset local filter isolated by time updat
 stays in the fusion on its coasted estimate (dropping it left the fused height to GPS
 alone: TAN Pd 0.69 with the augmented GPS).  Measured, 20 runs: Pd 1.000 for every
 aid, re-admission 3-4 s.
+
+**Neuron centre.**  Why Pd ≥ 0.95.  The intersection ``P⁻¹ = Σ P_i⁻¹ / 3`` is consistent for any
+correlation of the local errors (``tests/closed_form/test_covariance_intersection.py``)
+and keeps the TAN filter's height (σ 1.3 m, so σ ≤ 2.3 m in the intersection) and the
+GPS and Doppler filters' horizontal information.  The biases are ≥ 5.4 σ of the
+residual, as above; a flagged local's coasted prior is
+diluted by the others instead of drifting alone.  Measured, seed 1, 20 runs:
+Pd 1.000 for every aid, re-admission ≤ 4 s in every run (seeds 2 and 3 the same).
+
+Why the literal test fails TAN re-admission in one run of 8 (strict xfail).  While it
+is isolated the SINS/TAN local filter coasts on its own SINS solution.  It has no
+velocity aid, so its horizontal velocity error grows (≈ 0.5 m/s relative to the fused
+output 70 s into the window in the worst of 20 runs), and through the terrain slopes of
+``H`` its prior drifts towards the biased clearance while ``S`` grows.  The statistic
+falls to 3–4 against the threshold 10.83, five passes in a row clear the flag inside
+the window, the local absorbs the +40 m bias, and once the aid recovers it is flagged
+against its own biased estimate for ever (lock-out).  Measured, seed 1: Pd GPS / TAN /
+DNS 1.000 / 0.961 / 1.000 over these 8 runs; re-admission never in run 3.
 """
 
 from __future__ import annotations
@@ -47,16 +75,21 @@ from ftnav.io.scenario_file import load_scenario
 from ftnav.scenarios import builtin_path
 from ftnav.sim.ins_scenario import SINS
 
-METHOD = "fkf-nr-chi2"
-RUNS = 4
+FKF = "fkf-nr-chi2"
+NEURAL = "neural-chi2"
+LITERAL = "neural-chi2-own"  # paper 001's own-residual test
+RUNS = 8
 AIDS = ("gps", "tan", "dns")
+
 
 @pytest.fixture(scope="module")
 def seed001():
     sc = load_scenario(builtin_path("seed001"))
-    method = next(m for m in sc.methods if m.name == METHOD)
+    fkf, neural = (next(m for m in sc.methods if m.name == n) for n in (FKF, NEURAL))
+    assert neural.prior == "intersection" and neural.isolation == "time-update"
+    literal = dataclasses.replace(neural, name=LITERAL, prior="local")
     faults = tuple(f for f in sc.faults if f.sensor != SINS)
-    return dataclasses.replace(sc, steps=700, faults=faults, methods=(method,))
+    return dataclasses.replace(sc, steps=700, faults=faults, methods=(fkf, neural, literal))
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +99,7 @@ def result(seed001):
 
 @pytest.fixture(scope="module")
 def metrics(result):
-    return evaluate(result)[METHOD]
+    return evaluate(result)
 
 
 def _fault(sc, aid):
@@ -84,29 +117,46 @@ def test_injected_biases_are_at_least_5_sigma_of_the_aid_noise(seed001):
         assert np.sqrt(np.sum((f.magnitude / sigma) ** 2)) >= 5.0, aid
 
 
-@pytest.mark.parametrize("aid", AIDS)
-def test_every_aid_fault_is_detected(result, metrics, aid):
-    """Per-epoch Pd inside the fault window ≥ 0.95, pooled over the 4 runs."""
-    det = metrics.detection[aid]
-    assert det["events"] == RUNS and det["missed_rate"] == 0.0
-    assert det["rate"] >= 0.95, f"{aid}: Pd = {det['rate']:.4f}"
-
-
-@pytest.mark.parametrize("aid", AIDS)
-def test_a_recovered_aid_is_readmitted_within_15_s_in_every_run(result, aid):
-    """After the window ends the flag clears within 15 s, in each run."""
+def _recovery(result, aid, method):
+    """Seconds from the end of the aid's fault window until its flag clears, per run."""
     sc = result.scenario
     f = _fault(sc, aid)
-    flags = result.results[METHOD].flag[..., sc.sensor_names.index(aid)]
+    flags = result.results[method].flag[..., sc.sensor_names.index(aid)]
     t = sc.times
     assert flags[:, (t >= f.start) & (t < f.end)].any(1).all()  # flagged in every run
     after = t >= f.end
     cleared = ~flags[:, after]
-    recovery = np.where(cleared.any(1), t[after][np.argmax(cleared, 1)] - f.end, np.inf)
-    assert (recovery <= 15.0).all(), f"{aid}: recovery per run {recovery} s"
+    return np.where(cleared.any(1), t[after][np.argmax(cleared, 1)] - f.end, np.inf)
 
 
+@pytest.mark.parametrize("method", [FKF, NEURAL, LITERAL])
 @pytest.mark.parametrize("aid", AIDS)
-def test_false_alarm_rate_sanity(metrics, aid):
-    """Loose sanity bound: alarms on < 20 % of the clean epochs (measured 0 to 0.11)."""
-    assert metrics.detection[aid]["false_alarm_rate"] < 0.2
+def test_every_aid_fault_is_detected(metrics, method, aid):
+    """Per-epoch Pd inside the fault window ≥ 0.95, pooled over the 8 runs."""
+    det = metrics[method].detection[aid]
+    assert det["events"] == RUNS and det["missed_rate"] == 0.0
+    assert det["rate"] >= 0.95, f"{method}, {aid}: Pd = {det['rate']:.4f}"
+
+
+@pytest.mark.parametrize("method, aid", [(FKF, a) for a in AIDS] + [(NEURAL, a) for a in AIDS]
+                         + [(LITERAL, "gps"), (LITERAL, "dns")])
+def test_a_recovered_aid_is_readmitted_within_15_s_in_every_run(result, method, aid):
+    """After the window ends the flag clears within 15 s, in each run."""
+    recovery = _recovery(result, aid, method)
+    assert (recovery <= 15.0).all(), f"{method}, {aid}: recovery per run {recovery} s"
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "paper 001's own-residual test: the coasting SINS/TAN local filter absorbs the +40 m "
+    "bias after a premature release inside the window and is never re-admitted in run 3 "
+    "of 8 (module doc); the built-in prior = 'intersection' has no such lock-out"))
+def test_own_residual_test_readmits_tan(result):
+    recovery = _recovery(result, "tan", LITERAL)
+    assert (recovery <= 15.0).all(), f"tan: recovery per run {recovery} s"
+
+
+@pytest.mark.parametrize("method, bound", [(FKF, 0.2), (NEURAL, 0.05)])
+@pytest.mark.parametrize("aid", AIDS)
+def test_false_alarm_rate_sanity(metrics, method, bound, aid):
+    """Loose bounds on the alarms per clean epoch (measured: FKF ≤ 0.11, neural ≤ 0.002)."""
+    assert metrics[method].detection[aid]["false_alarm_rate"] < bound
