@@ -18,6 +18,7 @@ from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.local import (
     NoiseState,
     StepOutput,
+    check_prior,
     detect,
     initial_noise,
     local_update,
@@ -59,6 +60,7 @@ class CentralizedFilter:
                 f"methods[{method.name}].detector: 'state-chi2' needs local filters "
                 "(federated or distributed architecture)"
             )
+        check_prior(method)
         self.system = system
         self.method = method
         self.detector = make_detector(method, system)

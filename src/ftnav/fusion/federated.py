@@ -241,7 +241,7 @@ class FederatedFilter:
             if m.detector != "residual-chi2":  # no other detector reads the statistic
                 stat.append(np.zeros(B))
             elif self.global_prior:  # covers zero-reset
-                stat.append(self._residual(i, *self._against_global(i, xg_pr, Pg_pr, priors[i]),
+                stat.append(self._residual(i, *with_common(priors[i], xg_pr, Pg_pr),
                                            z[i], use, state.noise[i], Hs[i]))
             else:
                 stat.append(up.nis)
@@ -339,10 +339,6 @@ class FederatedFilter:
                               tuple(noise), det_state, prop), out
 
     # ------------------------------------------------------------------------------
-    def _against_global(self, i, xg_pr, Pg_pr, prior):
-        """Local filter i's prior with its common block replaced by the fused prior."""
-        return with_common(prior, xg_pr, Pg_pr)
-
     def _residual(self, i, x, P, z, use, noise, H):
         """NIS of sensor i against the prior (x, P) (spec §3.1)."""
         R = predicted_noise(noise, self.system.sensors[i].R, self.method.vb_rho)
@@ -353,7 +349,7 @@ class FederatedFilter:
         nc = self.nc
         innov = []
         for i, s in enumerate(self.system.sensors):
-            base = self._against_global(i, xg_pr, Pg_pr, priors[i]) \
+            base = with_common(priors[i], xg_pr, Pg_pr) \
                 if self.feature_prior == "global" else priors[i]
             R = predicted_noise(noise[i], s.R, self.method.vb_rho)
             innov.append(whitened_innovation(*base, z[i], usable[:, i], Hs[i], R))

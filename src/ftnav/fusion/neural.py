@@ -303,4 +303,3 @@ class NeuralFusion:
         feats = np.swapaxes(u, 1, 2).reshape(u.shape[0], -1) if self.collect else None
         out = StepOutput(xf, Pf, None, det_out, tuple(R_hat), nan, feats)
         return NeuralState(tuple(xs), tuple(Ps), free, xf, Pf, det_state), out
-
