@@ -67,6 +67,10 @@ BAD = [
      'pos_white_sigma_m = 1.4\nmarkov = "ignore"', "aids[0].markov"),
     ("differencing an aid that skips epochs", "pos_white_sigma_m = 1.4",
      'pos_white_sigma_m = 1.4\nmarkov = "difference"\nevery = 2', "aids[0].every"),
+    ("intersection prior outside the neuron centre", 'architecture = "centralized"',
+     'architecture = "centralized"\nprior = "intersection"', "methods[0].prior"),
+    ("quorum without the common-mode rule", 'architecture = "centralized"',
+     'architecture = "federated"\ncommon_mode_quorum = 2', "methods[0].common_mode_quorum"),
 ]
 
 

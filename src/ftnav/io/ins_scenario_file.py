@@ -24,6 +24,7 @@ from ftnav.io.scenario_file import (
     MethodFile,
     ScenarioError,
     _build_method,
+    _format_loc,
     _to_scenario_error,
 )
 from ftnav.nav.error_model import ErrorModelParams
@@ -302,7 +303,7 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
             methods.append(_build_method(me, aids, i))
         except Exception as exc:  # pydantic custom error outside validation
             ctx = getattr(exc, "context", None) or {}
-            path = ".".join(str(p) for p in ctx.get("path", ()))
+            path = _format_loc(ctx.get("path", ()))
             raise _err(path or f"methods[{i}]", str(exc), origin) from None
     ev = f.evaluation
     if not ev.skip_initial < steps * fl.dt:
