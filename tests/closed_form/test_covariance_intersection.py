@@ -8,13 +8,18 @@ exact error covariance of the same linear combination.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from ftnav.core import kalman as kf
 from ftnav.fusion.local import check_prior, with_common
-from ftnav.fusion.neural import NeuralFusion
+from ftnav.fusion.neural import NeuralFusion, NeuronModel
 from ftnav.fusion.system import LinearSystem
+from ftnav.io.scenario_file import load_scenario
+from ftnav.scenarios import builtin_path
+from ftnav.sim.linear import simulate
 from ftnav.sim.scenario import Method
 
 
@@ -105,13 +110,6 @@ def test_prior_checks():
 def test_single_local_filter_intersection_is_its_own_prior():
     """N = 1: the intersection of one prior is that prior, so the χ² statistics equal
     ``prior = "local"`` exactly (the oracle of the wiring in the neuron centre)."""
-    from dataclasses import replace
-
-    from ftnav.fusion.neural import NeuronModel
-    from ftnav.io.scenario_file import load_scenario
-    from ftnav.scenarios import builtin_path
-    from ftnav.sim.linear import simulate
-
     sc = load_scenario(builtin_path("seed000"))
     sc = replace(sc, steps=40, sensors=sc.sensors[:1], faults=())
     system = LinearSystem.from_scenario(sc)

@@ -43,13 +43,14 @@ stays in the fusion on its coasted estimate (dropping it left the fused height t
 alone: TAN Pd 0.69 with the augmented GPS).  Measured, 20 runs: Pd 1.000 for every
 aid, re-admission 3-4 s.
 
-**Neuron centre.**  Why Pd ≥ 0.95.  The intersection ``P⁻¹ = Σ P_i⁻¹ / 3`` is consistent for any
-correlation of the local errors (``tests/closed_form/test_covariance_intersection.py``)
-and keeps the TAN filter's height (σ 1.3 m, so σ ≤ 2.3 m in the intersection) and the
-GPS and Doppler filters' horizontal information.  The biases are ≥ 5.4 σ of the
-residual, as above; a flagged local's coasted prior is
-diluted by the others instead of drifting alone.  Measured, seed 1, 20 runs:
-Pd 1.000 for every aid, re-admission ≤ 4 s in every run (seeds 2 and 3 the same).
+**Neuron centre.**  Why Pd ≥ 0.95.  The intersection ``P⁻¹ = Σ P_i⁻¹ / 3`` is
+consistent for any correlation of the local errors
+(``tests/closed_form/test_covariance_intersection.py``) and keeps the TAN filter's
+height (σ 1.3 m, so σ ≤ 2.3 m in the intersection) and the GPS and Doppler filters'
+horizontal information.  The biases are ≥ 5.4 σ of the residual, as above; a flagged
+local's coasted prior is diluted by the others instead of drifting alone.  Measured,
+seed 1, 20 runs: Pd 1.000 for every aid, re-admission ≤ 4 s in every run (seeds 2 and
+3 the same).
 
 Why the literal test fails TAN re-admission in one run of 8 (strict xfail).  While it
 is isolated the SINS/TAN local filter coasts on its own SINS solution.  It has no
