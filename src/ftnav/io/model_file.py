@@ -262,8 +262,11 @@ def system_hash(parts: Mapping[str, Any]) -> str:
     parts : Mapping[str, Any]
         Plain values (str, int, float, bool, None, lists/tuples, nested mappings with
         string keys) and numpy scalars/arrays.  Numeric arrays are hashed as nested
-        lists of float (so an integer and a float array with equal values hash alike;
-        Python's JSON float text is exact, so a 1-ulp change changes the hash).
+        lists of float (so an integer and a float array with equal values hash alike).
+        Every float is rounded to :data:`HASH_DIGITS` significant digits first: a model
+        stays valid across NumPy builds whose ``exp`` or ``sin`` differ in the last bit
+        (a 1-ulp change of a derived matrix), while any change of a setting a user can
+        write (a σ, a τ, a period) changes the hash.
 
     Returns
     -------
@@ -276,7 +279,22 @@ def system_hash(parts: Mapping[str, Any]) -> str:
     """
     if not isinstance(parts, Mapping):
         raise ValueError(f"parts: expected a mapping, got {type(parts).__name__}")
-    return _sha256_text(_canonical(_to_plain(parts, "", float_arrays=True)))
+    return _sha256_text(_canonical(_rounded(_to_plain(parts, "", float_arrays=True))))
+
+
+#: significant digits of every float in :func:`system_hash`
+HASH_DIGITS = 12
+
+
+def _rounded(value: Any) -> Any:
+    """Plain JSON value with every float rounded to :data:`HASH_DIGITS` digits."""
+    if isinstance(value, float):
+        return float(f"{value:.{HASH_DIGITS}g}")
+    if isinstance(value, dict):
+        return {k: _rounded(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_rounded(v) for v in value]
+    return value
 
 
 def _check_array_name(name: Any) -> str:
