@@ -1,0 +1,63 @@
+"""The built-in scenarios give the numbers recorded before the redesign (issues 13-14).
+
+``tests/data/builtin_baseline.json`` holds the ``methods`` section of ``metrics.json``
+(and of its ``second_trajectory``) of ``ftnav run <built-in> --runs 2 --seed 1``,
+recorded from commit 3648194 plus the model-hash fix, before any change of defaults or
+structure.  Every recorded number must come back to 1e-9 relative; keys may be added
+to ``metrics.json`` but none recorded may disappear.  Record again only for a change
+that is meant to change results, and say so in the commit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from ftnav.cli import main
+
+BASELINE = json.loads((Path(__file__).parents[1] / "data" / "builtin_baseline.json").read_text())
+RTOL = 1e-9
+
+
+def _compare(expected, actual, path: str, bad: list[str]) -> None:
+    if isinstance(expected, dict):
+        if not isinstance(actual, dict):
+            bad.append(f"{path}: expected a table, got {actual!r}")
+            return
+        for key, value in expected.items():
+            if key not in actual:
+                bad.append(f"{path}.{key}: missing")
+            else:
+                _compare(value, actual[key], f"{path}.{key}", bad)
+    elif isinstance(expected, list):
+        if not isinstance(actual, list) or len(actual) != len(expected):
+            bad.append(f"{path}: expected {len(expected)} values, got {actual!r}")
+            return
+        for i, (e, a) in enumerate(zip(expected, actual, strict=True)):
+            _compare(e, a, f"{path}[{i}]", bad)
+    elif isinstance(expected, bool) or expected is None or isinstance(expected, str):
+        if actual != expected:
+            bad.append(f"{path}: {actual!r} != {expected!r}")
+    elif isinstance(expected, int | float):
+        if not isinstance(actual, int | float) or isinstance(actual, bool) or \
+                not math.isclose(actual, expected, rel_tol=RTOL, abs_tol=1e-300):
+            bad.append(f"{path}: {actual!r} != {expected!r}")
+
+
+@pytest.mark.parametrize("name", sorted(BASELINE))
+def test_builtin_metrics_are_unchanged(name, tmp_path, capsys):
+    expected = BASELINE[name]
+    out = tmp_path / name
+    assert main(["run", name, "--runs", str(expected["runs"]), "--seed", str(expected["seed"]),
+                 "--no-figures", "--quiet", "--out", str(out)]) == 0
+    capsys.readouterr()
+    actual = json.loads((out / "metrics.json").read_text())
+    bad: list[str] = []
+    _compare(expected["methods"], actual["methods"], "methods", bad)
+    if "second_trajectory" in expected:
+        _compare(expected["second_trajectory"]["methods"],
+                 actual["second_trajectory"]["methods"], "second_trajectory.methods", bad)
+    assert not bad, f"{len(bad)} numbers changed, first: " + "; ".join(bad[:5])
