@@ -1,20 +1,18 @@
-"""Batching is invisible: how runs are grouped or threaded never changes a run's result.
+"""Batching is invisible: how runs are grouped never changes a run's result.
 
 Oracles: the same runs processed (a) in separate batches, (b) concatenated into one
-batch by :func:`run_scenario` (faulty and fault-free twin together), (c) on one
-thread or on numba's thread pool, must agree exactly (runs are independent, and each
-row runs the same compiled code).
+batch by :func:`run_scenario` (faulty and fault-free twin together) must agree exactly
+(runs are independent, and each row runs the same compiled code).  Worker processes:
+``tests/equivalence/test_workers.py``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 
-import numba
 import numpy as np
 import pytest
 
-from ftnav.core import linalg
 from ftnav.eval.montecarlo import build_filter, run_filter, run_scenario
 from ftnav.fusion.system import LinearSystem
 from ftnav.io.scenario_file import load_scenario
@@ -52,21 +50,3 @@ def test_fault_free_twin_in_one_batch_equals_separate_batches(scenario):
     for m in scenario.methods:
         _assert_same(res.results[m.name], run_filter(build_filter(system, m), sim, 3))
         _assert_same(res.fault_free[m.name], run_filter(build_filter(system, m), sim_ff, 3))
-
-
-def test_thread_pool_equals_serial_kernels(scenario):
-    runs = 2 * linalg.PARALLEL_MIN  # large enough for the thread pool
-    sim = simulate(dataclasses.replace(scenario, steps=200), runs, 3)
-    system = LinearSystem.from_scenario(scenario)
-    threads = numba.get_num_threads()
-    if numba.config.NUMBA_NUM_THREADS == 1:
-        pytest.skip("one thread available: the pool path is the serial path")
-    for m in scenario.methods:
-        numba.set_num_threads(1)
-        serial = run_filter(build_filter(system, m), sim, 3)
-        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-        try:
-            pooled = run_filter(build_filter(system, m), sim, 3)
-        finally:
-            numba.set_num_threads(threads)
-        _assert_same(pooled, serial)

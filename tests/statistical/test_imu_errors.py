@@ -19,7 +19,6 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import numba
 import numpy as np
 import pytest
 from scipy.stats import chi2
@@ -194,15 +193,12 @@ def test_run_alone_equals_run_in_batch_bit_for_bit():
     np.testing.assert_array_equal(shared.dv, repeated.dv)
 
 
-def test_result_does_not_depend_on_thread_count():
+def test_result_does_not_depend_on_thread_count(monkeypatch):
     e = imu_preset("seed001")
     zero = np.zeros((500, 3))
-    before = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
-        one = simulate_imu_errors(zero, zero, 0.01, e, seed=3, runs=4)
-    finally:
-        numba.set_num_threads(before)
+    monkeypatch.setenv("FTNAV_WORKERS", "1")
+    one = simulate_imu_errors(zero, zero, 0.01, e, seed=3, runs=4)
+    monkeypatch.setenv("FTNAV_WORKERS", "3")
     many = simulate_imu_errors(zero, zero, 0.01, e, seed=3, runs=4)
     np.testing.assert_array_equal(one.dtheta, many.dtheta)
     np.testing.assert_array_equal(one.dv, many.dv)

@@ -8,12 +8,13 @@ triangular solves run in one compiled loop over the batch.  A matrix that is not
 numerically positive definite falls back to LU (``numpy.linalg.solve``), so the
 result is never silently wrong.
 
-Every public kernel splits the batch into chunks that run on numba's thread
-pool (``prange``); each chunk runs the serial ``_*_rows`` loop with its own
-scratch buffers.  Monte Carlo runs are independent, so the result does not
-depend on the number of threads (``NUMBA_NUM_THREADS``, or
-``numba.set_num_threads``); numba's default ``workqueue`` threading layer must
-not be entered from two Python threads at once.
+Every kernel is one serial compiled loop over the batch (``_*_rows(lo, hi, ...)``
+over rows ``lo..hi−1``, with its own scratch buffers).  A kernel call holds one
+epoch's work, microseconds to a millisecond: far too little for a thread pool,
+whose barrier at the end of every call waits for the slowest thread, so one core
+taken by another process made whole runs many times slower.  Parallelism lives a
+level up, around whole chunks of runs or methods in worker processes
+(:mod:`ftnav.parallel`), where a busy core costs at most in proportion.
 """
 
 from __future__ import annotations
@@ -27,27 +28,6 @@ __all__ = ["spd_solve", "spd_inv", "predict_kernel", "update_kernel", "nis_kerne
 #: compile options of every kernel: cached, GIL released, NumPy error model
 #: (no zero-division checks; a failed Cholesky is detected explicitly instead)
 _JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"reassoc", "contract"})
-
-
-#: smallest batch worth the thread pool (below it the serial loop runs directly)
-PARALLEL_MIN = 64
-
-
-def _n_chunks(M: int) -> int:
-    """Chunks of a batch of M for the thread pool (a few per thread); 0 = run serially."""
-    if M < PARALLEL_MIN:
-        return 0
-    threads = numba.get_num_threads()
-    return 0 if threads == 1 else min(M, 4 * threads)
-
-
-def _run_batch(rows, par, M: int, *args) -> None:
-    """Run ``rows(0, M, *args)`` serially, or ``par(C, *args)`` on C chunks of the pool."""
-    C = _n_chunks(M)
-    if C:
-        par(C, *args)
-    else:
-        rows(0, M, *args)
 
 
 @numba.njit(**_JIT)
@@ -91,17 +71,12 @@ def _chol_solve_rows(lo, hi, A, B, out, ok):  # pragma: no cover - compiled
                 out[b, i, c] = s / L[i, i]
 
 
-@numba.njit(parallel=True, **_JIT)
-def _chol_solve_par(C, A, B, out, ok):  # pragma: no cover - compiled
-    M = A.shape[0]
-    for c in numba.prange(C):
-        _chol_solve_rows(c * M // C, (c + 1) * M // C, A, B, out, ok)
 
 
 def _chol_solve(A, B, out):
     M = A.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    _run_batch(_chol_solve_rows, _chol_solve_par, M, A, B, out, ok)
+    _chol_solve_rows(0, M, A, B, out, ok)
     return ok
 
 
@@ -150,11 +125,6 @@ def _inv_rows(lo, hi, A, out, ok):  # pragma: no cover - compiled
         _gram_lower(Li, out[b])
 
 
-@numba.njit(parallel=True, **_JIT)
-def _inv_par(C, A, out, ok):  # pragma: no cover - compiled
-    M = A.shape[0]
-    for c in numba.prange(C):
-        _inv_rows(c * M // C, (c + 1) * M // C, A, out, ok)
 
 
 def spd_inv(A: np.ndarray) -> np.ndarray:
@@ -168,7 +138,7 @@ def spd_inv(A: np.ndarray) -> np.ndarray:
     A3 = flat(A, batch, (n, n))
     out = np.empty_like(A3)
     ok = np.ones(A3.shape[0], dtype=np.bool_)
-    _run_batch(_inv_rows, _inv_par, A3.shape[0], A3, out, ok)
+    _inv_rows(0, A3.shape[0], A3, out, ok)
     if not ok.all():
         bad = ~ok
         X = np.linalg.inv(A3[bad])
@@ -206,11 +176,6 @@ def _predict_rows(lo, hi, x, P, F, Q, x_out, P_out):  # pragma: no cover - compi
                 P_out[b, j, i] = v
 
 
-@numba.njit(parallel=True, **_JIT)
-def _predict_kernel_par(C, x, P, F, Q, x_out, P_out):  # pragma: no cover - compiled
-    M = x.shape[0]
-    for c in numba.prange(C):
-        _predict_rows(c * M // C, (c + 1) * M // C, x, P, F, Q, x_out, P_out)
 
 
 def predict_kernel(x, P, F, Q, x_out, P_out):
@@ -219,7 +184,7 @@ def predict_kernel(x, P, F, Q, x_out, P_out):
     ``F`` and ``Q`` have a leading axis of M or of 1 (shared by the batch).
     """
     M = x.shape[0]
-    _run_batch(_predict_rows, _predict_kernel_par, M, x, P, F, Q, x_out, P_out)
+    _predict_rows(0, M, x, P, F, Q, x_out, P_out)
 
 
 @numba.njit(**_JIT)
@@ -328,20 +293,13 @@ def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
                 P_out[b, j, i] = s
 
 
-@numba.njit(parallel=True, **_JIT)
-def _update_kernel_par(C, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
-                       ok):  # pragma: no cover - compiled
-    M = x.shape[0]
-    for c in numba.prange(C):
-        _update_rows(c * M // C, (c + 1) * M // C, x, P, z, H, R, x_out, P_out, nu_out,
-                     S_out, nis_out, ok)
 
 
 def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):
     """Joseph-form update for flat batches; returns False where S is not SPD."""
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    _run_batch(_update_rows, _update_kernel_par, M, x, P, z, H, R, x_out, P_out, nu_out, S_out,
+    _update_rows(0, M, x, P, z, H, R, x_out, P_out, nu_out, S_out,
                nis_out, ok)
     return ok
 
@@ -363,11 +321,6 @@ def _nis_rows(lo, hi, x, P, z, H, R, nis_out, ok):  # pragma: no cover - compile
         nis_out[b] = _whitened_norm(L, nu, w)
 
 
-@numba.njit(parallel=True, **_JIT)
-def _nis_par(C, x, P, z, H, R, nis_out, ok):  # pragma: no cover - compiled
-    M = x.shape[0]
-    for c in numba.prange(C):
-        _nis_rows(c * M // C, (c + 1) * M // C, x, P, z, H, R, nis_out, ok)
 
 
 def nis_kernel(x, P, z, H, R, nis_out):
@@ -377,7 +330,7 @@ def nis_kernel(x, P, z, H, R, nis_out):
     """
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    _run_batch(_nis_rows, _nis_par, M, x, P, z, H, R, nis_out, ok)
+    _nis_rows(0, M, x, P, z, H, R, nis_out, ok)
     return ok
 
 
@@ -410,13 +363,6 @@ def _vb_rows(lo, hi, x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_
                 beta_out[b, r] = beta[b, r] + 0.5 * res * res + 0.5 * hph
 
 
-@numba.njit(parallel=True, **_JIT)
-def _vb_par(C, x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out,
-            nis_out, beta_out, R_out, ok):  # pragma: no cover - compiled
-    M = x.shape[0]
-    for c in numba.prange(C):
-        _vb_rows(c * M // C, (c + 1) * M // C, x, P, z, H, alpha_post, beta, iterations, x_out,
-                 P_out, nu_out, S_out, nis_out, beta_out, R_out, ok)
 
 
 def vb_kernel(x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out, nis_out,
@@ -425,7 +371,7 @@ def vb_kernel(x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_
     ``R = diag(β/α)`` then ``β = β⁻ + ½ν⁺² + ½ diag(H P⁺ Hᵀ)``; False where S is not SPD."""
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    _run_batch(_vb_rows, _vb_par, M, x, P, z, H, alpha_post, beta, iterations, x_out, P_out,
+    _vb_rows(0, M, x, P, z, H, alpha_post, beta, iterations, x_out, P_out,
                nu_out, S_out, nis_out, beta_out, R_out, ok)
     return ok
 
@@ -530,11 +476,6 @@ def _fuse_rows(lo, hi, x, P, w, Y0, y0, x_out, P_out, ok):  # pragma: no cover -
             x_out[b, i] = s
 
 
-@numba.njit(parallel=True, **_JIT)
-def _fuse_kernel_par(C, x, P, w, Y0, y0, x_out, P_out, ok):  # pragma: no cover - compiled
-    M = x.shape[0]
-    for c in numba.prange(C):
-        _fuse_rows(c * M // C, (c + 1) * M // C, x, P, w, Y0, y0, x_out, P_out, ok)
 
 
 def fuse_kernel(x, P, w, Y0, y0, x_out, P_out):
@@ -546,5 +487,5 @@ def fuse_kernel(x, P, w, Y0, y0, x_out, P_out):
     """
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    _run_batch(_fuse_rows, _fuse_kernel_par, M, x, P, w, Y0, y0, x_out, P_out, ok)
+    _fuse_rows(0, M, x, P, w, Y0, y0, x_out, P_out, ok)
     return ok

@@ -34,6 +34,7 @@ from ftnav.nav import attitude
 from ftnav.nav.earth import radii
 from ftnav.nav.error_model import discrete_model
 from ftnav.nav.mechanization import InsState, feedback, integrate, navigation_errors
+from ftnav.parallel import run_tasks, split_even
 from ftnav.sim.ins_data import InsData, simulate_ins
 from ftnav.sim.ins_scenario import InsScenario
 from ftnav.sim.scenario import LinearModel, Sensor
@@ -342,31 +343,52 @@ def chunk_runs(sc: InsScenario, twin: bool = True) -> int:
 def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
                      fault_free: bool = True, first_run: int = 0,
                      progress: Callable[[int], None] | None = None,
-                     check_spd: bool = False, chunk: int | None = None) -> IntegratedResult:
+                     check_spd: bool = False, chunk: int | None = None,
+                     workers: int = 1) -> IntegratedResult:
     """Simulate and run every method closed-loop; with faults, also the fault-free twin.
 
     The fault-free twin draws the same random streams with the faults removed and
     runs in the same batch (2·runs), as in :func:`ftnav.eval.montecarlo.run_scenario`.
     Runs are processed in batches of ``chunk`` (default :func:`chunk_runs`, which
     bounds the memory of the simulated IMU data); every run draws its own random
-    streams, so the results do not depend on the batching.  The simulated data are
-    kept in ``result.simulation.data`` when everything ran as one batch, else None.
+    streams, so the results do not depend on the batching.  ``workers > 1`` runs the
+    batches (and, with fewer batches than workers, groups of methods) in that many
+    processes (:mod:`ftnav.parallel`), each simulating its own runs; the results
+    are the same.  The simulated data are kept in ``result.simulation.data`` when
+    everything ran as one batch in this process, else None.
     """
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
-    methods = sc.methods if methods is None else methods
+    methods = tuple(sc.methods if methods is None else methods)
     chunk = chunk_runs(sc, fault_free and bool(sc.faults)) if chunk is None else int(chunk)
     if chunk < 1:
         raise ValueError(f"chunk: must be >= 1, got {chunk}")
-    if runs > chunk:
-        parts = [run_ins_scenario(sc, min(chunk, runs - s), seed, methods=methods,
-                                  fault_free=fault_free, first_run=first_run + s,
-                                  progress=progress, check_spd=check_spd, chunk=chunk)
-                 for s in range(0, runs, chunk)]
-        return _merge_chunks(parts, runs)
+    system = build_ins_system(sc)
+    for m in methods:  # validate every method before anything is simulated
+        build_filter(system, m)
+    if workers > 1:  # no more runs per batch than share the workers evenly
+        chunk = min(chunk, -(-runs // workers))
+    starts = range(first_run, first_run + runs, chunk)
+    groups = [methods]
+    if workers > 1 and len(starts) < workers:
+        groups = [tuple(g) for g in split_even(methods, -(-workers // len(starts)))]
+    keep = len(starts) * len(groups) == 1  # the simulated data stay in this process
+    tasks = [(sc, range(s, min(s + chunk, first_run + runs)), seed, g, fault_free, check_spd,
+              keep) for s in starts for g in groups]
+    parts = run_tasks(_ins_task, tasks, workers, progress)
+    by_chunk = [_merge_methods(parts[i:i + len(groups)], methods)
+                for i in range(0, len(parts), len(groups))]
+    if len(by_chunk) == 1:
+        return by_chunk[0]
+    return _merge_chunks(by_chunk, runs)
+
+
+def _ins_task(task, progress: Callable[[int], None] | None = None) -> IntegratedResult:
+    """One task of :func:`run_ins_scenario`: a group of methods over a batch of runs."""
+    sc, rr, seed, methods, fault_free, check_spd, keep = task
+    runs = len(rr)
     system = build_ins_system(sc)
     filters = {m.name: build_filter(system, m) for m in methods}
-    rr = range(first_run, first_run + runs)
     data = simulate_ins(sc, rr, seed)
     twin = fault_free and bool(sc.faults)
     both = data
@@ -374,7 +396,7 @@ def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
         both = _concat(data, simulate_ins(sc.without_faults(), rr, seed))
     results, ff, local, local_ff = {}, {}, {}, {}
     for name, (res, loc) in run_ins_methods(filters, sc, both, system, progress,
-                                                         check_spd).items():
+                                            check_spd).items():
         if twin:
             results[name], ff[name] = split_result(res, runs)
             local[name] = None if loc is None else LocalTrack(loc.pos[:runs])
@@ -382,9 +404,27 @@ def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
         else:
             results[name], local[name] = res, loc
     zeros = np.zeros((runs, sc.steps, N_NAV))
-    sr = ScenarioResult(sc, runs, seed, IntegratedSimulation(zeros, data), results,
-                        IntegratedSimulation(zeros) if twin else None, ff)
+    sr = ScenarioResult(sc, runs, seed, IntegratedSimulation(zeros, data if keep else None),
+                        results, IntegratedSimulation(zeros) if twin else None, ff)
     return IntegratedResult(sr, local, local_ff)
+
+
+def _merge_methods(parts: list[IntegratedResult], methods) -> IntegratedResult:
+    """One result from groups of methods run on the same batch of runs."""
+    if len(parts) == 1:
+        return parts[0]
+    order = [m.name for m in methods]
+
+    def union(dicts):
+        merged = {k: v for d in dicts for k, v in d.items()}
+        return {k: merged[k] for k in order if k in merged}
+
+    r0 = parts[0].result
+    sr = r0._replace(simulation=IntegratedSimulation(r0.simulation.truth),
+                     results=union([p.result.results for p in parts]),
+                     fault_free=union([p.result.fault_free for p in parts]))
+    return IntegratedResult(sr, union([p.local for p in parts]),
+                            union([p.local_fault_free for p in parts]))
 
 
 def _merge_chunks(parts: list[IntegratedResult], runs: int) -> IntegratedResult:

@@ -18,6 +18,7 @@ from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import FederatedFilter
 from ftnav.fusion.neural import NeuralFusion
 from ftnav.fusion.system import LinearSystem
+from ftnav.parallel import run_tasks, split_even
 from ftnav.sim.linear import Simulation, concat_simulations, simulate
 from ftnav.sim.scenario import Method, Scenario
 
@@ -123,6 +124,10 @@ def run_filter(filt, sim: Simulation, n_common: int,
     return MethodResult(x, Pd, ne, beta, stat, thr, raw, flag, tuple(R_hat), nan_count, feats)
 
 
+#: smallest ``methods × epochs`` worth worker processes (each costs ~2 s to start)
+PARALLEL_MIN_WORK = 10_000
+
+
 def run_scenario(
     scenario: Scenario,
     runs: int,
@@ -131,6 +136,7 @@ def run_scenario(
     methods: tuple[Method, ...] | None = None,
     fault_free: bool = True,
     progress: Callable[[int], None] | None = None,
+    workers: int = 1,
 ) -> ScenarioResult:
     """Simulate the scenario and run every method (and, if asked, the fault-free twin).
 
@@ -139,24 +145,51 @@ def run_scenario(
     without the fault on identical noise.  Both simulations run as one batch of
     ``2·runs`` (runs are independent, so the results are those of two separate
     batches) and are split afterwards: half the per-epoch Python overhead.
+
+    ``workers > 1`` runs groups of methods in that many processes
+    (:mod:`ftnav.parallel`) when the job holds at least
+    :data:`PARALLEL_MIN_WORK` method-epochs; each simulates the same runs from the
+    seed, so the results are identical to ``workers = 1``.
     """
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
     methods = scenario.methods if methods is None else methods
     system = LinearSystem.from_scenario(scenario)
-    nc = system.n_common
     filters = {m.name: build_filter(system, m) for m in methods}  # validate before running
     sim = simulate(scenario, runs, seed)
-    if not (fault_free and scenario.faults):
-        results = {name: run_filter(f, sim, nc, progress) for name, f in filters.items()}
-        return ScenarioResult(scenario, runs, seed, sim, results, None, {})
-    sim_ff = simulate(scenario.without_faults(), runs, seed)
-    both = concat_simulations(sim, sim_ff)
-    split = {name: split_result(run_filter(f, both, nc, progress), runs)
-             for name, f in filters.items()}
-    results = {name: r[0] for name, r in split.items()}
-    ff = {name: r[1] for name, r in split.items()}
+    twin = fault_free and bool(scenario.faults)
+    sim_ff = simulate(scenario.without_faults(), runs, seed) if twin else None
+    groups = [tuple(methods)]
+    if workers > 1 and len(methods) * scenario.steps >= PARALLEL_MIN_WORK:
+        groups = [tuple(g) for g in split_even(methods, 3 * workers)]
+    # in this process the task reuses the simulation; a worker simulates its own copy
+    local = (sim, sim_ff) if len(groups) == 1 else None
+    parts = run_tasks(_method_group, [(scenario, runs, seed, g, twin, local) for g in groups],
+                      workers, progress)
+    results, ff = {}, {}
+    for group, (res, res_ff) in zip(groups, parts, strict=True):
+        results.update((m.name, r) for m, r in zip(group, res, strict=True))
+        ff.update((m.name, r) for m, r in zip(group, res_ff, strict=False))
+    results = {name: results[name] for name in filters}  # the scenario's order
+    ff = {name: ff[name] for name in filters} if twin else {}
     return ScenarioResult(scenario, runs, seed, sim, results, sim_ff, ff)
+
+
+def _method_group(task, progress: Callable[[int], None] | None = None
+                  ) -> tuple[list[MethodResult], list[MethodResult]]:
+    """One task of :func:`run_scenario`: a group of methods over every run."""
+    scenario, runs, seed, methods, twin, local = task
+    system = LinearSystem.from_scenario(scenario)
+    nc = system.n_common
+    sim, sim_ff = local if local is not None else (
+        simulate(scenario, runs, seed),
+        simulate(scenario.without_faults(), runs, seed) if twin else None)
+    if not twin:
+        return [run_filter(build_filter(system, m), sim, nc, progress) for m in methods], []
+    both = concat_simulations(sim, sim_ff)
+    split = [split_result(run_filter(build_filter(system, m), both, nc, progress), runs)
+             for m in methods]
+    return [r[0] for r in split], [r[1] for r in split]
 
 
 def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult]:

@@ -19,8 +19,9 @@ Algorithms for step 1 (``algorithm``):
   the solution is produced every second sample.
 * ``"single-sample"``: ``φ_b = Δθ``, ``Δv_b = Δv + ½Δθ×Δv``.
 
-The kernel is compiled with numba and runs the batch of Monte Carlo runs in parallel
-(each run is a sequential loop over its samples); the state is an explicit
+The kernel is compiled with numba and runs the batch of Monte Carlo runs in one
+serial loop (each run a sequential loop over its samples; parallelism is over whole
+chunks of runs in worker processes, :mod:`ftnav.parallel`); the state is an explicit
 :class:`InsState`, so integration can be split into chunks (e.g. between aid epochs,
 with feedback corrections in between) without changing the result.
 """
@@ -207,13 +208,6 @@ def _run(b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out
     a[b, 0], a[b, 1], a[b, 2] = aE, aN, aU
 
 
-@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _integrate_par(q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out,
-                   p_out):  # pragma: no cover - compiled
-    for b in numba.prange(q.shape[0]):
-        _run(b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out)
-
-
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _integrate_serial(q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out,
                       p_out):  # pragma: no cover - compiled
@@ -279,8 +273,7 @@ def integrate(
     new = InsState(*(np.array(x, dtype=float, copy=True) for x in state))
     n_out = K // (2 if alg == 2 else 1) // output_every
     q_out, v_out, p_out = np.empty((B, n_out, 4)), np.empty((B, n_out, 3)), np.empty((B, n_out, 3))
-    kernel = _integrate_par if B > 1 and numba.get_num_threads() > 1 else _integrate_serial
-    kernel(new.q, new.v, new.p, new.a, dtheta, dv, float(dt), alg,
+    _integrate_serial(new.q, new.v, new.p, new.a, dtheta, dv, float(dt), alg,
            gb, ab, int(output_every), q_out, v_out, p_out)
     return new, NavSolution(q_out, v_out, p_out)
 

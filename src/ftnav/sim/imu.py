@@ -36,7 +36,8 @@ the IMU errors.  One stream per component keeps common random numbers between er
 settings (switching the scale factor off leaves the noise realization unchanged) and
 lets a zero component skip its draw.  Run r is bit-identical alone or in a batch; each
 run's (K, 3) block is drawn in one call, runs in a thread pool of
-``numba.get_num_threads()`` threads (the result does not depend on it); the Markov
+:func:`ftnav.parallel.default_workers` threads (one run's block, milliseconds of work,
+is the smallest task; the result does not depend on the thread count); the Markov
 recursion runs over all runs at once with :func:`scipy.signal.lfilter`.
 """
 
@@ -48,7 +49,6 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, fields
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.signal import lfilter
@@ -63,6 +63,7 @@ from ftnav.nav.units import (
     ppm,
     standard_g,
 )
+from ftnav.parallel import default_workers
 
 __all__ = [
     "IMU_PRESETS", "IMU_STREAM_KEY", "ImuErrorTruth", "ImuErrors", "ImuSimulation",
@@ -401,7 +402,7 @@ def _normal_blocks(seed: int, runs: range, component: int, K: int) -> np.ndarray
     def fill(b: int) -> None:
         _generator(seed, runs[b], component).standard_normal(out=out[b])
 
-    threads = min(numba.get_num_threads(), len(runs))
+    threads = min(default_workers(), len(runs))
     if threads > 1:
         with ThreadPoolExecutor(threads) as pool:
             list(pool.map(fill, range(len(runs))))

@@ -1,0 +1,164 @@
+"""Coarse-grained parallelism: whole tasks (groups of methods, chunks of runs) in processes.
+
+Each task is minutes to seconds of independent work: a group of methods over every
+run, or a chunk of runs under every method.  A worker process computes a task from
+its own copy of the scenario and the root seed (it simulates its own runs, so no
+simulated data crosses a process boundary) and sends back the per-epoch results.
+There is no barrier inside a task, so a core taken by another process slows a run
+at most in proportion, unlike a thread pool entered at every epoch (every call then
+waits for its slowest, descheduled thread: a 20x collapse seen on a busy 2-core
+machine, issue 13).  Runs are independent and each task runs the same serial
+compiled code, so the results do not depend on the number of workers (tested bit
+for bit in ``tests/equivalence/test_workers.py``).
+
+Worker processes are started with ``spawn`` (a fresh interpreter: no inherited
+thread state); as with :mod:`multiprocessing`, a script that asks for workers must
+guard its top level with ``if __name__ == "__main__":`` (the ``ftnav`` command does).  The number of workers is the ``workers`` argument, else the
+environment variable ``FTNAV_WORKERS``, else the CPUs this process may run on.
+Inside a worker ``FTNAV_WORKERS`` is 1, so nothing nests a second level of
+parallelism (the thread pool of :func:`ftnav.sim.imu.simulate_imu_errors` included).
+This module uses the standard library only, so every layer may import it.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import queue
+import threading
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any, TypeVar
+
+__all__ = ["available_cpus", "default_workers", "run_tasks", "split_even"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: seconds between two progress messages of a worker
+_FLUSH_S = 0.25
+
+
+def available_cpus() -> int:
+    """CPUs this process may run on (its affinity mask where the OS has one)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def default_workers() -> int:
+    """``FTNAV_WORKERS`` if set (an integer ≥ 1), else :func:`available_cpus`.
+
+    Raises
+    ------
+    ValueError
+        ``"FTNAV_WORKERS: ..."`` for a value that is not an integer ≥ 1.
+    """
+    text = os.environ.get("FTNAV_WORKERS")
+    if text is None or not text.strip():
+        return available_cpus()
+    try:
+        value = int(text)
+    except ValueError:
+        raise ValueError(f"FTNAV_WORKERS: expected an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise ValueError(f"FTNAV_WORKERS: expected an integer >= 1, got {value}")
+    return value
+
+
+def split_even(items: Sequence[T], parts: int) -> list[list[T]]:
+    """``items`` dealt round-robin into ``min(parts, len(items))`` non-empty groups."""
+    parts = max(1, min(parts, len(items)))
+    return [list(items[i::parts]) for i in range(parts)]
+
+
+# ----------------------------------------------------------------------- worker side
+_progress_queue: Any = None
+
+
+def _init_worker(q) -> None:
+    global _progress_queue
+    _progress_queue = q
+    os.environ["FTNAV_WORKERS"] = "1"
+
+
+class _Reporter:
+    """A worker's progress callback: counts and sends at most every :data:`_FLUSH_S`."""
+
+    def __init__(self, q):
+        self.q = q
+        self.pending = 0
+        self.last = time.monotonic()
+
+    def __call__(self, n: int = 1) -> None:
+        self.pending += n
+        now = time.monotonic()
+        if now - self.last >= _FLUSH_S:
+            self.flush()
+            self.last = now
+
+    def flush(self) -> None:
+        if self.pending:
+            self.q.put(self.pending)
+            self.pending = 0
+
+
+def _call(fn: Callable[..., R], task) -> R:
+    reporter = _Reporter(_progress_queue) if _progress_queue is not None else None
+    try:
+        return fn(task, reporter)
+    finally:
+        if reporter is not None:
+            reporter.flush()
+
+
+# ----------------------------------------------------------------------- parent side
+def run_tasks(fn: Callable[[T, Callable[[int], None] | None], R], tasks: Sequence[T],
+              workers: int, progress: Callable[[int], None] | None = None) -> list[R]:
+    """``[fn(task, progress) for task in tasks]``, in up to ``workers`` processes.
+
+    Parameters
+    ----------
+    fn : a module-level function ``fn(task, progress)`` (picklable by reference);
+        ``progress(n)`` reports n units of work done, or is None.
+    tasks : picklable task descriptions.
+    workers : processes to use; 1 (or a single task) runs in this process.
+    progress : called in this process with the units the tasks report.
+
+    Returns
+    -------
+    list : the results in the order of ``tasks``.  An exception of a task is raised
+        here, with its own type and message.
+    """
+    if workers <= 1 or len(tasks) <= 1:
+        return [fn(t, progress) for t in tasks]
+    ctx = multiprocessing.get_context("spawn")
+    q = ctx.Queue() if progress is not None else None
+    stop = threading.Event()
+
+    def drain() -> None:
+        while not stop.is_set() or not q.empty():
+            try:
+                progress(q.get(timeout=0.1))
+            except queue.Empty:
+                continue
+
+    reader = None
+    if q is not None:
+        reader = threading.Thread(target=drain, daemon=True)
+        reader.start()
+    try:
+        with ProcessPoolExecutor(min(workers, len(tasks)), mp_context=ctx,
+                                 initializer=_init_worker, initargs=(q,)) as pool:
+            futures = [pool.submit(_call, fn, t) for t in tasks]
+            try:
+                return [f.result() for f in futures]
+            except BaseException:
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
+    finally:
+        stop.set()
+        if reader is not None:
+            reader.join()

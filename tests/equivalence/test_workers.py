@@ -1,0 +1,89 @@
+"""Worker processes are invisible: the results of any split equal one process, bit for bit.
+
+Oracle: the same scenario, runs and seed run in this process (``workers = 1``) and in
+two spawned worker processes, split by groups of methods (linear) and by chunks of runs
+and groups of methods (integrated).  Runs are independent and every task runs the same
+serial compiled code, so every array must be identical.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from ftnav.eval import montecarlo
+from ftnav.eval.integrated import run_ins_scenario
+from ftnav.eval.montecarlo import run_scenario
+from ftnav.io.scenario_file import load_scenario
+from ftnav.parallel import default_workers, run_tasks, split_even
+from ftnav.scenarios import builtin_path
+
+
+def _assert_same(a, b):
+    for field, u, v in zip(a._fields, a, b, strict=True):
+        if u is None or v is None:
+            assert u is None and v is None, field
+        elif isinstance(u, tuple):
+            for p, q in zip(u, v, strict=True):
+                np.testing.assert_array_equal(p, q, err_msg=field)
+        else:
+            np.testing.assert_array_equal(u, v, err_msg=field)
+
+
+def _assert_same_results(one, two):
+    assert list(one.results) == list(two.results)
+    assert list(one.fault_free) == list(two.fault_free)
+    for name in one.results:
+        _assert_same(one.results[name], two.results[name])
+    for name in one.fault_free:
+        _assert_same(one.fault_free[name], two.fault_free[name])
+
+
+def test_linear_method_groups_in_two_processes_equal_one(monkeypatch):
+    sc = load_scenario(builtin_path("seed000"))
+    keep = ("ckf", "fkf-fr-inverse-trace", "fkf-inverse-trace-chi2", "dkf-chi2")
+    sc = dataclasses.replace(sc, steps=300, methods=tuple(m for m in sc.methods
+                                                          if m.name in keep))
+    monkeypatch.setattr(montecarlo, "PARALLEL_MIN_WORK", 1)
+    ticks: list[int] = []
+    one = run_scenario(sc, 3, 5)
+    two = run_scenario(sc, 3, 5, workers=2, progress=ticks.append)
+    _assert_same_results(one, two)
+    np.testing.assert_array_equal(one.simulation.truth, two.simulation.truth)
+    # every epoch of every method (faulty and fault-free in one batch) reported once
+    assert sum(ticks) == len(keep) * sc.steps
+
+
+def test_integrated_run_chunks_and_method_groups_in_two_processes_equal_one():
+    sc = load_scenario(builtin_path("seed002"))
+    sc = dataclasses.replace(sc, steps=120)
+    one = run_ins_scenario(sc, 3, 2)
+    by_runs = run_ins_scenario(sc, 3, 2, workers=2)  # chunks of 2 + 1 runs
+    by_methods = run_ins_scenario(sc, 1, 2, workers=2)  # one run: groups of methods
+    _assert_same_results(one.result, by_runs.result)
+    for name, loc in one.local.items():
+        assert (loc is None) == (by_runs.local[name] is None)
+    single = run_ins_scenario(sc, 1, 2)
+    _assert_same_results(single.result, by_methods.result)
+    assert by_runs.result.simulation.data is None
+
+
+def _fail(task, progress):
+    raise ArithmeticError(f"task {task}")
+
+
+def test_a_worker_exception_is_raised_with_its_type_and_message():
+    with pytest.raises(ArithmeticError, match="task 1"):
+        run_tasks(_fail, [1, 2], 2)
+
+
+def test_split_even_and_the_worker_count(monkeypatch):
+    assert split_even([1, 2, 3, 4, 5], 2) == [[1, 3, 5], [2, 4]]
+    assert split_even([1], 4) == [[1]]
+    monkeypatch.setenv("FTNAV_WORKERS", "3")
+    assert default_workers() == 3
+    monkeypatch.setenv("FTNAV_WORKERS", "0")
+    with pytest.raises(ValueError, match="^FTNAV_WORKERS: expected an integer >= 1, got 0$"):
+        default_workers()
