@@ -1,11 +1,12 @@
 """GNSS position and velocity aid (spec §9.1; S1 eq. 17, S2).
 
-Measurement rows (m = 6), metric space ``e = [δN, δE, δU (m), δv_E, δv_N, δv_U (m/s)]``::
+Measurement rows (m = 6), metric space ``e = [δE, δN, δU (m), δv_E, δv_N, δv_U (m/s)]``,
+East, North, Up for position and velocity alike (``docs/conventions.md``)::
 
-    z_p = D_p(p̃) (p̃ − p_GNSS)   rows N, E, U (m),  D_p = diag(R_Mh, R_Nh cos L, 1)
+    z_p = D_p(p̃) (p̃ − p_GNSS)   rows E, N, U (m),  D_p: E ← (R_Nh cos L) δλ, N ← R_Mh δL
     z_v = ṽ − v_GNSS              rows E, N, U (m/s)
 
-so ``H_p = D_p`` on the ``(δL, δλ, δh)`` columns (row N ← δL, row E ← δλ, row U ← δh)
+so ``H_p`` maps the ``(δL, δλ, δh)`` columns to rows (N, E, U) = (R_Mh, R_Nh cos L, 1)
 and ``H_v = I₃`` on δv; ``R`` follows the same row order.
 
 Truth (spec §9.1): ``p_GNSS = p + D_p(p)⁻¹ e_pos`` and ``v_GNSS = v + e_vel`` with
@@ -22,7 +23,9 @@ Coloured-noise handling ``markov`` [A]: ``"white"`` lumps the Markov part into
 driving noise, ``R* = diag(σ_b²(1 − ψ²) + (1 + ψ²) σ_n²)``; the correlation of ``z*``
 with the previous epoch's white noise and with the process noise is neglected.
 
-Random components (spawn key ``c``): 0 position Markov, 1 velocity Markov, 2 white.
+Random components (spawn key ``c``): 0 position Markov, 1 velocity Markov, 2 white.  The
+position draws of each run are taken in the order N, E, U (the row order before the rows
+became E, N, U) and then reordered, so a run's errors are those of earlier versions.
 """
 
 from __future__ import annotations
@@ -56,8 +59,12 @@ __all__ = ["Gnss"]
 Vec3 = float | tuple[float, float, float]
 
 
+#: E, N, U rows from N, E, U columns (and back: the permutation is its own inverse)
+_EN = [1, 0, 2]
+
+
 def _metres(p: np.ndarray) -> np.ndarray:
-    """(…, 3) diagonal of ``D_p = diag(R_Mh, R_Nh cos L, 1)`` at ``p = [L, λ, h]``."""
+    """(…, 3) metres per unit of ``[δL, δλ, δh]``: ``(R_Mh, R_Nh cos L, 1)`` (rows N, E, U)."""
     RMh, RNh = radii(p[..., 0], p[..., 2])
     return np.stack([RMh, RNh * np.cos(p[..., 0]), np.ones_like(RMh)], -1)
 
@@ -69,11 +76,11 @@ class Gnss:
     Attributes
     ----------
     name : str, sensor name (prefix of error messages).
-    pos_markov_sigma_m : float or (3,) N, E, U, steady-state σ of the position Markov error.
+    pos_markov_sigma_m : float or (3,) E, N, U, steady-state σ of the position Markov error.
     pos_markov_tau_s : float or (3,), its correlation time (> 0).
     vel_markov_sigma_m_s : float or (3,) E, N, U, velocity Markov σ.
     vel_markov_tau_s : float or (3,), its correlation time (> 0).
-    pos_white_sigma_m : float or (3,) N, E, U, white position noise σ.
+    pos_white_sigma_m : float or (3,) E, N, U, white position noise σ.
     vel_white_sigma_m_s : float or (3,) E, N, U, white velocity noise σ.
     markov : ``"white"``, ``"augment"`` or ``"difference"`` (module docstring).
     pos_sigma_m, vel_sigma_m_s : float, optional
@@ -104,7 +111,7 @@ class Gnss:
     dt: float = 1.0
 
     z_per_error: ClassVar[int] = -1
-    components: ClassVar[tuple[str, ...]] = ("pos_N", "pos_E", "pos_U", "vel_E", "vel_N",
+    components: ClassVar[tuple[str, ...]] = ("pos_E", "pos_N", "pos_U", "vel_E", "vel_N",
                                              "vel_U")
 
     def __post_init__(self):
@@ -169,11 +176,13 @@ class Gnss:
                         stream: int) -> AidErrors:
         """Metric errors ``e = b + n`` (B, K, 6) of runs ``runs`` (module docstring)."""
         K = check_truth(truth, self.dt, self.name)
-        pos = markov_errors(seed, runs, stream, 0, K, np.array(self.pos_markov_sigma_m),
-                            np.array(self.pos_markov_tau_s), self.dt)
+        # position draws in N, E, U order (module docstring), rows E, N, U
+        pos = markov_errors(seed, runs, stream, 0, K, np.array(self.pos_markov_sigma_m)[_EN],
+                            np.array(self.pos_markov_tau_s)[_EN], self.dt)[..., _EN]
         vel = markov_errors(seed, runs, stream, 1, K, np.array(self.vel_markov_sigma_m_s),
                             np.array(self.vel_markov_tau_s), self.dt)
         white = standard_normals(seed, runs, stream, 2, (K, 6))
+        white[..., :3] = white[..., _EN]
         white *= np.array(self.pos_white_sigma_m + self.vel_white_sigma_m_s)
         return AidErrors(np.concatenate([pos, vel], -1), white, np.zeros((len(runs), 0)))
 
@@ -181,12 +190,12 @@ class Gnss:
                constants: np.ndarray) -> np.ndarray:
         """Receiver output (B, K, 6) ``[L, λ, h (rad, rad, m), v_E, v_N, v_U (m/s)]``.
 
-        ``p_GNSS = p + D_p(p)⁻¹ e_pos`` (``e_pos`` in N, E, U metres), ``v_GNSS = v + e_vel``.
+        ``p_GNSS = p + D_p(p)⁻¹ e_pos`` (``e_pos`` in E, N, U metres), ``v_GNSS = v + e_vel``.
         """
         K = check_truth(truth, self.dt, self.name)
         e, _ = check_errors_metric(errors_metric, constants, (None, K, 6), 0)
         d = _metres(np.asarray(truth.p, dtype=float))  # (K, 3) N, E, U per L, λ, h
-        dp = e[..., [0, 1, 2]] / d  # δL = δN/R_Mh, δλ = δE/(R_Nh cos L), δh = δU
+        dp = e[..., _EN] / d  # δL = δN/R_Mh, δλ = δE/(R_Nh cos L), δh = δU
         return np.concatenate([truth.p + dp, truth.v + e[..., 3:]], -1)
 
     def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray,
@@ -205,9 +214,9 @@ class Gnss:
         d = _metres(p)
         dpos = p - raw[:, :3]
         dpos[:, 1] = (dpos[:, 1] + np.pi) % (2.0 * np.pi) - np.pi
-        z = np.concatenate([d * dpos, v - raw[:, 3:]], -1)
+        z = np.concatenate([(d * dpos)[:, _EN], v - raw[:, 3:]], -1)
         H = np.zeros((B, 6, N_STATES))
-        H[:, [0, 1, 2], [6, 7, 8]] = d
+        H[:, [1, 0, 2], [6, 7, 8]] = d  # row N ← δL, row E ← δλ, row U ← δh
         H[:, [3, 4, 5], [3, 4, 5]] = 1.0
         p_priv = 6 if self.markov == "augment" else 0
         H_private = np.broadcast_to(-np.eye(6)[:, :p_priv], (B, 6, p_priv)).copy()

@@ -66,7 +66,7 @@ from ftnav.nav.units import (
 from ftnav.parallel import default_workers
 
 __all__ = [
-    "IMU_PRESETS", "IMU_STREAM_KEY", "ImuErrorTruth", "ImuErrors", "ImuSimulation",
+    "DATASHEET_KEYS", "IMU_PRESETS", "IMU_STREAM_KEY", "ImuErrorTruth", "ImuErrors", "ImuSimulation",
     "gauss_markov", "imu_preset", "simulate_imu_errors",
 ]
 
@@ -89,6 +89,9 @@ _SPEC: dict[str, tuple[str, str]] = {
     "accel_scale_sd": ("dimensionless", "nonnegative"),
     "accel_misalignment_sd": ("angle", "nonnegative"),
 }
+
+#: keys of an IMU datasheet table (:meth:`ImuErrors.from_datasheet`), in field order
+DATASHEET_KEYS: tuple[str, ...] = tuple(_SPEC)
 
 _OFF_DIAGONAL = (np.array([0, 0, 1, 1, 2, 2]), np.array([1, 2, 0, 2, 0, 1]))
 

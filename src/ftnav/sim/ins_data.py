@@ -38,8 +38,8 @@ class InsData(NamedTuple):
     dtheta, dv : (B, K·n, 3) measured IMU increments (n samples per filter epoch).
     imu_truth : the true IMU errors of each run; the Markov drifts (B, K, 3) at the K
         filter epochs (the value over each epoch's last IMU interval).
-    init_error : (B, 18) initial INS error (only the 9 navigation states are applied;
-        the bias states are the IMU's own truth).
+    init_error : (B, n) initial INS error, n the filter's states (only the 9 navigation
+        states are applied; the bias states are the IMU's own truth).
     raw : per aid, the raw output at the K epochs (B, K, ...), NaN where there is none.
     available : (B, K, N) bool, the aid has an output (schedule, outages).
     oracle : (K, N) bool, true detectable fault windows per aid.
@@ -119,8 +119,9 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
         if f.sensor == SINS and f.kind == "gyro-bias":
             dtheta[:, _window(t_imu, f)] += np.asarray(f.magnitude) * traj.dt
     truth = epoch_truth(traj, n, K)
+    n_states = sc.initial_sigma.shape[0]  # 18 or 15: the first 9 draws are the same
     init = np.stack([np.random.default_rng(np.random.SeedSequence(
-        seed, spawn_key=(r, _INIT_STREAM))).standard_normal(18) for r in runs]) * \
+        seed, spawn_key=(r, _INIT_STREAM))).standard_normal(18)[:n_states] for r in runs]) * \
         sc.initial_sigma
     raws, avail, oracle = [], np.zeros((B, K, len(sc.aids)), bool), np.zeros((K, len(sc.aids)),
                                                                              bool)
