@@ -14,9 +14,11 @@ Truth (spec §9.1): ``p_GNSS = p + D_p(p)⁻¹ e_pos`` and ``v_GNSS = v + e_vel`
 τ 100 s), ``n`` white (defaults 1 m, 0.02 m/s [A]).  The metric error is the aid's
 error, so ``z = H x − e`` (``z_per_error = −1``).
 
-Coloured-noise handling ``markov`` [A]: ``"white"`` lumps the Markov part into
-``R = diag(σ_b² + σ_n²)``; ``"augment"`` adds the 6 Markov errors as private states
-(order of :attr:`Gnss.components`) with ``H_private = −I₆``, ``R = diag(σ_n²)``;
+Coloured-noise handling ``markov`` [A]: ``"augment"`` (the default) adds the 6 Markov
+errors as private states (order of :attr:`Gnss.components`) with ``H_private = −I₆``,
+``R = diag(σ_n²)``, and adds nothing when every Markov σ is 0; ``"white"`` lumps the
+Markov part into ``R = diag(σ_b² + σ_n²)`` (S1's choice; with the default 25 m, 100 s
+error every filter is overconfident, ``docs/claims.md``);
 ``"difference"`` differences consecutive measurements (Bryson & Henrikson 1968,
 :func:`ftnav.core.kalman.differenced_measurement`): ``z* = z_k − ψ z_{k−1}`` with
 ``ψ = e^{−dt/τ}`` (:attr:`Gnss.difference_factor`) removes the Markov part up to its
@@ -105,7 +107,7 @@ class Gnss:
     vel_markov_tau_s: Vec3 = 100.0
     pos_white_sigma_m: Vec3 = 1.0
     vel_white_sigma_m_s: Vec3 = 0.02
-    markov: Literal["white", "augment", "difference"] = "white"
+    markov: Literal["white", "augment", "difference"] = "augment"
     pos_sigma_m: float | None = None
     vel_sigma_m_s: float | None = None
     dt: float = 1.0
@@ -165,9 +167,16 @@ class Gnss:
         return np.exp(-self.dt / self._markov_tau)
 
     @property
+    def _augmented(self) -> bool:
+        return self.markov == "augment" and bool(np.any(self._markov_sigma > 0))
+
+    @property
     def private(self) -> PrivateStates | None:
-        """The 6 Markov states for ``markov="augment"`` (``H = −I₆``), else None."""
-        if self.markov != "augment":
+        """The 6 Markov states for ``markov="augment"`` (``H = −I₆``), else None.
+
+        None also when every Markov σ is 0: there is nothing to augment.
+        """
+        if not self._augmented:
             return None
         return markov_private(tuple(f"b_{c}" for c in self.components), self._markov_sigma,
                               self._markov_tau, self.dt, -np.eye(6))
@@ -218,7 +227,7 @@ class Gnss:
         H = np.zeros((B, 6, N_STATES))
         H[:, [1, 0, 2], [6, 7, 8]] = d  # row N ← δL, row E ← δλ, row U ← δh
         H[:, [3, 4, 5], [3, 4, 5]] = 1.0
-        p_priv = 6 if self.markov == "augment" else 0
+        p_priv = 6 if self._augmented else 0
         H_private = np.broadcast_to(-np.eye(6)[:, :p_priv], (B, 6, p_priv)).copy()
         valid = np.all(np.isfinite(z), -1)
         return Linearized(finite_or_zero(z), H, H_private, valid)

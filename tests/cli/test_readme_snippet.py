@@ -1,0 +1,57 @@
+"""The README's Python snippet runs as written, for a linear and an integrated scenario.
+
+The snippet is read from README.md itself; only the file name and the number of runs
+are replaced (a copy of a built-in, shortened so the test is quick).
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from pathlib import Path
+
+import pytest
+import tomli_w
+
+from ftnav.scenarios import builtin_path
+
+README = (Path(__file__).parents[2] / "README.md").read_text()
+
+
+def _snippet() -> str:
+    blocks = re.findall(r"```python\n(.*?)```", README, flags=re.S)
+    code = next(b for b in blocks if "load_scenario(" in b and "evaluate(" in b)
+    assert '"my_model.toml"' in code and "runs=200" in code
+    return code
+
+
+def _copy(name: str, tmp_path: Path, steps: int) -> Path:
+    data = tomllib.loads(builtin_path(name).read_text())
+    if data.get("kind") == "integrated":
+        data["filter"]["duration_s"] = float(steps)
+        data["faults"] = [f for f in data["faults"] if f["start"] < steps]
+        data["profile"] = str(builtin_path(name).parent / "profiles" / f"{data['profile']}.toml")
+        data.pop("test_profile", None)
+    else:
+        data["steps"] = steps
+        data["faults"] = [f for f in data["faults"] if f["start"] < steps * data["dt"]]
+    data["methods"] = [m for m in data["methods"] if m["architecture"] == "centralized"][:1] \
+        + [m for m in data["methods"] if m["architecture"] == "distributed"][:1]
+    data.pop("figures", None)
+    path = tmp_path / "my_model.toml"
+    path.write_text(tomli_w.dumps(data))
+    return path
+
+
+@pytest.mark.parametrize(("name", "steps"), [("seed000", 200), ("seed002", 120)])
+def test_readme_python_snippet(name, steps, tmp_path, monkeypatch, capsys):
+    path = _copy(name, tmp_path, steps)
+    code = _snippet().replace('"my_model.toml"', repr(str(path))).replace("runs=200", "runs=3")
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)  # the snippet as a user runs it
+    metrics, sc = scope["metrics"], scope["sc"]
+    assert set(metrics) == {m.name for m in sc.methods}
+    ckf = metrics["ckf"]
+    assert set(ckf.rmse) >= set(sc.model.states)
+    assert all(v > 0 for v in ckf.rmse.values())
+    assert str(ckf.rmse)[:20] in capsys.readouterr().out
