@@ -19,7 +19,8 @@ Every batch size is timed ``--repeat`` times (runs x seconds up to 36000) and th
 fastest is reported.  Runs go in batches bounded by the IMU-data memory
 (:func:`ftnav.eval.integrated.chunk_runs`: 62 runs of a 3600 s flight).
 
-Usage: ``python benchmarks/bench_integrated.py [--seconds 600] [--runs 1 20] [--repeat 3]``;
+Usage: ``python benchmarks/bench_integrated.py [--seconds 600] [--runs 1 20] [--repeat 3]
+[--workers 2]``;
 the full targets: ``--seconds 3600 --runs 1 100``.
 """
 
@@ -59,6 +60,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=600.0)
     ap.add_argument("--runs", type=int, nargs="+", default=[1, 20])
+    ap.add_argument("--workers", type=int, default=1,
+                    help="worker processes (ftnav.parallel); 1 = this process")
     ap.add_argument("--repeat", type=int, default=3,
                     help="timings per batch size; the fastest is reported (the others are "
                          "printed: a shared machine's load only ever adds time)")
@@ -74,11 +77,12 @@ def main() -> None:
         walls = []
         for _ in range(a.repeat if runs * a.seconds <= 36000 else 1):
             t0 = time.perf_counter()
-            run_ins_scenario(sc, runs, 1)
+            run_ins_scenario(sc, runs, 1, workers=a.workers)
             walls.append(time.perf_counter() - t0)
         wall = min(walls)
         per_run = wall * scale / runs
-        print(f"ftnav seed002, {len(sc.methods)} methods + fault-free twin, {runs} run(s) x "
+        print(f"ftnav seed002 ({a.workers} worker(s)), {len(sc.methods)} methods + fault-free "
+              f"twin, {runs} run(s) x "
               f"{a.seconds:.0f} s: {wall:.1f} s (of {', '.join(f'{w:.1f}' for w in walls)}) -> "
               f"{per_run:.2f} s per run per 3600 s (ratio to the FilterPy single filter: "
               f"{per_run / peer:.1f}x)")
