@@ -21,15 +21,24 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ftnav.io.scenario_file import (
     EvaluationFile,
+    FigureFile,
     MethodFile,
     ScenarioError,
+    _build_figures,
     _build_method,
     _format_loc,
     _to_scenario_error,
 )
 from ftnav.nav.error_model import ErrorModelParams
 from ftnav.sim.imu import ImuErrors, imu_preset
-from ftnav.sim.ins_scenario import SINS, AidSpec, InsFault, InsScenario
+from ftnav.sim.ins_scenario import (
+    METRIC_STATES,
+    POSITION_NORMS,
+    SINS,
+    AidSpec,
+    InsFault,
+    InsScenario,
+)
 from ftnav.sim.scenario import Evaluation
 
 __all__ = ["parse_ins_scenario", "AID_TYPES", "sensor_from_table", "matched_error_model",
@@ -129,6 +138,7 @@ class InsScenarioFile(BaseModel):
     faults: list[InsFaultFile] = Field(default_factory=list)
     methods: list[MethodFile] = Field(default_factory=list)
     evaluation: EvaluationFile = Field(default_factory=EvaluationFile)
+    figures: list[FigureFile] = Field(default_factory=list)
 
 
 def _err(path: str, reason: str, origin: str) -> ScenarioError:
@@ -308,6 +318,14 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
     ev = f.evaluation
     if not ev.skip_initial < steps * fl.dt:
         raise _err("evaluation.skip_initial", "must be less than the duration", origin)
+    try:
+        figures = _build_figures(f.figures, states=METRIC_STATES + POSITION_NORMS,
+                                 methods=methods, sensors=names,
+                                 kinds=("errors", "local-fused", "vb-noise"),
+                                 position_states=METRIC_STATES[:3])
+    except Exception as exc:  # pydantic custom error outside validation
+        ctx = getattr(exc, "context", None) or {}
+        raise _err(_format_loc(ctx.get("path", ())) or "figures", str(exc), origin) from None
     sigma = initial_sigma(fl.initial, imu, np.radians(lat0), fl.states)
     return InsScenario(
         name=f.name, profile=prof, imu=imu,
@@ -316,5 +334,5 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
         faults=tuple(faults), methods=tuple(methods),
         evaluation=Evaluation(float(ev.skip_initial), float(ev.grace)),
         correction=fl.correction, discretization=fl.discretization,
-        description=f.description, test_profile=test_prof)
+        description=f.description, test_profile=test_prof, figures=figures)
 

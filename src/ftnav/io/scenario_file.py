@@ -35,6 +35,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from ftnav.sim.scenario import (
+    MAX_FIGURE_METHODS,
     AdaptiveNoise,
     Architecture,
     CommonMode,
@@ -42,6 +43,9 @@ from ftnav.sim.scenario import (
     Evaluation,
     Fault,
     FaultKind,
+    FigureCondition,
+    FigureKind,
+    FigureSpec,
     Increment,
     Isolation,
     LinearModel,
@@ -365,6 +369,26 @@ class MethodFile(BaseModel):
     )
 
 
+class FigureFile(BaseModel):
+    """``[[figures]]``: one figure of the run (optional; without any, the default figures)."""
+
+    model_config = _STRICT
+
+    name: Name = Field(description="file name without extension: the run writes <name>.png")
+    title: str = Field(default="", description="title (default: the scenario's description)")
+    kind: FigureKind = Field(
+        default="errors",
+        description="errors: estimation error per state; local-fused (integrated): local and "
+        "fused position errors; vb-noise (integrated): VB noise sigma of one aid")
+    methods: list[Name] = Field(
+        min_length=1, description=f"methods compared, at most {MAX_FIGURE_METHODS} (one line "
+        "each per axes)")
+    states: list[Name] = Field(default=[], description="one panel per state; empty = all")
+    condition: FigureCondition = Field(
+        default="faults", description="faults: the run with the faults; fault-free: its twin")
+    sensor: str = Field(default="", description="vb-noise: the aid whose noise is drawn")
+
+
 class EvaluationFile(BaseModel):
     """``[evaluation]``: metric settings."""
 
@@ -390,6 +414,7 @@ class ScenarioFile(BaseModel):
     faults: list[FaultFile] = Field(default=[])
     methods: list[MethodFile] = Field(min_length=1)
     evaluation: EvaluationFile = Field(default_factory=EvaluationFile)
+    figures: list[FigureFile] = Field(default=[])
 
     _built: Scenario | None = PrivateAttr(default=None)
 
@@ -596,6 +621,74 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
     )
 
 
+_FILE_STEM = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
+#: Figure names the run writes itself.
+_RESERVED_FIGURES = ("sharing", "fault_flags")
+
+
+def _build_figure(fg: FigureFile, i: int, states: Sequence[str], methods: Sequence[Method],
+                  sensors: Sequence[str], kinds: Sequence[str] = ("errors",),
+                  position_states: Sequence[str] = ()) -> FigureSpec:
+    """Check one ``[[figures]]`` entry against the scenario's states, methods and sensors.
+
+    ``states`` may be drawn by ``errors`` figures, ``position_states`` by ``local-fused``
+    ones; ``kinds`` are the figure kinds the scenario's kind supports.
+    """
+    at = ("figures", i)
+    if not _FILE_STEM.fullmatch(fg.name):
+        raise _fail("must be a file name without extension (letters, digits, '_', '-', '.')",
+                    *at, "name")
+    if fg.name in _RESERVED_FIGURES:
+        raise _fail(f"{fg.name!r} is reserved (the run writes {fg.name}.png itself)",
+                    *at, "name")
+    if fg.kind not in kinds:
+        raise _fail(f"kind {fg.kind!r} needs an integrated scenario (here: "
+                    f"{', '.join(kinds)})", *at, "kind")
+    if len(fg.methods) > MAX_FIGURE_METHODS:
+        raise _fail(f"at most {MAX_FIGURE_METHODS} methods per figure (one line each per "
+                    f"axes), got {len(fg.methods)}; split them over several figures",
+                    *at, "methods")
+    by_name = {m.name: m for m in methods}
+    _unique(fg.methods, "method", *at, "methods")
+    for j, name in enumerate(fg.methods):
+        if name not in by_name:
+            raise _fail(f"unknown method {name!r} (known: {', '.join(by_name)})",
+                        *at, "methods", j)
+    allowed = {"errors": states, "local-fused": position_states, "vb-noise": ()}[fg.kind]
+    _unique(fg.states, "state", *at, "states")
+    for j, name in enumerate(fg.states):
+        if name not in allowed:
+            reason = ("not used with kind 'vb-noise' (its panels are the aid's measurement "
+                      "components)" if fg.kind == "vb-noise" else
+                      f"unknown state {name!r} (known: {', '.join(allowed)})")
+            raise _fail(reason, *at, "states", j)
+    if fg.kind == "vb-noise":
+        if fg.sensor not in sensors:
+            raise _fail(f"required with kind 'vb-noise': one of {', '.join(sensors)}"
+                        if not fg.sensor else
+                        f"unknown sensor {fg.sensor!r} (known: {', '.join(sensors)})",
+                        *at, "sensor")
+        for j, name in enumerate(fg.methods):
+            me = by_name[name]
+            if me.adaptive_noise == "none" or (me.vb_sensors and fg.sensor not in me.vb_sensors):
+                raise _fail(f"method {name!r} does not estimate the noise of {fg.sensor!r}",
+                            *at, "methods", j)
+    elif fg.sensor:
+        raise _fail("only used with kind = 'vb-noise'", *at, "sensor")
+    return FigureSpec(fg.name, fg.title, tuple(fg.methods), tuple(fg.states), fg.kind,
+                      fg.condition, fg.sensor)
+
+
+def _build_figures(files: Sequence[FigureFile], **context: Any) -> tuple[FigureSpec, ...]:
+    """Every ``[[figures]]`` entry (:func:`_build_figure`), names unique."""
+    seen: set[str] = set()
+    for i, fg in enumerate(files):
+        if fg.name in seen:
+            raise _fail(f"duplicate figure name {fg.name!r}", "figures", i, "name")
+        seen.add(fg.name)
+    return tuple(_build_figure(fg, i, **context) for i, fg in enumerate(files))
+
+
 def _build(f: ScenarioFile) -> Scenario:
     model = _build_model(f.model)
     sensors = []
@@ -617,6 +710,8 @@ def _build(f: ScenarioFile) -> Scenario:
     ev = f.evaluation
     if not ev.skip_initial < duration:
         raise _fail(f"must be less than dt*steps ({duration!r} s)", "evaluation", "skip_initial")
+    figures = _build_figures(f.figures, states=model.states, methods=methods,
+                             sensors=[s.name for s in sensors])
     return Scenario(
         name=f.name,
         dt=float(f.dt),
@@ -627,6 +722,7 @@ def _build(f: ScenarioFile) -> Scenario:
         methods=tuple(methods),
         evaluation=Evaluation(float(ev.skip_initial), float(ev.grace)),
         description=f.description,
+        figures=figures,
     )
 
 
@@ -797,4 +893,9 @@ def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
             "skip_initial": float(sc.evaluation.skip_initial),
             "grace": float(sc.evaluation.grace),
         },
+        "figures": [
+            {"name": g.name, "title": g.title, "kind": g.kind, "methods": list(g.methods),
+             "states": list(g.states), "condition": g.condition, "sensor": g.sensor}
+            for g in sc.figures
+        ],
     }

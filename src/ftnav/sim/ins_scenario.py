@@ -25,15 +25,18 @@ import numpy as np
 
 from ftnav.nav.error_model import ErrorModelParams
 from ftnav.sim.imu import ImuErrors
-from ftnav.sim.scenario import Evaluation, Method, fault_window_mask
+from ftnav.sim.scenario import Evaluation, FigureSpec, Method, fault_window_mask
 from ftnav.sim.trajectory import Profile
 
-__all__ = ["InsFault", "AidSpec", "InsScenario", "METRIC_STATES", "SINS", "INS_FAULT_KINDS",
-           "StateNames"]
+__all__ = ["InsFault", "AidSpec", "InsScenario", "METRIC_STATES", "POSITION_NORMS", "SINS",
+           "INS_FAULT_KINDS", "StateNames"]
 
 #: Reported output-error states (spec §11), in this order.
 METRIC_STATES = ("pos_E_m", "pos_N_m", "pos_U_m", "vel_E_m_s", "vel_N_m_s", "vel_U_m_s",
                  "att_E_arcmin", "att_N_arcmin", "att_U_arcmin")
+
+#: Derived metric quantities (m): horizontal sqrt(E² + N²) and 3-D position error (spec §11).
+POSITION_NORMS = ("pos_horizontal_m", "pos_3d_m")
 
 #: Name that addresses the inertial system in a fault.
 SINS = "sins"
@@ -117,6 +120,7 @@ class InsScenario:
     discretization : ``"series"`` (order 5, PSINS kfc2d) or ``"van-loan"``.
     test_profile : optional second flight for the "different trajectory" evaluation of
         learned methods (paper 001).
+    figures : the figures a run draws (``[[figures]]``); empty = the default figures.
     """
 
     name: str
@@ -135,6 +139,7 @@ class InsScenario:
     description: str = ""
     test_profile: Profile | None = None
     algorithm: str = "two-sample"
+    figures: tuple[FigureSpec, ...] = ()
 
     kind = "integrated"
 

@@ -30,6 +30,11 @@ TraceMode = Literal["scaled", "raw"]
 Increment = Literal["direct", "difference"]
 Isolation = Literal["standalone", "time-update"]
 CommonMode = Literal["isolate", "keep"]
+FigureKind = Literal["errors", "local-fused", "vb-noise"]
+FigureCondition = Literal["faults", "fault-free"]
+
+#: Most methods one figure compares: one line per method in every axes.
+MAX_FIGURE_METHODS = 4
 
 
 @dataclass(frozen=True, slots=True)
@@ -151,6 +156,33 @@ class Method:
 
 
 @dataclass(frozen=True, slots=True)
+class FigureSpec:
+    """One figure a scenario asks for (``[[figures]]``, ``docs/scenario-format.md``).
+
+    Attributes
+    ----------
+    name : file name without extension (``<name>.png``).
+    title : the figure's title; empty = the scenario's description (or name).
+    methods : the methods compared, at most :data:`MAX_FIGURE_METHODS`, one line each per
+        axes; ``local-fused`` draws the local filters of the first one.
+    states : the states drawn, one panel each; empty = every state (kind's default).
+    kind : ``errors`` (estimation error per state), ``local-fused`` (integrated: local and
+        fused position errors, paper 001 Fig. 4-5) or ``vb-noise`` (integrated: VB noise σ
+        of ``sensor``, paper 002 Fig. 3, 5).
+    condition : ``faults`` (the run with the faults) or ``fault-free`` (its fault-free twin).
+    sensor : ``vb-noise`` only: the aid whose noise σ is drawn.
+    """
+
+    name: str
+    title: str
+    methods: tuple[str, ...]
+    states: tuple[str, ...] = ()
+    kind: FigureKind = "errors"
+    condition: FigureCondition = "faults"
+    sensor: str = ""
+
+
+@dataclass(frozen=True, slots=True)
 class Evaluation:
     """Metric settings (spec §11): initial convergence period and post-fault grace."""
 
@@ -160,7 +192,10 @@ class Evaluation:
 
 @dataclass(frozen=True, slots=True)
 class Scenario:
-    """A complete, validated linear scenario."""
+    """A complete, validated linear scenario.
+
+    ``figures`` are the figures a run draws (``[[figures]]``); empty = the default figures.
+    """
 
     name: str
     dt: float
@@ -171,6 +206,7 @@ class Scenario:
     methods: tuple[Method, ...] = ()
     evaluation: Evaluation = field(default_factory=Evaluation)
     description: str = ""
+    figures: tuple[FigureSpec, ...] = ()
 
     @property
     def times(self) -> np.ndarray:
@@ -195,7 +231,7 @@ class Scenario:
         """The same scenario with no faults (the paper's Fig. 3 condition)."""
         return Scenario(
             self.name, self.dt, self.steps, self.model, self.sensors, (), self.methods,
-            self.evaluation, self.description,
+            self.evaluation, self.description, self.figures,
         )
 
 
