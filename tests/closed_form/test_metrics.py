@@ -12,6 +12,7 @@ from ftnav.eval.metrics import (
     error_stats,
     nees,
     nees_stats,
+    position_norms,
 )
 
 # ---------------------------------------------------------------------------
@@ -48,6 +49,18 @@ def test_run_mean_vs_ensemble_rmse():
     assert s.rmse[0] == pytest.approx(2.0)
     assert s.ensemble_rmse[0] == pytest.approx(np.sqrt(5.0))
     assert s.max_abs[0] == 3.0
+
+
+def test_position_norms_of_a_3_4_12_error():
+    """e = (3, 4, 12) m: horizontal 5 m, 3-D 13 m; their RMS is the horizontal RMS."""
+    e = np.array([[[3.0, 4.0, 12.0], [0.0, 0.0, 0.0]]])  # (1, 2, 3)
+    norms = position_norms(e)
+    np.testing.assert_allclose(norms, [[[5.0, 13.0], [0.0, 0.0]]])
+    s = error_stats(norms, np.ones(2, dtype=bool))
+    # sqrt(mean_k (e_E² + e_N²)) = sqrt(25 / 2), and likewise sqrt(169 / 2)
+    np.testing.assert_allclose(s.rmse, [np.sqrt(12.5), np.sqrt(84.5)])
+    with pytest.raises(ValueError, match="shape"):
+        position_norms(np.zeros((2, 2)))
 
 
 def test_empty_window_gives_nan():

@@ -6,6 +6,13 @@ The JSON form (``metrics.json``) is a stable contract, documented in
 (state name → float, mean over runs of the per-run RMSE), ``anees`` and, for a
 method with a detector, ``detection[sensor]`` = {``rate``, ``false_alarm_rate``,
 ``mean_delay_s``, ...}.
+
+When the states include ``pos_E_m``, ``pos_N_m`` and ``pos_U_m`` (integrated runs), every
+per-state map (``rmse``, ``rmse_fault``, ``rmse_nofault``, ``ensemble_rmse``,
+``max_abs_error`` and the fault-free ``rmse``, ``rmse_fault_window``) also holds
+``pos_horizontal_m`` and ``pos_3d_m``: the same statistic of the horizontal
+``sqrt(e_E² + e_N²)`` and 3-D position error (:data:`~ftnav.sim.ins_scenario.POSITION_NORMS`),
+e.g. the mean over runs of each run's horizontal RMS error.
 """
 
 from __future__ import annotations
@@ -15,15 +22,32 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ftnav.eval.metrics import detection_stats, error_stats, nees_stats
+from ftnav.eval.metrics import detection_stats, error_stats, nees_stats, position_norms
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
+from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
 
-__all__ = ["MethodMetrics", "evaluate", "metrics_to_json"]
+__all__ = ["MethodMetrics", "evaluate", "metrics_to_json", "split_unit"]
+
+#: Unit suffixes of state and metric names (longest first) and the units they name.
+_UNIT_SUFFIXES = (("_m_s2", "m/s²"), ("_m_s", "m/s"), ("_arcmin", "arcmin"),
+                  ("_arcsec", "arcsec"), ("_deg", "deg"), ("_rad", "rad"), ("_m", "m"))
+
+
+def split_unit(name: str) -> tuple[str, str | None]:
+    """A state or metric name and the unit it ends in: ``vel_N_m_s`` → ``("vel_N", "m/s")``.
+
+    Names without a unit suffix (the states of a linear scenario, e.g. ``s``) give
+    ``(name, None)``: their units are those of the scenario, which the file does not name.
+    """
+    for suffix, unit in _UNIT_SUFFIXES:
+        if name.endswith(suffix) and len(name) > len(suffix):
+            return name[: -len(suffix)], unit
+    return name, None
 
 
 @dataclass(frozen=True, slots=True)
 class MethodMetrics:
-    """Metrics of one method; maps are keyed by state or sensor name."""
+    """Metrics of one method; maps are keyed by state (and position norm) or sensor name."""
 
     architecture: str
     rmse: dict[str, float]
@@ -49,6 +73,30 @@ def _errors(res: MethodResult, truth: np.ndarray) -> np.ndarray:
     return res.x - truth[..., : res.x.shape[-1]]
 
 
+def _norms(err: np.ndarray, states) -> np.ndarray | None:
+    """(B, K, 2) horizontal and 3-D position error, or None without ENU position states."""
+    enu = METRIC_STATES[:3]
+    if not all(s in states for s in enu):
+        return None
+    return position_norms(err[..., [list(states).index(s) for s in enu]])
+
+
+def _with_norms(values: np.ndarray, states, norm_values: np.ndarray | None
+                ) -> dict[str, float]:
+    """State name → value, followed by the position norms' values when there are any."""
+    out = _named(values, states)
+    if norm_values is not None:
+        out.update(_named(norm_values, POSITION_NORMS))
+    return out
+
+
+def _rmse(err: np.ndarray, norms: np.ndarray | None, states, mask: np.ndarray
+          ) -> dict[str, float]:
+    """State name (and position norm) → mean over runs of the per-run RMSE over ``mask``."""
+    return _with_norms(error_stats(err, mask).rmse, states,
+                       None if norms is None else error_stats(norms, mask).rmse)
+
+
 def _max_rel_diff(a: np.ndarray, b: np.ndarray) -> float:
     scale = max(1.0, float(np.abs(b).max()))
     return float(np.abs(a - b).max() / scale)
@@ -70,7 +118,9 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
     out: dict[str, MethodMetrics] = {}
     for name, res in result.results.items():
         err = _errors(res, truth)
+        norms = _norms(err, states)
         es = error_stats(err, window)
+        es_norms = None if norms is None else error_stats(norms, window)
         ns = nees_stats(res.nees, len(states), window)
         detection = None
         if res.flag is not None:
@@ -85,9 +135,10 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
         ff_res = result.fault_free.get(name)
         if ff_res is not None:
             ff_err = _errors(ff_res, result.fault_free_simulation.truth)
+            ff_norms = _norms(ff_err, states)
             ff = {
-                "rmse": _named(error_stats(ff_err, window).rmse, states),
-                "rmse_fault_window": _named(error_stats(ff_err, in_fault).rmse, states)
+                "rmse": _rmse(ff_err, ff_norms, states, window),
+                "rmse_fault_window": _rmse(ff_err, ff_norms, states, in_fault)
                 if in_fault.any() else None,
             }
         rel = None
@@ -99,13 +150,12 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
                 rel = _max_rel_diff(res.x, result.results[central].x)
         out[name] = MethodMetrics(
             architecture=methods[name].architecture if name in methods else "",
-            rmse=_named(es.rmse, states),
-            rmse_fault=_named(error_stats(err, in_fault).rmse, states) if in_fault.any()
-            else None,
-            rmse_nofault=_named(error_stats(err, out_fault).rmse, states) if out_fault.any()
-            else None,
-            ensemble_rmse=_named(es.ensemble_rmse, states),
-            max_abs_error=_named(es.max_abs, states),
+            rmse=_with_norms(es.rmse, states, es_norms and es_norms.rmse),
+            rmse_fault=_rmse(err, norms, states, in_fault) if in_fault.any() else None,
+            rmse_nofault=_rmse(err, norms, states, out_fault) if out_fault.any() else None,
+            ensemble_rmse=_with_norms(es.ensemble_rmse, states,
+                                      es_norms and es_norms.ensemble_rmse),
+            max_abs_error=_with_norms(es.max_abs, states, es_norms and es_norms.max_abs),
             anees=float(ns.anees),
             anees_band=(float(ns.band[0]), float(ns.band[1])),
             nees_in_band_fraction=float(ns.in_band_fraction),

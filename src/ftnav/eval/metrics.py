@@ -4,6 +4,8 @@ Pure NumPy functions on arrays with a leading Monte Carlo run axis ``B``:
 
 * :func:`error_stats` -- per-axis RMSE (per run, run-averaged and ensemble) and
   max ``|e|`` over an evaluation window ``W``.
+* :func:`position_norms` -- horizontal ``sqrt(e_E² + e_N²)`` and 3-D position error,
+  whose :func:`error_stats` give the horizontal and 3-D RMS of spec §11.
 * :func:`nees`, :func:`nees_stats`, :func:`chi2_band` -- normalized estimation
   error squared ``eps_k = e_kᵀ P_k⁻¹ e_k``, its run average ``eps_bar_k`` with the
   two-sided chi-square band ``[chi2_{Mn}(0.025), chi2_{Mn}(0.975)] / M`` and the
@@ -28,6 +30,7 @@ from ftnav.core.kalman import prior_nis
 __all__ = [
     "ErrorStats",
     "NeesStats",
+    "position_norms",
     "DetectionStats",
     "error_stats",
     "nees",
@@ -97,6 +100,27 @@ def error_stats(err: np.ndarray, window: np.ndarray) -> ErrorStats:
         ensemble_rmse=np.sqrt(sq.mean(axis=(0, 1))),
         max_abs=np.abs(e).max(axis=(0, 1)),
     )
+
+
+def position_norms(err_enu: np.ndarray) -> np.ndarray:
+    """Horizontal and 3-D length of position errors (spec §11 horizontal RMS).
+
+    Parameters
+    ----------
+    err_enu : (..., 3) array
+        Position error East, North, Up (m).
+
+    Returns
+    -------
+    (..., 2) array
+        ``[sqrt(e_E² + e_N²), sqrt(e_E² + e_N² + e_U²)]`` (m).  :func:`error_stats` of
+        these gives, per run, ``sqrt(mean_k (e_E² + e_N²))``: the horizontal RMS error.
+    """
+    e = np.asarray(err_enu, dtype=float)
+    if e.shape[-1:] != (3,):
+        raise ValueError(f"err_enu must have shape (..., 3), got {e.shape}")
+    horizontal = np.hypot(e[..., 0], e[..., 1])
+    return np.stack([horizontal, np.hypot(horizontal, e[..., 2])], axis=-1)
 
 
 # ---------------------------------------------------------------------------
