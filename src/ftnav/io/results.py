@@ -8,9 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ftnav.eval.evaluate import split_unit
 from ftnav.eval.montecarlo import ScenarioResult
 
-__all__ = ["write_metrics", "estimates_dataset", "write_estimates"]
+__all__ = ["write_metrics", "estimates_dataset", "write_estimates", "state_units", "METHOD_DIM"]
 
 
 def _clean(obj):
@@ -33,13 +34,31 @@ def write_metrics(doc: dict, path: Path) -> Path:
     return path
 
 
-def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
-    """xarray Dataset of per-epoch estimates (dims method, run, time, state, sensor).
+#: Dimension of the methods in ``estimates.nc``; ``method`` would collide with the
+#: ``method`` keyword of xarray's ``.sel`` (nearest-neighbour lookup).
+METHOD_DIM = "method_name"
 
-    Variables: ``x_hat`` and ``P_diag`` (method, run, time, state); ``truth``
-    (run, time, state); ``fault_flag`` (method, run, time, sensor) as int8 for
+
+def state_units(states) -> list[str]:
+    """Unit of each state, from its name (``pos_E_m`` → ``m``); linear states: "state units".
+
+    A linear scenario does not say in which units its states are: their unit is written
+    as ``"state units"``.
+    """
+    return [split_unit(s)[1] or "state units" for s in states]
+
+
+def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
+    """xarray Dataset of per-epoch estimates (dims method_name, run, time, state, sensor).
+
+    Variables: ``x_hat`` and ``P_diag`` (method_name, run, time, state); ``truth``
+    (run, time, state); ``fault_flag`` (method_name, run, time, sensor) as int8 for
     methods with a detector (``-1`` for methods without one); ``beta``
-    (method, run, time, sensor) for federated methods (NaN otherwise).
+    (method_name, run, time, sensor) for federated methods (NaN otherwise).  Every
+    variable and coordinate has ``units`` and ``long_name`` attributes; the coordinate
+    ``state_units`` (along ``state``) gives each state's unit.  In an integrated run
+    ``x_hat`` holds each method's navigation output *error* (computed − true) and
+    ``truth`` is zero.  Select a method with ``ds.x_hat.sel(method_name="ckf")``.
     """
     import xarray as xr
 
@@ -57,23 +76,49 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
             flag[j] = res[name].flag
         if res[name].beta is not None:
             beta[j] = res[name].beta
-    coords = {"method": names, "run": np.arange(B), "time": sc.times,
-              "state": list(sc.model.states), "sensor": list(sc.sensor_names)}
+    states = list(sc.model.states)
+    units = state_units(states)
+    known = any(u != "state units" for u in units)
+    x_units = "see state_units (one unit per state)" if known else \
+        "state units (the scenario does not give them)"
+    p_units = "square of state_units (per state)" if known else "state units squared"
+    integrated = getattr(sc, "kind", "linear") == "integrated"
+    M = METHOD_DIM
     ds = xr.Dataset(
         {
-            "x_hat": (("method", "run", "time", "state"), np.stack([res[m].x for m in names])),
-            "P_diag": (("method", "run", "time", "state"),
-                       np.stack([res[m].P_diag for m in names])),
-            "truth": (("run", "time", "state"), sim.truth[..., :n]),
-            "fault_flag": (("method", "run", "time", "sensor"), flag),
-            "beta": (("method", "run", "time", "sensor"), beta),
+            "x_hat": ((M, "run", "time", "state"), np.stack([res[m].x for m in names]),
+                      {"units": x_units, "long_name":
+                       "navigation output error of each method (computed - true)"
+                       if integrated else "fused state estimate of each method"}),
+            "P_diag": ((M, "run", "time", "state"), np.stack([res[m].P_diag for m in names]),
+                       {"units": p_units,
+                        "long_name": "variance of each state of the fused estimate"}),
+            "truth": (("run", "time", "state"), sim.truth[..., :n],
+                      {"units": x_units, "long_name":
+                       "zero: x_hat already holds the errors" if integrated
+                       else "true state"}),
+            "fault_flag": ((M, "run", "time", "sensor"), flag,
+                           {"units": "1", "long_name": "fault flag after hysteresis",
+                            "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+                            "flag_meanings": "method_has_no_detector not_flagged flagged"}),
+            "beta": ((M, "run", "time", "sensor"), beta,
+                     {"units": "1", "long_name": "federated sharing coefficient of each "
+                      "local filter (NaN: method without sharing)"}),
         },
-        coords=coords,
+        coords={
+            M: (M, names, {"units": "none", "long_name": "fusion method (scenario name)"}),
+            "run": ("run", np.arange(B), {"units": "1", "long_name": "Monte Carlo run index"}),
+            "time": ("time", sc.times, {"units": "s",
+                                        "long_name": "epoch time t_k = k dt since the start"}),
+            "state": ("state", states, {"units": "none", "long_name": "state name"}),
+            "state_units": ("state", units, {"units": "none", "long_name": "unit of each state"}),
+            "sensor": ("sensor", list(sc.sensor_names),
+                       {"units": "none", "long_name": "aiding sensor name"}),
+        },
         attrs={"scenario": sc.name, "runs": result.runs, "seed": result.seed,
                "condition": "fault-free" if fault_free else "with faults",
                "fault_flag": "1 flagged, 0 not flagged, -1 method has no detector"},
     )
-    ds["time"].attrs["units"] = "s"
     return ds
 
 

@@ -1,70 +1,332 @@
-"""Plain-text results table (terminal) and a Markdown report of a run."""
+"""Plain-text results tables (terminal) and a Markdown report of a run.
+
+Every table has one column per state of the scenario (all linear states; the nine
+navigation output errors of an integrated run, plus its horizontal and 3-D position
+error), one row per method, and one quantity per table:
+
+1. RMSE over the evaluation window (mean over runs of each run's RMSE);
+2. RMSE inside the fault windows, with the faults;
+3. RMSE on the same epochs of the fault-free twin (identical noise, faults removed);
+4. the ratio of 2 to 3, **per state**: a fault shows in the state it reaches (a North
+   ramp gives a ratio above 1 in the North column, about 1 elsewhere), and the
+   "fault acts on" line names each faulty sensor's own state;
+5. consistency (ANEES) and detection per faulty sensor.
+
+Column headers say what they are: a linear state is headed ``state`` / ``s`` (its units
+are those of the scenario, which the file does not name); a state whose name ends in a
+unit (``_m``, ``_m_s``, ``_arcmin``, ...) is grouped by quantity with the unit in brackets
+(``position [m]`` / ``E``).  :func:`summary_tables` returns the tables as typed values.
+"""
 
 from __future__ import annotations
 
-from ftnav.eval.evaluate import MethodMetrics
+import math
+import textwrap
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from ftnav.eval.evaluate import MethodMetrics, split_unit
 from ftnav.eval.montecarlo import ScenarioResult
+from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
 
-__all__ = ["results_table", "detector_table", "markdown_report"]
+__all__ = ["Column", "Table", "summary_tables", "fault_states", "results_table",
+           "detector_table", "markdown_report"]
+
+#: Terminal tables wider than this are split into column blocks.
+WIDTH = 100
+
+_QUANTITIES = {"pos": "position", "vel": "velocity", "att": "attitude"}
+_COMPONENTS = {"horizontal": "horiz.", "3d": "3-D"}
 
 
-def _f(v, fmt="{:.3g}"):
-    return "-" if v is None else fmt.format(v)
+class Column(NamedTuple):
+    """One value column: ``key`` in the metric maps, two header lines, a Markdown header."""
+
+    key: str
+    group: str
+    label: str
+    markdown: str
+    fmt: str = "num"
 
 
-def _rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
-    st = result.scenario.model.states[0]
-    faulty = [f.sensor for f in result.scenario.faults if f.kind != "outage"]
-    header = ["method", f"RMSE {st}", f"{st} in fault", f"{st} in window, no fault",
-              "ratio", "ANEES", "Pd", "false alarms", "delay [s]"]
+class Table(NamedTuple):
+    """One quantity: ``rows`` are (method, one value per column; None = not defined)."""
+
+    title: str
+    columns: tuple[Column, ...]
+    rows: tuple[tuple[str, tuple[float | None, ...]], ...]
+    note: str = ""
+
+
+# ---------------------------------------------------------------------------
+# columns and values
+# ---------------------------------------------------------------------------
+
+
+def _state_column(name: str) -> Column:
+    stem, unit = split_unit(name)
+    if unit is None:
+        return Column(name, "state", name, f"state {name}")
+    prefix, _, component = stem.rpartition("_")
+    markdown = f"{stem} [{unit}]"
+    if prefix:
+        return Column(name, f"{_QUANTITIES.get(prefix, prefix)} [{unit}]",
+                      _COMPONENTS.get(component, component), markdown)
+    return Column(name, f"[{unit}]", stem, markdown)
+
+
+def _state_columns(result: ScenarioResult, metrics: dict[str, MethodMetrics]
+                   ) -> tuple[Column, ...]:
+    """Every state in model order; the horizontal and 3-D error after the position states."""
+    states = list(result.scenario.model.states)
+    keys = set().union(*(m.rmse for m in metrics.values())) if metrics else set()
+    norms = [k for k in POSITION_NORMS if k in keys]
+    if norms and "pos_U_m" in states:
+        i = states.index("pos_U_m") + 1
+        states[i:i] = norms
+    return tuple(_state_column(s) for s in states)
+
+
+def _is_navigation(states: Sequence[str]) -> bool:
+    return all(s in states for s in METRIC_STATES[:3])
+
+
+def fault_states(scenario) -> dict[str, str]:
+    """Faulty sensor → the state (metric key) its fault acts on.
+
+    Integrated runs: the horizontal position error (``pos_horizontal_m``), through which
+    every aid's fault reaches the navigation solution.  Linear scenarios: the state that
+    carries a bias or ramp offset, ``argmax |H⁺ magnitude|``; for other kinds the state
+    the sensor measures most, ``argmax`` of the column norms of ``H``.  Outages and
+    faults of a component that is not a sensor of the scenario are left out.
+    """
+    states = tuple(scenario.model.states)
+    out: dict[str, str] = {}
+    sensors = {s.name: s for s in scenario.sensors}
+    for f in scenario.faults:
+        if f.kind == "outage" or f.sensor not in sensors or f.sensor in out:
+            continue
+        if _is_navigation(states):
+            out[f.sensor] = POSITION_NORMS[0]
+            continue
+        H = np.asarray(sensors[f.sensor].H, dtype=float)
+        mag = np.asarray(f.magnitude, dtype=float)
+        if f.kind in ("bias", "ramp") and mag.shape == (H.shape[0],) and np.any(mag):
+            weight = np.abs(np.linalg.lstsq(H, mag, rcond=None)[0])
+        else:
+            weight = np.linalg.norm(H, axis=0)
+        out[f.sensor] = states[int(np.argmax(weight))]
+    return out
+
+
+def _values(source: dict[str, float] | None, columns: Sequence[Column]) -> tuple:
+    return tuple(None if source is None else source.get(c.key) for c in columns)
+
+
+def _ratio(inside, free) -> float | None:
+    return inside / free if inside is not None and free else None
+
+
+def summary_tables(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> list[Table]:
+    """The run's tables: RMSE, RMSE in fault windows, fault-free twin, ratio, detection.
+
+    Tables 2-4 are left out when no epoch lies in a fault window, table 3 and 4 also
+    when no method has a fault-free twin; see the module docstring.
+    """
+    sc = result.scenario
+    cols = _state_columns(result, metrics)
+    units = ("in the scenario's state units" if not any(c.group != "state" for c in cols)
+             else "units in brackets")
+    tables = [Table(f"RMSE over the evaluation window (mean over runs of each run's RMSE; "
+                    f"{units})", cols,
+                    tuple((n, _values(m.rmse, cols)) for n, m in metrics.items()))]
+    if any(m.rmse_fault for m in metrics.values()):
+        own = fault_states(sc)
+        acts = ", ".join(f"{s} -> {_state_column(k).markdown}" for s, k in own.items())
+        note = f"Fault acts on: {acts}." if acts else ""
+        inside = {n: _values(m.rmse_fault, cols) for n, m in metrics.items()}
+        tables.append(Table("RMSE inside the fault windows, with the faults", cols,
+                            tuple(inside.items()), note))
+        twin = {n: _values(m.fault_free and m.fault_free["rmse_fault_window"], cols)
+                for n, m in metrics.items()}
+        if any(v is not None for row in twin.values() for v in row):
+            tables.append(Table("RMSE on the same epochs of the fault-free twin (identical "
+                                "noise, faults removed)", cols, tuple(twin.items())))
+            ratio = tuple((n, tuple(_ratio(a, b) for a, b in zip(inside[n], twin[n],
+                                                                  strict=True)))
+                          for n in metrics)
+            tables.append(Table("Ratio in fault / fault-free twin, per state (1 = the fault "
+                                "does not reach the state)",
+                                tuple(c._replace(fmt="ratio") for c in cols), ratio, note))
+    tables.append(_detection_table(result, metrics))
+    return tables
+
+
+def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> Table:
+    sc = result.scenario
+    n = len(sc.model.states)
+    cols = [Column("anees", "consistency", "ANEES", "ANEES", "ratio")]
+    faulty = list(fault_states(sc))
+    if any(m.detection for m in metrics.values()):
+        for s in faulty:
+            cols += [Column(f"{s}:rate", f"sensor {s}", "Pd", f"{s} Pd", "rate"),
+                     Column(f"{s}:mean_delay_s", f"sensor {s}", "delay [s]",
+                            f"{s} delay [s]", "delay")]
+        cols.append(Column("false_alarm_rate", "all sensors", "false alarms",
+                           "false alarms (max)", "small"))
     rows = []
     for name, m in metrics.items():
-        ff = m.fault_free["rmse_fault_window"][st] if m.fault_free and \
-            m.fault_free["rmse_fault_window"] else None
-        inside = m.rmse_fault[st] if m.rmse_fault else None
-        ratio = inside / ff if inside is not None and ff else None
-        det = m.detection.get(faulty[0]) if m.detection and faulty else None
-        fa = None
-        if m.detection:
-            fas = [d["false_alarm_rate"] for d in m.detection.values()
+        values: list[float | None] = [m.anees]
+        if len(cols) > 1:
+            det = m.detection or {}
+            for s in faulty:
+                d = det.get(s) or {}
+                values += [d.get("rate"), d.get("mean_delay_s")]
+            fas = [d["false_alarm_rate"] for d in det.values()
                    if d["false_alarm_rate"] is not None]
-            fa = max(fas) if fas else None
-        rows.append([name, _f(m.rmse[st]), _f(inside), _f(ff), _f(ratio, "{:.2f}"),
-                     _f(m.anees, "{:.2f}"), _f(det and det["rate"], "{:.3f}"),
-                     _f(fa, "{:.2e}"), _f(det and det["mean_delay_s"], "{:.2f}")])
-    return header, rows
+            values.append(max(fas) if fas else None)
+        rows.append((name, tuple(values)))
+    return Table(f"Consistency (ANEES, {n} for a consistent filter) and detection of each "
+                 "faulty sensor (Pd per epoch, mean delay; false alarms per clean epoch, "
+                 "largest over sensors)", tuple(cols), tuple(rows))
+
+
+# ---------------------------------------------------------------------------
+# formatting
+# ---------------------------------------------------------------------------
+
+
+def _format(value, fmt: str = "num") -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
+    if fmt == "ratio":
+        return f"{value:.2f}"
+    if fmt == "rate":
+        return f"{value:.3f}"
+    if fmt == "delay":
+        return f"{value:.1f}"
+    if fmt == "small":
+        return f"{value:.1e}"
+    a = abs(value)
+    if a >= 1000.0:
+        return f"{value:.0f}"
+    if a != 0.0 and a < 1e-3:
+        return f"{value:.2e}"
+    return f"{value:.3g}"
+
+
+def _blocks(groups: list[str], widths: list[int], room: int) -> list[range]:
+    """Consecutive column blocks that fit in ``room``, split between groups if possible."""
+    blocks, start, used = [], 0, 0
+    for j, w in enumerate(widths):
+        cut = j > start and used + 2 + w > room
+        if cut:
+            k = j
+            while k > start and groups[k - 1] == groups[k]:
+                k -= 1
+            k = k if k > start else j
+            blocks.append(range(start, k))
+            start = k
+            used = sum(2 + widths[i] for i in range(start, j))
+        used += 2 + w
+    blocks.append(range(start, len(widths)))
+    return blocks
+
+
+def _render(table: Table, width: int = WIDTH) -> str:
+    """Fixed-width text: title, group and label header lines, rows; split if too wide."""
+    names = ["method"] + [r[0] for r in table.rows]
+    name_w = max(len(s) for s in names)
+    cells = [[_format(v, c.fmt) for v, c in zip(vals, table.columns, strict=True)]
+             for _, vals in table.rows]
+    groups = [c.group for c in table.columns]
+    widths = [max([len(c.label)] + [len(r[j]) for r in cells])
+              for j, c in enumerate(table.columns)]
+    j = 0
+    while j < len(groups):  # widen a group's last column until its label fits
+        k = j
+        while k + 1 < len(groups) and groups[k + 1] == groups[j]:
+            k += 1
+        span = sum(widths[j:k + 1]) + 2 * (k - j)
+        widths[k] += max(0, len(groups[j]) - span)
+        j = k + 1
+    out = textwrap.wrap(table.title, width)
+    if table.note:
+        out += textwrap.wrap(table.note, width)
+    for block in _blocks(groups, widths, width - name_w):
+        line_g, line_l = " " * name_w, "method".ljust(name_w)
+        j = block.start
+        while j < block.stop:
+            k = j
+            while k + 1 < block.stop and groups[k + 1] == groups[j]:
+                k += 1
+            span = sum(widths[j:k + 1]) + 2 * (k - j)
+            line_g += "  " + groups[j].ljust(span)
+            j = k + 1
+        for j in block:
+            line_l += "  " + table.columns[j].label.ljust(widths[j])
+        rule = "-" * name_w + "".join("  " + "-" * widths[j] for j in block)
+        rows = [name.ljust(name_w) + "".join("  " + r[j].ljust(widths[j]) for j in block)
+                for (name, _), r in zip(table.rows, cells, strict=True)]
+        out += [line_g.rstrip(), line_l.rstrip(), rule, *(r.rstrip() for r in rows)]
+        if block.stop < len(widths):
+            out.append("")
+    return "\n".join(out)
+
+
+def _markdown(table: Table) -> list[str]:
+    head = ["method"] + [c.markdown for c in table.columns]
+    md = [f"**{table.title}**", ""]
+    if table.note:
+        md += [table.note, ""]
+    md += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    md += ["| " + " | ".join([name] + [_format(v, c.fmt) for v, c in
+                                       zip(vals, table.columns, strict=True)]) + " |"
+           for name, vals in table.rows]
+    return md
+
+
+# ---------------------------------------------------------------------------
+# public text
+# ---------------------------------------------------------------------------
 
 
 def _detector_rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
-    """Every method with a detector, per faulty sensor: detection and error in/out of window."""
+    """Every method with a detector, per faulty sensor: detection and error in/out of window.
+
+    The error is that of the state the sensor's fault acts on (:func:`fault_states`).
+    """
     sc = result.scenario
-    st = sc.model.states[0]
     dt = sc.dt
     header = ["method", "detector", "sensor", "Pd", "events", "false alarms", "median delay [ep]",
-              "recovery [s]", f"{st} in fault", f"{st} out of fault"]
+              "recovery [s]", "RMSE of", "in fault", "out of fault"]
     rows = []
-    faulty = list(dict.fromkeys(f.sensor for f in sc.faults if f.kind != "outage"
-                                and f.sensor in sc.sensor_names))  # not the SINS
+    own = fault_states(sc)
     detectors = {m.name: m.detector for m in sc.methods}
     for name, m in metrics.items():
         if not m.detection:
             continue
-        for s in faulty:
+        for s, key in own.items():
             d = m.detection[s]
             delay = None if d["median_delay_s"] is None else d["median_delay_s"] / dt
-            rows.append([name, detectors.get(name, ""), s, _f(d["rate"], "{:.3f}"),
-                         _f(d["event_rate"], "{:.2f}"), _f(d["false_alarm_rate"], "{:.2e}"),
-                         _f(delay, "{:.1f}"), _f(d["mean_recovery_s"], "{:.1f}"),
-                         _f(m.rmse_fault and m.rmse_fault[st]),
-                         _f(m.rmse_nofault and m.rmse_nofault[st])])
+            rows.append([name, detectors.get(name, ""), s, _format(d["rate"], "rate"),
+                         _format(d["event_rate"], "ratio"),
+                         _format(d["false_alarm_rate"], "small"), _format(delay, "delay"),
+                         _format(d["mean_recovery_s"], "delay"),
+                         _state_column(key).markdown,
+                         _format(m.rmse_fault and m.rmse_fault.get(key)),
+                         _format(m.rmse_nofault and m.rmse_nofault.get(key))])
     return header, rows
 
 
 def _fixed(header, rows) -> str:
     widths = [max(len(str(r[c])) for r in [header] + rows) for c in range(len(header))]
     line = "  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True))
-    out = [line, "-" * len(line)]
-    out += ["  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    out = [line.rstrip(), "-" * len(line.rstrip())]
+    out += ["  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+            for r in rows]
     return "\n".join(out)
 
 
@@ -74,47 +336,51 @@ def detector_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
     return _fixed(header, rows) if rows else ""
 
 
-def results_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> str:
-    """Fixed-width table: RMSE overall, in the fault window, fault-free, detection."""
-    header, rows = _rows(result, metrics)
-    widths = [max(len(str(r[c])) for r in [header] + rows) for c in range(len(header))]
-    line = "  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True))
-    out = [line, "-" * len(line)]
-    out += ["  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
-    return "\n".join(out)
+def results_table(result: ScenarioResult, metrics: dict[str, MethodMetrics],
+                  width: int = WIDTH) -> str:
+    """The tables of :func:`summary_tables` as fixed-width text, at most ``width`` wide.
+
+    A table with more columns than fit is printed in blocks of columns, each with the
+    method column.
+    """
+    return "\n\n".join(_render(t, width) for t in summary_tables(result, metrics))
 
 
 def markdown_report(result: ScenarioResult, metrics: dict[str, MethodMetrics],
                     claims: list[dict], figures: list[str]) -> str:
-    """The run's report: settings, table, claims with measured numbers, figures."""
+    """The run's report: settings, tables, claims with measured numbers, figures."""
     sc = result.scenario
-    header, rows = _rows(result, metrics)
     md = [f"# ftnav run: {sc.name}", "", sc.description, "",
           f"{result.runs} Monte Carlo runs, root seed {result.seed}, {sc.steps} epochs of "
-          f"{sc.dt} s. 'in fault' = epochs inside a fault window; 'in window, no fault' = the "
-          "same epochs of a twin run on identical noise with the faults removed; "
-          "'ratio' = their quotient. Pd, false alarms (per epoch) and delay refer to the "
-          "faulty sensor under each method's own detector.", "",
-          "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    md += ["| " + " | ".join(r) + " |" for r in rows]
+          f"{sc.dt} s. One column per state; 'in the fault windows' = epochs inside a fault "
+          "window; 'fault-free twin' = the same epochs of a twin run on identical noise with "
+          "the faults removed; the ratio is their quotient per state, so a fault shows in "
+          "the state it reaches. Linear states are in the scenario's own units; states whose "
+          "name ends in a unit carry it in brackets. Pd, false alarms (per epoch) and delay "
+          "refer to each faulty sensor under each method's own detector.", ""]
+    for t in summary_tables(result, metrics):
+        md += _markdown(t) + [""]
     dh, drows = _detector_rows(result, metrics)
     if drows:
-        md += ["", "## Detectors side by side", "",
+        md += ["## Detectors side by side", "",
                "Per method with a detector and per faulty sensor: per-epoch detection rate, "
                "detected events, false alarms per clean epoch, median delay in epochs, mean "
-               "time to clear after the fault, and the RMSE inside and outside the fault "
-               "window.", "", "| " + " | ".join(dh) + " |", "|" + "---|" * len(dh)]
+               "time to clear after the fault, and the RMSE of the state the sensor's fault "
+               "acts on inside and outside the fault windows.", "",
+               "| " + " | ".join(dh) + " |", "|" + "---|" * len(dh)]
         md += ["| " + " | ".join(r) + " |" for r in drows]
+        md.append("")
     if claims:
-        md += ["", "## Claims checked", ""]
+        md += ["## Claims checked", ""]
         for c in claims:
             verdict = {True: "holds", False: "does NOT hold", None: "not decided"}[c["holds"]]
             md.append(f"- **{c['source']}** — {c['claim']}: **{verdict}**."
                       + (f" {c['note']}." if c["note"] else ""))
             md.append(f"  Measured: `{_compact(c['measured'])}`")
+        md.append("")
     if figures:
-        md += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figures]
-    return "\n".join(md) + "\n"
+        md += ["## Figures", ""] + [f"![{f}]({f})" for f in figures]
+    return "\n".join(md).rstrip("\n") + "\n"
 
 
 def _compact(obj):
