@@ -1,17 +1,22 @@
-"""Figures of Monte Carlo results (paper 000 Fig. 3 / Fig. 4 analogues, β, fault flags).
+"""Figures of Monte Carlo results: errors per state, β, fault flags (and integrated runs).
 
-The functions live in :mod:`ftnav.plot.figures`, which imports matplotlib; they
-are loaded lazily here so that ``import ftnav`` and ``import ftnav.plot`` never
-import matplotlib.
+The functions live in :mod:`ftnav.plot.figures` (linear runs) and
+:mod:`ftnav.plot.integrated` (integrated navigation), which import matplotlib; they are
+loaded lazily here so that ``import ftnav`` and ``import ftnav.plot`` never import
+matplotlib.  A run draws the scenario's ``[[figures]]`` or, without any,
+:func:`default_figures`; no axes holds more than
+:data:`~ftnav.sim.scenario.MAX_FIGURE_METHODS` method lines.
 
 Functions
 ---------
-error_figure, sharing_figure, fault_flag_figure, save_all
+error_figure, sharing_figure, fault_flag_figure, draw_figure, default_figures,
+method_groups, save_all
 """
 
 from __future__ import annotations
 
-__all__ = ["error_figure", "fault_flag_figure", "save_all", "sharing_figure"]
+__all__ = ["default_figures", "draw_figure", "error_figure", "fault_flag_figure",
+           "method_groups", "save_all", "sharing_figure"]
 
 
 def __getattr__(name: str):

@@ -1,4 +1,4 @@
-"""Figures of a Monte Carlo scenario result (paper 000 Fig. 3 / Fig. 4 analogues and more).
+"""Figures of a Monte Carlo scenario result: errors per state, sharing coefficients, flags.
 
 Every function takes a :class:`ftnav.eval.montecarlo.ScenarioResult` and returns a
 :class:`matplotlib.figure.Figure`.  Figures are built as plain ``Figure`` objects
@@ -9,6 +9,14 @@ and are safe to use from scripts, tests and worker processes; save them with
 Time axis: epoch ``k = 1..steps`` is drawn at ``t_k = k·dt`` seconds
 (:attr:`ftnav.sim.scenario.Scenario.times`).  Fault windows ``[start, end)`` are
 shaded on every time axis.
+
+Which figures a run draws (:func:`save_all`): the scenario's ``[[figures]]``
+(:class:`~ftnav.sim.scenario.FigureSpec`, ``docs/scenario-format.md``) or, when it has
+none, :func:`default_figures`: the methods in groups of the centralized reference plus
+up to three others (:func:`method_groups`), one figure per group with the faults and one
+on the fault-free twin, one row of panels per state.  No axes ever holds more than
+:data:`~ftnav.sim.scenario.MAX_FIGURE_METHODS` method lines.  Titles come from the
+figure section or from the scenario's description and name.
 """
 
 from __future__ import annotations
@@ -25,10 +33,14 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from ftnav.eval.evaluate import split_unit
+from ftnav.eval.metrics import position_norms
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
-from ftnav.sim.scenario import Scenario
+from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.sim.scenario import MAX_FIGURE_METHODS, FigureSpec, Scenario
 
-__all__ = ["error_figure", "fault_flag_figure", "save_all", "sharing_figure"]
+__all__ = ["default_figures", "draw_figure", "error_figure", "fault_flag_figure",
+           "method_groups", "save_all", "sharing_figure"]
 
 #: Long names of common one-letter state names, for titles.
 _STATE_NAMES = {
@@ -38,6 +50,8 @@ _STATE_NAMES = {
     "v": "velocity",
     "a": "acceleration",
 }
+_QUANTITIES = {"pos": "position", "vel": "velocity", "att": "attitude"}
+_COMPONENTS = {"E": "East", "N": "North", "U": "Up", "horizontal": "horizontal", "3d": "3-D"}
 
 #: Shading colours of successive fault windows.
 _FAULT_COLOURS = ("tab:red", "tab:orange", "tab:purple", "tab:brown", "tab:pink", "tab:olive")
@@ -165,18 +179,114 @@ def _below_is_filled(ax: Axes, axs: Sequence[Axes]) -> bool:
     return False
 
 
-def _grid_size(ncols: int, nrows: int) -> tuple[float, float]:
+def _grid_size(ncols: int, nrows: int, width: float = 5.0) -> tuple[float, float]:
     """Figure size of a grid of panels, with room for the legend on the right."""
-    return max(5.0 * ncols, 7.0) + 2.5, 3.0 * nrows + 1.2
+    return max(width * ncols, 7.0) + 2.5, 3.0 * nrows + 1.2
 
 
 def _grid_cols(n: int) -> int:
     return 1 if n == 1 else 2 if n <= 4 else 3
 
 
-def _state_label(scenario: Scenario, state: int) -> str:
-    name = scenario.model.states[state]
-    return _STATE_NAMES.get(name, name)
+
+def _state_label(name: str) -> str:
+    """Readable state name: ``s (displacement)``, ``North position``, ``3-D position``."""
+    stem, unit = split_unit(name)
+    if unit is None:
+        return f"{name} ({_STATE_NAMES[name]})" if name in _STATE_NAMES else name
+    prefix, _, component = stem.rpartition("_")
+    if prefix in _QUANTITIES and component in _COMPONENTS:
+        return f"{_COMPONENTS[component]} {_QUANTITIES[prefix]}"
+    return stem
+
+
+def _unit_label(name: str) -> str:
+    unit = split_unit(name)[1]
+    return f"[{unit}]" if unit else "[state units]"
+
+
+def _states(scenario, states: Sequence[str | int] | None) -> list[str]:
+    """State names to draw (default: every state), from names or indices, checked."""
+    known = list(scenario.model.states)
+    plottable = known + (list(POSITION_NORMS) if all(s in known for s in METRIC_STATES[:3])
+                         else [])
+    if states is None:
+        return known
+    out = []
+    for s in states:
+        if isinstance(s, int | np.integer) and not isinstance(s, bool):
+            if not 0 <= s < len(known):
+                raise ValueError(f"states: index must be in [0, {len(known)}), got {s}")
+            s = known[int(s)]
+        if s not in plottable:
+            raise ValueError(f"states: unknown state {s!r}; available: {plottable}")
+        out.append(s)
+    if not out:
+        raise ValueError("states: at least one state is needed")
+    return out
+
+
+def _state_error(res: MethodResult, truth: np.ndarray, states: Sequence[str],
+                 name: str) -> np.ndarray:
+    """(B, K) error ``x̂ − x`` of one state, or a position norm (horizontal, 3-D)."""
+    states = list(states)
+    if name in POSITION_NORMS:
+        idx = [states.index(s) for s in METRIC_STATES[:3]]
+        return position_norms(res.x[..., idx] - truth[..., idx])[..., POSITION_NORMS.index(name)]
+    j = states.index(name)
+    return res.x[..., j] - truth[..., j]
+
+
+def _pool(result: ScenarioResult, fault_free: bool):
+    """Results, simulation, whether faults are shaded as injected, and the condition's words."""
+    sc = result.scenario
+    if fault_free and result.fault_free:
+        return (result.fault_free, result.fault_free_simulation, False,
+                "fault-free twin (same noise, faults removed)")
+    if fault_free and sc.faults:
+        return (result.results, result.simulation, True,
+                "fault-free twin not computed: run WITH the faults")
+    if sc.faults:
+        return result.results, result.simulation, True, "with the faults (shaded)"
+    return result.results, result.simulation, False, "no fault in the scenario"
+
+
+def _check_count(names: Sequence[str], what: str = "methods") -> None:
+    if len(names) > MAX_FIGURE_METHODS:
+        raise ValueError(f"{what}: at most {MAX_FIGURE_METHODS} methods per figure (one line "
+                         f"each per axes), got {len(names)}; split them over several figures "
+                         "(see default_figures)")
+
+
+def _reference(scenario, names: Sequence[str]) -> str | None:
+    """The centralized reference among ``names``: no detector, no adaptive noise."""
+    for m in scenario.methods:
+        if m.name in names and m.architecture == "centralized" and m.detector == "none" \
+                and m.adaptive_noise == "none":
+            return m.name
+    return None
+
+
+def method_groups(scenario, names: Sequence[str]) -> list[tuple[str, ...]]:
+    """``names`` in groups of at most :data:`MAX_FIGURE_METHODS`, for one figure each.
+
+    Each group is the centralized reference (the first centralized method without a
+    detector or adaptive noise, when there is one) followed by up to
+    ``MAX_FIGURE_METHODS − 1`` other methods in scenario order.
+    """
+    ref = _reference(scenario, names)
+    others = [n for n in names if n != ref]
+    size = MAX_FIGURE_METHODS - (ref is not None)
+    chunks = [others[i:i + size] for i in range(0, len(others), size)] or [[]]
+    head = [ref] if ref is not None else []
+    return [tuple(head + c) for c in chunks if head or c]
+
+
+def _titles(fig: Figure, scenario, title: str | None, subtitle: str) -> None:
+    """Suptitle: the given title (default: the scenario's description or name) and a line
+    naming the scenario and what is drawn."""
+    main = title or scenario.description or scenario.name
+    fig.suptitle(f"{main}\n{subtitle}", fontsize="medium")
 
 
 # ---------------------------------------------------------------------------
@@ -187,96 +297,108 @@ def _state_label(scenario: Scenario, state: int) -> str:
 def error_figure(
     result: ScenarioResult,
     fault_free: bool = False,
-    state: int = 0,
-    methods: list[str] | None = None,
+    states: Sequence[str | int] | None = None,
+    methods: Sequence[str] | None = None,
+    title: str | None = None,
     axes: Sequence[Axes] | None = None,
+    run0: bool = True,
 ) -> Figure:
-    """Estimation error of one state vs time: paper 000 Fig. 3 / Fig. 4 analogue.
+    """Estimation error of each state vs time for a few methods (paper 000 Fig. 3, 4).
 
-    Top panel: the error ``x̂ − x`` of run 0 for each method.  Bottom panel: the
-    ensemble RMS error over runs, ``sqrt(mean_b e_b(t)²)``, on a log axis.
+    One row of panels per state: the error ``x̂ − x`` of run 0 for each method and the
+    ensemble RMS error over runs, ``sqrt(mean_b e_b(t)²)``, on a log axis.  Every axes
+    holds one line per method, at most :data:`~ftnav.sim.scenario.MAX_FIGURE_METHODS`.
 
     Parameters
     ----------
     result : ScenarioResult
-        Output of :func:`ftnav.eval.montecarlo.run_scenario`.
+        Output of :func:`ftnav.eval.montecarlo.run_scenario` (or the ``result`` of an
+        integrated run, whose states are output errors).
     fault_free : bool, default False
-        Draw the fault-free twin (``result.fault_free``, Fig. 3 condition)
-        instead of the run with faults (Fig. 4).  When no twin was computed the
-        faulty results are drawn and the title says so.
-    state : int, default 0
-        Index of the common state (e.g. 0 = displacement).
-    methods : list of str, optional
-        Methods to draw, in this order (default: all).
-    axes : sequence of two Axes, optional
-        Draw into these (top, bottom) axes instead of a new figure.
+        Draw the fault-free twin (``result.fault_free``) instead of the run with faults.
+        When no twin was computed the faulty results are drawn and the title says so.
+    states : sequence of str or int, optional
+        States to draw, by name or index (default: every state); an integrated run also
+        accepts ``pos_horizontal_m`` and ``pos_3d_m``.
+    methods : sequence of str, optional
+        Methods to draw, in this order, at most ``MAX_FIGURE_METHODS`` (default: the first
+        group of :func:`method_groups`).
+    title : str, optional
+        First title line (default: the scenario's description, or its name); the second
+        line always names the scenario, the condition, runs and seed.
+    axes : sequence of Axes, optional
+        Draw into these axes (two per state with ``run0``, else one) instead of a new figure.
+    run0 : bool, default True
+        Also draw run 0's error (left column); False draws the RMS panels only.
 
     Returns
     -------
     matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        An unknown state or method, or more than ``MAX_FIGURE_METHODS`` methods.
     """
     sc = result.scenario
-    n_common = sc.model.n
-    if not 0 <= state < n_common:
-        raise ValueError(f"state: must be in [0, {n_common}), got {state}")
-    if fault_free and result.fault_free:
-        pool, sim, injected = result.fault_free, result.fault_free_simulation, False
-        condition = "no fault"
-        fig_no = 3
-    elif fault_free:
-        pool, sim = result.results, result.simulation
-        injected = bool(sc.faults)
-        condition = ("no fault" if not sc.faults
-                     else "fault-free twin not computed, showing run WITH faults")
-        fig_no = 3
-    else:
-        pool, sim, injected = result.results, result.simulation, True
-        condition = "with fault" if sc.faults else "no fault in scenario"
-        fig_no = 4
-    names = _select(pool, methods)
+    names_st = _states(sc, states)
+    pool, sim, injected, condition = _pool(result, fault_free)
+    names = (_select(pool, methods) if methods is not None
+             else list(method_groups(sc, list(pool))[0]))
+    _check_count(names)
     styles = _method_styles(names)
     t = sc.times
-    label = _state_label(sc, state)
-
-    fig, (ax_run, ax_rms) = _new_axes(2, axes, 1, figsize=(10.0, 7.0))
-    truth = sim.truth[:, :, state]
+    per_state = 2 if run0 else 1
+    n = per_state * len(names_st)
+    ncols = 2 if run0 else (1 if len(names_st) <= 4 else 3)
+    nrows = math.ceil(n / ncols)
+    fig, axs = _new_axes(n, axes, ncols,
+                         figsize=_grid_size(ncols, nrows, width=8.5 if ncols == 1 else 5.0))
+    truth = sim.truth
     # earlier methods are drawn wider, so methods giving identical curves (common
     # without faults) show as nested bands instead of hiding each other
     widths = np.linspace(2.4 if len(names) > 1 else 1.0, 0.7, len(names))
-    for name, lw in zip(names, widths, strict=True):
-        err = pool[name].x[:, :, state] - truth
-        rms = np.sqrt(np.mean(err**2, axis=0))
-        ax_run.plot(t, err[0], lw=lw, label=name, **styles[name])
-        ax_rms.plot(t, rms, lw=lw, label=name, **styles[name])
-    fault_handles = _shade_faults(ax_run, sc, injected)
-    _shade_faults(ax_rms, sc, injected)
-
-    ax_run.axhline(0.0, color="0.5", lw=0.6, zorder=1)
-    ax_run.set_title(f"{label} error, run 0", fontsize="medium")
-    ax_run.set_ylabel(f"{label} error [state units]")
-    ax_rms.set_yscale("log")
-    ax_rms.yaxis.set_major_formatter(_PlainLogFormatter(labelOnlyBase=False))
-    ax_rms.yaxis.set_minor_formatter(_PlainLogFormatter(labelOnlyBase=False,
-                                                        minor_thresholds=(1.2, 0.5)))
-    ax_rms.set_title(f"{label} RMS error over {result.runs} runs", fontsize="medium")
-    ax_rms.set_ylabel(f"{label} RMS error [state units]")
-    ax_rms.set_xlabel("time [s]")
-    for ax in (ax_run, ax_rms):
-        ax.grid(True, which="major", lw=0.4, alpha=0.6)
-        ax.set_xlim(0.0, t[-1])
-    ax_rms.grid(True, which="minor", axis="y", lw=0.3, alpha=0.3)
-
+    fault_handles: list = []
+    for i, st in enumerate(names_st):
+        label, unit = _state_label(st), _unit_label(st)
+        ax_run = axs[per_state * i] if run0 else None
+        ax_rms = axs[per_state * i + per_state - 1]
+        for name, lw in zip(names, widths, strict=True):
+            err = _state_error(pool[name], truth, sc.model.states, st)
+            if ax_run is not None:
+                ax_run.plot(t, err[0], lw=lw, label=name, **styles[name])
+            ax_rms.plot(t, np.sqrt(np.mean(err**2, axis=0)), lw=lw, label=name, **styles[name])
+        for ax in (ax_run, ax_rms):
+            if ax is None:
+                continue
+            fault_handles = _shade_faults(ax, sc, injected)
+            ax.grid(True, which="major", lw=0.4, alpha=0.6)
+            ax.set_xlim(0.0, t[-1])
+        if ax_run is not None:
+            ax_run.set_title(f"{label}: error, run 0", fontsize="medium")
+            ax_run.set_ylabel(f"error {unit}")
+        ax_rms.set_yscale("log")
+        ax_rms.yaxis.set_major_formatter(_PlainLogFormatter(labelOnlyBase=False))
+        ax_rms.yaxis.set_minor_formatter(_PlainLogFormatter(labelOnlyBase=False,
+                                                            minor_thresholds=(1.2, 0.5)))
+        ax_rms.grid(True, which="minor", axis="y", lw=0.3, alpha=0.3)
+        ax_rms.set_title(f"{label}: RMS error over {result.runs} runs", fontsize="medium")
+        ax_rms.set_ylabel(f"RMS error {unit}")
+    for ax in axs:
+        spec = ax.get_subplotspec()
+        if axes is not None or spec is None or spec.is_last_row() or \
+                not _below_is_filled(ax, axs):
+            ax.set_xlabel("time [s]")
+    handles, labels = axs[0].get_legend_handles_labels()
+    handles += fault_handles
     if axes is None:
-        fig.suptitle(f"Paper 000 Fig. {fig_no} analogue: {label} error, {condition}\n"
-                     f"scenario '{sc.name}', {result.runs} runs, seed {result.seed}")
-        handles, labels = ax_run.get_legend_handles_labels()
-        handles += fault_handles
-        labels += [h.get_label() for h in fault_handles]
-        fig.legend(handles, labels, loc="outside right upper", fontsize="small",
-                   title="method", title_fontsize="small", frameon=False)
+        _titles(fig, sc, title, f"scenario '{sc.name}': estimation error per state, "
+                f"{condition}; {result.runs} runs, seed {result.seed}")
+        fig.legend(handles, labels + [h.get_label() for h in fault_handles],
+                   loc="outside right upper", fontsize="small", title="method",
+                   title_fontsize="small", frameon=False)
     else:
-        ax_run.legend(handles=ax_run.get_legend_handles_labels()[0] + fault_handles,
-                      fontsize="x-small", ncols=2)
+        axs[0].legend(handles=handles, fontsize="x-small")
     return fig
 
 
@@ -420,11 +542,44 @@ def fault_flag_figure(
     return fig
 
 
-def save_all(result: ScenarioResult, out_dir: str | pathlib.Path) -> list[pathlib.Path]:
-    """Write the standard figures of a result as PNG files (dpi 120).
+def default_figures(result: ScenarioResult) -> tuple[FigureSpec, ...]:
+    """The error figures of a scenario without ``[[figures]]``.
 
-    Files: ``error_no_fault.png`` (Fig. 3 analogue), ``error_fault.png``
-    (Fig. 4 analogue), ``sharing.png`` (only if some method has β) and
+    One figure per group of :func:`method_groups`: ``error_no_fault`` (the fault-free
+    twin, paper 000 Fig. 3 condition) and ``error_fault`` (with the faults, Fig. 4
+    condition), suffixed ``_2``, ``_3``, ... for the later groups; a scenario without
+    faults gets ``error_no_fault`` only.  Every state is drawn.
+    """
+    sc = result.scenario
+    groups = method_groups(sc, list(result.results))
+    base = sc.description or sc.name
+    specs = []
+    for g, names in enumerate(groups, 1):
+        suffix = "" if g == 1 else f"_{g}"
+        title = base if len(groups) == 1 else f"{base} (methods, part {g} of {len(groups)})"
+        if result.fault_free or not sc.faults:
+            specs.append(FigureSpec(f"error_no_fault{suffix}", title, names,
+                                    condition="fault-free"))
+        if sc.faults:
+            specs.append(FigureSpec(f"error_fault{suffix}", title, names))
+    return tuple(specs)
+
+
+def draw_figure(result: ScenarioResult, spec: FigureSpec) -> Figure:
+    """The figure ``spec`` asks for (kind ``errors``: :func:`error_figure`)."""
+    if spec.kind != "errors":
+        raise ValueError(f"figure {spec.name!r}: kind {spec.kind!r} needs an integrated run "
+                         "(ftnav.plot.integrated)")
+    return error_figure(result, fault_free=spec.condition == "fault-free",
+                        states=spec.states or None, methods=spec.methods,
+                        title=spec.title or None)
+
+
+def save_all(result: ScenarioResult, out_dir: str | pathlib.Path) -> list[pathlib.Path]:
+    """Write the figures of a result as PNG files (dpi 120).
+
+    Files: ``<name>.png`` for every figure of the scenario's ``[[figures]]`` or, without
+    any, of :func:`default_figures`; then ``sharing.png`` (only if some method has β) and
     ``fault_flags.png`` (only if some method has fault flags).
 
     Parameters
@@ -441,10 +596,9 @@ def save_all(result: ScenarioResult, out_dir: str | pathlib.Path) -> list[pathli
     """
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    figures: list[tuple[str, Figure]] = [
-        ("error_no_fault.png", error_figure(result, fault_free=True)),
-        ("error_fault.png", error_figure(result, fault_free=False)),
-    ]
+    specs = result.scenario.figures or default_figures(result)
+    figures: list[tuple[str, Figure]] = [(f"{s.name}.png", draw_figure(result, s))
+                                         for s in specs]
     if any(r.beta is not None for r in result.results.values()):
         figures.append(("sharing.png", sharing_figure(result)))
     if any(r.flag is not None for r in result.results.values()):

@@ -1,148 +1,250 @@
 """Figures of the integrated-navigation experiments (papers 001 and 002).
 
+* :func:`method_error_figure`: paper 002 Fig. 2, 4: position (m), velocity (m/s) or
+  attitude (arcmin) errors of a few methods, RMS over the runs at every epoch, one panel
+  per state (:func:`ftnav.plot.figures.error_figure` without the run-0 column).
 * :func:`local_fused_figure`: paper 001 Fig. 4-5, latitude (North) and longitude
-  (East) errors in metres of every local filter and of the fused estimate, with and
-  without the faults (run 0 of the Monte Carlo batch, as the paper shows one flight).
-* :func:`method_error_figure`: paper 002 Fig. 2-3, position (m), velocity (m/s) or
-  attitude (arcmin) errors of several methods, RMS over the runs at every epoch.
-* :func:`vb_noise_figure`: paper 002 Fig. 4-5, the VB estimate of the GNSS noise
-  standard deviation against the true one.
+  (East) errors in metres of every local filter of one method and of the fused
+  estimate of up to :data:`~ftnav.sim.scenario.MAX_FIGURE_METHODS` methods (run 0 of the
+  Monte Carlo batch, as the paper shows one flight).
+* :func:`vb_noise_figure`: paper 002 Fig. 3, 5, the VB estimate of an aid's noise
+  standard deviation against the true one, one panel per measurement component.
 
-Every function takes result objects and returns the figure (style §9).
+:func:`save_integrated` draws the scenario's ``[[figures]]``, or :func:`default_figures`
+when it has none.  Every function takes result objects and returns a
+:class:`matplotlib.figure.Figure` (no ``pyplot`` state, style §9).
 """
 
 from __future__ import annotations
 
+import math
 import pathlib
 from collections.abc import Sequence
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from ftnav.plot.figures import (
+    _check_count,
+    _method_styles,
+    _new_axes,
+    _pool,
+    _select,
+    _sensor_colours,
+    _shade_faults,
+    _state_label,
+    _titles,
+    error_figure,
+    method_groups,
+)
+from ftnav.sim.ins_data import fault_profiles
+from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.sim.scenario import FigureSpec
 
-from ftnav.plot.figures import _shade_faults  # noqa: E402
-from ftnav.sim.ins_data import fault_profiles  # noqa: E402
+__all__ = ["local_fused_figure", "method_error_figure", "vb_noise_figure", "default_figures",
+           "draw_figure", "save_integrated"]
 
-__all__ = ["local_fused_figure", "method_error_figure", "vb_noise_figure", "save_integrated"]
+#: The states of each quantity's figure; the position figure adds the horizontal error.
+QUANTITIES = {"position": (*METRIC_STATES[0:3], POSITION_NORMS[0]),
+              "velocity": METRIC_STATES[3:6], "attitude": METRIC_STATES[6:9]}
 
-_GROUPS = {"position": (slice(0, 3), "m"), "velocity": (slice(3, 6), "m/s"),
-           "attitude": (slice(6, 9), "arcmin")}
-_AXES = ("East", "North", "Up")
+_DPI = 110
 
 
-def local_fused_figure(ir, method: str, fault_free: bool = False, run: int = 0):
-    """Paper 001 Fig. 4 (``fault_free=True``) / Fig. 5: local and fused position errors."""
-    sr = ir.result
-    sc = sr.scenario
-    res = (sr.fault_free if fault_free else sr.results)[method]
-    loc = (ir.local_fault_free if fault_free else ir.local).get(method)
-    t = sc.times
-    fig, axs = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
-    for ax, j, label in ((axs[0], 1, "latitude (North) error [m]"),
-                         (axs[1], 0, "longitude (East) error [m]")):
-        if loc is not None:
-            for i, name in enumerate(sc.sensor_names):
-                ax.plot(t, loc.pos[run, :, i, j], lw=0.8, label=f"SINS/{name} local")
-        ax.plot(t, res.x[run, :, j], color="k", lw=1.3, label=f"fused ({method})")
-        if not fault_free:
-            _shade_faults(ax, sc)
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-    axs[0].legend(fontsize=7, ncol=2)
-    axs[1].set_xlabel("time [s]")
-    what = "without faults" if fault_free else "with the injected faults (shaded)"
-    fig.suptitle(f"{sc.name}: local and fused position errors, {what}, run {run}")
-    fig.tight_layout()
-    return fig
+def _names(methods: str | Sequence[str]) -> list[str]:
+    return [methods] if isinstance(methods, str) else list(methods)
 
 
 def method_error_figure(sr, methods: Sequence[str], quantity: str = "position",
-                        fault_free: bool = False):
-    """Paper 002 Fig. 2-3: RMS over runs of the output errors of each method."""
-    sl, unit = _GROUPS[quantity]
+                        fault_free: bool = False, states: Sequence[str] | None = None,
+                        title: str | None = None) -> Figure:
+    """Paper 002 Fig. 2, 4: RMS over runs of the output errors of a few methods.
+
+    ``states`` default to the ``quantity``'s (:data:`QUANTITIES`); at most
+    ``MAX_FIGURE_METHODS`` methods.
+    """
+    if quantity not in QUANTITIES:
+        raise ValueError(f"quantity: expected one of {list(QUANTITIES)}, got {quantity!r}")
+    return error_figure(sr, fault_free=fault_free, states=states or QUANTITIES[quantity],
+                        methods=methods, title=title, run0=False)
+
+
+def local_fused_figure(ir, method: str | Sequence[str], fault_free: bool = False,
+                       run: int = 0, states: Sequence[str] = ("pos_N_m", "pos_E_m"),
+                       title: str | None = None) -> Figure:
+    """Paper 001 Fig. 4 (``fault_free=True``) / Fig. 5: local and fused position errors.
+
+    Parameters
+    ----------
+    ir : IntegratedResult
+        Output of :func:`ftnav.eval.integrated.run_ins_scenario`.
+    method : str or sequence of str
+        The method whose local filters are drawn, or several (at most
+        ``MAX_FIGURE_METHODS``): the locals of the first and the fused estimate of each.
+    fault_free : bool
+        Draw the fault-free twin.
+    run : int
+        The Monte Carlo run drawn.
+    states : sequence of str
+        Position states, one panel each (default North then East, as the paper).
+    title : str, optional
+        First title line (default: the scenario's description or name).
+    """
+    sr = ir.result
     sc = sr.scenario
-    pool = sr.fault_free if fault_free else sr.results
+    names = _names(method)
+    _check_count(names, "method")
+    pool, _, injected, condition = _pool(sr, fault_free)
+    names = _select(pool, names)
+    tracks = ir.local_fault_free if fault_free and sr.fault_free else ir.local
+    loc = tracks.get(names[0])
+    for s in states:
+        if s not in METRIC_STATES[:3]:
+            raise ValueError(f"states: expected position states {METRIC_STATES[:3]}, got {s!r}")
     t = sc.times
-    fig, axs = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-    for j, ax in enumerate(axs):
-        for name in methods:
-            if name not in pool:
-                continue
-            e = pool[name].x[:, :, sl][:, :, j]
-            ax.plot(t, np.sqrt(np.mean(e ** 2, 0)), lw=0.9, label=name)
-        if not fault_free:
-            _shade_faults(ax, sc)
-        ax.set_ylabel(f"{_AXES[j]} [{unit}]")
-        ax.set_yscale("log")
-        ax.grid(alpha=0.3, which="both")
-    axs[0].legend(fontsize=8)
+    fig, axs = _new_axes(len(states), None, 1, figsize=(10.0, 2.8 * len(states) + 1.4))
+    sensors = _sensor_colours(sc.sensor_names)
+    styles = _method_styles(names)
+    fault_handles: list = []
+    for ax, s in zip(axs, states, strict=True):
+        j = METRIC_STATES.index(s)
+        if loc is not None:
+            for i, name in enumerate(sc.sensor_names):
+                ax.plot(t, loc.pos[run, :, i, j], lw=0.8, color=sensors[name], alpha=0.8,
+                        label=f"SINS/{name} local ({names[0]})")
+        for k, name in enumerate(names):
+            ax.plot(t, pool[name].x[run, :, j], lw=1.6 if k == 0 else 1.1,
+                    color="k" if k == 0 else styles[name]["color"],
+                    linestyle="-" if k == 0 else "--", label=f"fused ({name})")
+        fault_handles = _shade_faults(ax, sc, injected)
+        ax.set_title(f"{_state_label(s)} error, run {run}", fontsize="medium")
+        ax.set_ylabel("error [m]")
+        ax.grid(alpha=0.3)
+        ax.set_xlim(0.0, t[-1])
     axs[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{sc.name}: {quantity} error, RMS over {sr.runs} runs "
-                 f"(shaded: fault windows)")
-    fig.tight_layout()
+    what = "" if loc is not None else f" ({names[0]} has no local filters)"
+    _titles(fig, sc, title, f"scenario '{sc.name}': local and fused position errors{what}, "
+            f"{condition}; run {run} of {sr.runs}")
+    handles, labels = axs[0].get_legend_handles_labels()
+    fig.legend(handles + fault_handles, labels + [h.get_label() for h in fault_handles],
+               loc="outside right upper", fontsize="small", frameon=False)
     return fig
 
 
-def vb_noise_figure(sr, method: str, sensor: str = "gnss"):
-    """Paper 002 Fig. 4-5: VB estimate of the noise σ of each measurement vs the truth."""
+def _true_sigma(aid, sc, sensor: str) -> np.ndarray | None:
+    """(K, m) true white-noise σ of each measurement row, where the sensor model gives it."""
+    if not hasattr(aid, "pos_white_sigma_m"):
+        return None
+    _, scale = fault_profiles(sc.faults, sensor, sc.times, aid.dim)
+    white = np.concatenate([np.broadcast_to(np.asarray(aid.pos_white_sigma_m, float), (3,)),
+                            np.broadcast_to(np.asarray(aid.vel_white_sigma_m_s, float), (3,))])
+    return white[: aid.dim] * np.asarray(scale, float).reshape(-1, 1)
+
+
+def vb_noise_figure(sr, method: str | Sequence[str], sensor: str = "gnss",
+                    title: str | None = None) -> Figure:
+    """Paper 002 Fig. 3, 5: VB estimate of the noise σ of each measurement vs the truth.
+
+    One panel per measurement component of ``sensor``: the mean over runs of each
+    method's ``sqrt(R̂)`` (at most ``MAX_FIGURE_METHODS`` methods) and, for GNSS, the
+    true white-noise σ of the simulation (dashed).
+    """
     sc = sr.scenario
+    names = _names(method)
+    _check_count(names, "method")
+    names = _select(sr.results, names)
+    if sensor not in sc.sensor_names:
+        raise ValueError(f"sensor: unknown sensor {sensor!r}; available: {sc.sensor_names}")
     i = sc.sensor_names.index(sensor)
     aid = sc.aids[i].sensor
-    R_hat = sr.results[method].R_hat[i]  # (B, K, m) variances
+    truth = _true_sigma(aid, sc, sensor)
+    comps = list(aid.components)
     t = sc.times
-    _, scale = fault_profiles(sc.faults, sensor, t, aid.dim)
-    white = None
-    if hasattr(aid, "pos_white_sigma_m"):  # GNSS: true white σ per measurement row
-        white = np.concatenate([np.broadcast_to(np.asarray(aid.pos_white_sigma_m, float), (3,)),
-                                np.broadcast_to(np.asarray(aid.vel_white_sigma_m_s, float),
-                                                (3,))])
-    comps = aid.components
-    fig, axs = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
-    for ax, rows, title in ((axs[0], [0, 1, 2], "position [m]"),
-                            (axs[1], [3, 4, 5], "velocity [m/s]")):
-        for j in rows:
-            if j >= len(comps):
-                continue
-            ax.plot(t, np.sqrt(R_hat[:, :, j]).mean(0), lw=0.9, label=f"VB σ̂ {comps[j]}")
-            if white is not None:
-                ax.plot(t, white[j] * scale, "k--", lw=1.0,
-                        label="true σ" if j == rows[0] else None)
-        _shade_faults(ax, sc, sensor=sensor)
-        ax.set_ylabel(title)
+    ncols = 1 if len(comps) <= 2 else 3
+    nrows = math.ceil(len(comps) / ncols)
+    fig, axs = _new_axes(len(comps), None, ncols, figsize=(4.6 * ncols + 2.5, 2.6 * nrows + 1.4))
+    styles = _method_styles(names)
+    fault_handles: list = []
+    for j, (ax, comp) in enumerate(zip(axs, comps, strict=True)):
+        for name in names:
+            ax.plot(t, np.sqrt(sr.results[name].R_hat[i][:, :, j]).mean(0), lw=1.0,
+                    label=f"VB σ̂ ({name})", **styles[name])
+        if truth is not None:
+            ax.plot(t, truth[:, j], "k--", lw=1.0, label="true σ")
+        fault_handles = _shade_faults(ax, sc, sensor=sensor)
+        ax.set_title(comp, fontsize="medium")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, ncol=2)
-    axs[-1].set_xlabel("time [s]")
-    fig.suptitle(f"{sc.name}: {method} VB estimate of the {sensor} noise σ (mean over runs)")
-    fig.tight_layout()
+        ax.set_xlim(0.0, t[-1])
+        spec = ax.get_subplotspec()
+        if spec.is_first_col():
+            ax.set_ylabel("noise σ [measurement units]")
+        if spec.is_last_row() or j + ncols >= len(comps):
+            ax.set_xlabel("time [s]")
+    _titles(fig, sc, title, f"scenario '{sc.name}': VB estimate of the {sensor} noise σ, mean "
+            f"over {sr.runs} runs")
+    handles, labels = axs[0].get_legend_handles_labels()
+    fig.legend(handles + fault_handles, labels + [h.get_label() for h in fault_handles],
+               loc="outside right upper", fontsize="small", frameon=False)
     return fig
+
+
+def default_figures(ir) -> tuple[FigureSpec, ...]:
+    """The figures of an integrated scenario without ``[[figures]]``.
+
+    Per group of :func:`~ftnav.plot.figures.method_groups` (the centralized reference
+    plus up to three others): ``errors_position`` (E, N, U, horizontal),
+    ``errors_velocity``, ``errors_attitude``, suffixed ``_2``, ``_3``, ... for the later
+    groups; ``local_fused_<method>`` (and ``..._fault_free``) for every method with local
+    filters; ``vb_noise_<method>_<aid>`` for every aid a method adapts the noise of.
+    """
+    sr = ir.result
+    sc = sr.scenario
+    base = sc.description or sc.name
+    groups = method_groups(sc, list(sr.results))
+    specs = []
+    for g, names in enumerate(groups, 1):
+        suffix = "" if g == 1 else f"_{g}"
+        title = base if len(groups) == 1 else f"{base} (methods, part {g} of {len(groups)})"
+        specs += [FigureSpec(f"errors_{q}{suffix}", title, names, states)
+                  for q, states in QUANTITIES.items()]
+    for name in sr.results:
+        if ir.local.get(name) is None:
+            continue
+        specs.append(FigureSpec(f"local_fused_{name}", base, (name,), ("pos_N_m", "pos_E_m"),
+                                "local-fused"))
+        if sr.fault_free:
+            specs.append(FigureSpec(f"local_fused_{name}_fault_free", base, (name,),
+                                    ("pos_N_m", "pos_E_m"), "local-fused", "fault-free"))
+    for m in sc.methods:
+        if m.adaptive_noise == "none" or m.name not in sr.results:
+            continue
+        for s in m.vb_sensors or sc.sensor_names:
+            specs.append(FigureSpec(f"vb_noise_{m.name}_{s}", base, (m.name,), (), "vb-noise",
+                                    sensor=s))
+    return tuple(specs)
+
+
+def draw_figure(ir, spec: FigureSpec) -> Figure:
+    """The figure ``spec`` asks for, from an :class:`~ftnav.eval.integrated.IntegratedResult`."""
+    title = spec.title or None
+    fault_free = spec.condition == "fault-free"
+    if spec.kind == "local-fused":
+        return local_fused_figure(ir, spec.methods, fault_free,
+                                  states=spec.states or ("pos_N_m", "pos_E_m"), title=title)
+    if spec.kind == "vb-noise":
+        return vb_noise_figure(ir.result, spec.methods, spec.sensor, title=title)
+    return error_figure(ir.result, fault_free=fault_free, states=spec.states or None,
+                        methods=spec.methods, title=title, run0=False)
 
 
 def save_integrated(ir, out_dir) -> list[pathlib.Path]:
-    """Write the paper figures that apply to the scenario's methods; returns the paths."""
+    """Write ``<name>.png`` for every figure of the scenario's ``[[figures]]`` (default:
+    :func:`default_figures`); returns the paths."""
     out_dir = pathlib.Path(out_dir)
-    sr = ir.result
-    sc = sr.scenario
-    names = list(sr.results)
+    out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
-
-    def save(fig, name):
-        p = out_dir / name
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
-        paths.append(p)
-
-    for q in ("position", "velocity", "attitude"):
-        save(method_error_figure(sr, names, q), f"errors_{q}.png")
-    with_locals = [n for n in names if ir.local.get(n) is not None]
-    for n in with_locals:
-        save(local_fused_figure(ir, n, fault_free=False), f"local_fused_{n}.png")
-        if sr.fault_free:
-            save(local_fused_figure(ir, n, fault_free=True), f"local_fused_{n}_fault_free.png")
-    for m in sc.methods:
-        if m.adaptive_noise != "none" and m.name in sr.results:
-            for s in (m.vb_sensors or sc.sensor_names):
-                if s in sc.sensor_names and sc.aids[sc.sensor_names.index(s)].dim == 6:
-                    save(vb_noise_figure(sr, m.name, s), f"vb_noise_{m.name}_{s}.png")
+    for spec in ir.result.scenario.figures or default_figures(ir):
+        path = out_dir / f"{spec.name}.png"
+        draw_figure(ir, spec).savefig(path, dpi=_DPI)
+        paths.append(path)
     return paths
