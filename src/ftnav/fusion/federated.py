@@ -158,7 +158,10 @@ class FederatedFilter:
             return beta
         rest = np.where(tiny, 0.0, beta)
         budget = 1.0 - self.beta_m - MIN_SHARE * tiny.sum(-1, keepdims=True)
-        return np.where(tiny, MIN_SHARE, rest * (budget / rest.sum(-1, keepdims=True)))
+        # a run whose shares are all zero (every filter faulty) keeps them at zero; without
+        # the guard its 0/0 gave NaN shares (read as zero) and a divide-by-zero warning
+        total = rest.sum(-1, keepdims=True)
+        return np.where(tiny, MIN_SHARE, rest * (budget / np.where(total > 0, total, 1.0)))
 
     def init(self, batch: int) -> FederatedState:
         B, nc = batch, self.nc
