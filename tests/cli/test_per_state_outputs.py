@@ -43,7 +43,7 @@ def test_north_ramp_shows_in_the_north_column_of_the_ratio():
     ckf = _row(ratio, "ckf")
     assert ckf["N"] > 2.0  # the ramp (up to 30 sigma) leaks into the North estimate
     assert ckf["E"] < 1.2  # and not into the East one
-    assert "gnss -> state N" in ratio.note
+    assert ratio.note == "The faults act on: state N (gnss)."
     oracle = _row(ratio, "fkf-oracle")  # isolation keeps N close to fault-free
     assert oracle["N"] < 0.5 * ckf["N"]
     m = metrics["ckf"]
@@ -72,7 +72,7 @@ def test_markdown_report_has_every_state_and_the_ratio_per_state():
     ckf = next(line for line in ratio.splitlines() if line.startswith("| ckf |"))
     cells = [c.strip() for c in ckf.strip("|").split("|")]
     assert float(cells[2]) > 2.0 and float(cells[1]) < 1.2
-    assert "Fault acts on: gnss -> state N." in md
+    assert "The faults act on: state N (gnss)." in md
 
 
 def test_detection_columns_per_faulty_sensor():
@@ -93,7 +93,7 @@ def test_integrated_tables_have_every_navigation_state_with_units():
     groups = {c.group for c in tables[0].columns}
     assert groups == {"position [m]", "velocity [m/s]", "attitude [arcmin]"}
     assert fault_states(ir.result.scenario) == {"gnss": "pos_horizontal_m"}
-    assert "gnss -> pos_horizontal [m]" in _table(tables, "Ratio").note
+    assert "act on: pos_horizontal [m] (gnss)" in _table(tables, "Ratio").note
     text = results_table(ir.result, metrics)
     assert max(len(line) for line in text.splitlines()) <= 100
     md = markdown_report(ir.result, metrics, [], [])

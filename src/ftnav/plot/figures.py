@@ -286,7 +286,8 @@ def _titles(fig: Figure, scenario, title: str | None, subtitle: str) -> None:
     """Suptitle: the given title (default: the scenario's description or name) and a line
     naming the scenario and what is drawn."""
     main = title or scenario.description or scenario.name
-    fig.suptitle(f"{main}\n{subtitle}", fontsize="medium")
+    # left-aligned, so that a legend outside the axes on the right cannot cover it
+    fig.suptitle(f"{main}\n{subtitle}", fontsize="medium", x=0.01, ha="left")
 
 
 # ---------------------------------------------------------------------------

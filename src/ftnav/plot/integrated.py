@@ -21,6 +21,7 @@ import math
 import pathlib
 from collections.abc import Sequence
 
+import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -104,7 +105,9 @@ def local_fused_figure(ir, method: str | Sequence[str], fault_free: bool = False
     t = sc.times
     fig, axs = _new_axes(len(states), None, 1, figsize=(10.0, 2.8 * len(states) + 1.4))
     sensors = _sensor_colours(sc.sensor_names)
-    styles = _method_styles(names)
+    # the first method's fused line black, the others in colours no local filter uses
+    palette = matplotlib.colormaps["tab10"]
+    colours = ["k"] + [palette((len(sensors) + k) % 10) for k in range(len(names) - 1)]
     fault_handles: list = []
     for ax, s in zip(axs, states, strict=True):
         j = METRIC_STATES.index(s)
@@ -114,7 +117,7 @@ def local_fused_figure(ir, method: str | Sequence[str], fault_free: bool = False
                         label=f"SINS/{name} local ({names[0]})")
         for k, name in enumerate(names):
             ax.plot(t, pool[name].x[run, :, j], lw=1.6 if k == 0 else 1.1,
-                    color="k" if k == 0 else styles[name]["color"],
+                    color=colours[k],
                     linestyle="-" if k == 0 else "--", label=f"fused ({name})")
         fault_handles = _shade_faults(ax, sc, injected)
         ax.set_title(f"{_state_label(s)} error, run {run}", fontsize="medium")

@@ -143,9 +143,12 @@ def summary_tables(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
                     f"{units})", cols,
                     tuple((n, _values(m.rmse, cols)) for n, m in metrics.items()))]
     if any(m.rmse_fault for m in metrics.values()):
-        own = fault_states(sc)
-        acts = ", ".join(f"{s} -> {_state_column(k).markdown}" for s, k in own.items())
-        note = f"Fault acts on: {acts}." if acts else ""
+        by_state: dict[str, list[str]] = {}
+        for sensor, key in fault_states(sc).items():
+            by_state.setdefault(key, []).append(sensor)
+        acts = "; ".join(f"{_state_column(k).markdown} ({', '.join(v)})"
+                         for k, v in by_state.items())
+        note = f"The faults act on: {acts}." if acts else ""
         inside = {n: _values(m.rmse_fault, cols) for n, m in metrics.items()}
         tables.append(Table("RMSE inside the fault windows, with the faults", cols,
                             tuple(inside.items()), note))
