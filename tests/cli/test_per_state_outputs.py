@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from output_problems import integrated_run, north_ramp_run
 
+from ftnav.eval.evaluate import split_unit
 from ftnav.eval.metrics import error_stats
 from ftnav.report.summary import fault_states, markdown_report, results_table, summary_tables
 from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
@@ -109,6 +110,15 @@ def test_wide_tables_are_split_into_column_blocks():
     assert max(len(line) for line in first) <= 60
     assert sum(line.startswith("method") for line in first) >= 2  # two or more blocks
     assert "att" not in first[0]
+
+
+@pytest.mark.parametrize(("name", "expected"), [
+    ("s", ("s", None)), ("pos_E_m", ("pos_E", "m")), ("vel_N_m_s", ("vel_N", "m/s")),
+    ("att_U_arcmin", ("att_U", "arcmin")), ("pos_horizontal_m", ("pos_horizontal", "m")),
+    ("m", ("m", None)), ("_m", ("_m", None)),
+])
+def test_split_unit_reads_the_unit_suffix(name, expected):
+    assert split_unit(name) == expected
 
 
 # ----------------------------------------------------------------- position norms
