@@ -1,59 +1,149 @@
 """Command-line interface: ``ftnav run | list | schema | trajectory | train-*``.
 
-Bad input (a malformed scenario, an unknown built-in, an impossible option)
-prints one line ``ftnav: error: <field>: <reason>`` on stderr and exits with
-status 2; it never prints a traceback.
+Exit status, and what goes to standard error:
+
+* 0: done.
+* 2: bad input, found before anything is computed or written: one line
+  ``ftnav: error: <field>: <reason>`` (a malformed scenario, an unknown built-in, an
+  impossible option, a model file that does not fit the scenario, a run that needs
+  more memory than the machine has available).  A bare ``ftnav`` (no command) prints
+  the help and exits 2 as well: argparse's status for a usage error.
+* 1: anything else, which is a bug: one line ``ftnav: internal error, please report:
+  <ExceptionType>: <message> (run again with --debug for the traceback)``.
+* 130: interrupted.
+
+``--debug`` (before or after the command name) prints the full traceback of either
+kind before the line.
+
+Outputs.  A command writes nothing before its input is validated and its
+computation has succeeded: the files are written into a hidden staging folder next
+to the target (``.<name>.ftnav-partial-*``) and then moved into place, so a refused
+or crashed command leaves no folder (nor the parents it would have created) and
+an earlier run's results stay complete.  A folder written by ``ftnav run`` or
+``ftnav trajectory`` holds :data:`MANIFEST`, the list of the files ftnav wrote there;
+the next run into the same folder deletes those files (and only those) before it
+moves its own in, so no figure or ``estimates.nc`` of an earlier run is left behind
+and the user's own files are never touched.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import re
+import secrets
+import shutil
 import sys
 import time
+import traceback
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["main"]
+__all__ = ["MANIFEST", "main"]
+
+#: File in an output folder that lists the files ftnav wrote there (JSON).
+MANIFEST = ".ftnav-outputs.json"
+
+#: Said on standard error before a run that compiles the numba kernels.
+COMPILING = "ftnav: compiling the numerical kernels on first use (about 30 s, once)"
 
 
 class UsageError(Exception):
     """Bad command-line input; reported on one line with exit status 2."""
 
 
+class _Exit(Exception):
+    """argparse has finished (``--help``, ``--version``): exit with ``status``."""
+
+    def __init__(self, status: int) -> None:
+        super().__init__(status)
+        self.status = status
+
+
+def _one_line(error: BaseException) -> str:
+    return " ".join(str(error).split())
+
+
+def _argparse_message(message: str) -> str:
+    """argparse's message as ``<field>: <reason>`` (it prefixes ``argument <name>: ``)."""
+    text = " ".join(message.split())
+    named = re.fullmatch(r"argument (\S+?)(?:/\S+)?: (.*)", text)
+    if named:
+        return f"{named[1]}: {named[2]}"
+    missing = re.fullmatch(r"the following arguments are required: (.*)", text)
+    if missing:
+        return f"{missing[1]}: required"
+    return text
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, status 2, no usage dump
-        raise UsageError(message.replace("\n", " "))
+        raise UsageError(_argparse_message(message))
+
+    def exit(self, status=0, message=None):  # --help, --version: main() returns the status
+        if message:
+            sys.stderr.write(message)
+        raise _Exit(status)
 
 
-def _positive_int(name):
+def _at_least(low: int):
+    """argparse type: an integer >= ``low`` (argparse names the option in the message)."""
     def parse(text):
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: expected an integer, got {text!r}") \
-                from None
-        if value < 1:
-            raise argparse.ArgumentTypeError(f"{name}: must be >= 1, got {value}")
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
         return value
     return parse
 
 
-def _seed(text):
+_positive = _at_least(1)
+_seed = _at_least(0)
+
+
+@contextmanager
+def _checking() -> Iterator[None]:
+    """The validation phase: a ValueError raised here is the input's fault (exit 2).
+
+    Outside it, a ValueError is a bug like any other exception (exit 1); only
+    :class:`UsageError`, ``ScenarioError`` and ``ModelFileError`` are bad input anywhere.
+    """
     try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--seed: expected an integer, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"--seed: must be >= 0, got {value}")
-    return value
+        yield
+    except (UsageError, KeyboardInterrupt):
+        raise
+    except ValueError as e:
+        from ftnav.io.model_file import ModelFileError
+        from ftnav.io.scenario_file import ScenarioError
+
+        if isinstance(e, ScenarioError | ModelFileError):
+            raise
+        raise UsageError(_one_line(e)) from e
 
 
 def _parser() -> _Parser:
-    p = _Parser(prog="ftnav", description="Fault-tolerant multi-sensor navigation fusion.")
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    r = sub.add_parser("run", help="run a scenario's methods over Monte Carlo runs")
+    from ftnav import __version__
+
+    debug = argparse.ArgumentParser(add_help=False)
+    debug.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                       help="show the full traceback of an error")
+    p = _Parser(prog="ftnav", description="Fault-tolerant multi-sensor navigation fusion.",
+                epilog="exit status: 0 done, 2 bad input (one line naming the field), "
+                       "1 internal error (a bug: please report it)")
+    p.add_argument("--version", action="version", version=f"ftnav {__version__}")
+    p.add_argument("--debug", action="store_true", help="show the full traceback of an error")
+    sub = p.add_subparsers(dest="command", parser_class=_Parser)
+
+    def command(name, **kw):
+        return sub.add_parser(name, parents=[debug], **kw)
+
+    r = command("run", help="run a scenario's methods over Monte Carlo runs")
     r.add_argument("scenario", help="built-in scenario name (see `ftnav list`) or a TOML path")
-    r.add_argument("--runs", type=_positive_int("--runs"), default=100,
+    r.add_argument("--runs", type=_positive, default=100,
                    help="Monte Carlo runs (default 100)")
     r.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
     r.add_argument("--out", type=Path, default=None,
@@ -62,36 +152,36 @@ def _parser() -> _Parser:
                    help="also write estimates.nc (NetCDF) with every estimate")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
-    t = sub.add_parser("trajectory", help="generate a flight's truth and IMU increments")
+    t = command("trajectory", help="generate a flight's truth and IMU increments")
     t.add_argument("profile", help="built-in profile (seed001, seed002) or a profile TOML path")
     t.add_argument("--out", type=Path, required=True, help="output folder")
     t.add_argument("--imu", default=None,
                    help="IMU error preset (ideal increments if omitted), e.g. seed001")
     t.add_argument("--seed", type=_seed, default=1, help="random seed of the IMU errors")
     t.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
-    d = sub.add_parser("train-detector",
+    d = command("train-detector",
                        help="train the RBF fault detector (paper 000) on a scenario's system")
     d.add_argument("scenario", help="built-in scenario name or a TOML path")
     d.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
-    d.add_argument("--runs", type=_positive_int("--runs"), default=8,
+    d.add_argument("--runs", type=_positive, default=8,
                    help="training runs per typical fault (default 8)")
-    d.add_argument("--holdout", type=_positive_int("--holdout"), default=4,
+    d.add_argument("--holdout", type=_positive, default=4,
                    help="held-out runs per typical fault (default 4)")
     d.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
     d.add_argument("--method", default=None,
                    help="scenario method whose filters produce the features (default: the "
                         "first with detector 'rbf', else federated inverse-trace)")
-    d.add_argument("--centres", type=_positive_int("--centres"), default=60,
+    d.add_argument("--centres", type=_at_least(2), default=60,
                    help="hidden RBF units (default 60)")
     d.add_argument("--no-figure", action="store_true", help="skip the ROC/confusion figure")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
-    f = sub.add_parser("train-fusion",
+    f = command("train-fusion",
                        help="train the neuron fusion centre (paper 001) on a scenario's system")
     f.add_argument("scenario", help="built-in scenario name or a TOML path")
     f.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
-    f.add_argument("--runs", type=_positive_int("--runs"), default=4,
+    f.add_argument("--runs", type=_positive, default=4,
                    help="training runs per typical fault (default 4)")
-    f.add_argument("--holdout", type=_positive_int("--holdout"), default=2,
+    f.add_argument("--holdout", type=_positive, default=2,
                    help="held-out runs per typical fault (default 2)")
     f.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
     f.add_argument("--projection", choices=("simplex", "seed"), default="simplex",
@@ -101,8 +191,9 @@ def _parser() -> _Parser:
                    help="add the free propagation (no measurements) as an input")
     f.add_argument("--no-figure", action="store_true", help="skip the RMSE/weights figure")
     f.add_argument("--quiet", action="store_true", help="no progress bar")
-    sub.add_parser("list", help="list built-in scenarios and their methods")
-    s = sub.add_parser("schema", help="print the JSON schema of scenario files")
+    command("list", help="list built-in scenarios and their methods")
+    s = command("schema", help="print the JSON schema of scenario files (linear and "
+                "integrated)")
     s.add_argument("--out", type=Path, default=None, help="write to a file instead")
     return p
 
@@ -120,7 +211,181 @@ def _resolve(spec: str):
                      f"({', '.join(builtin_names())}) nor a TOML file")
 
 
-def _cmd_list() -> int:
+def _integrated(sc) -> bool:
+    return getattr(sc, "kind", "linear") == "integrated"
+
+
+# ------------------------------------------------------------------ checks before a run
+
+
+def _build_filters(sc) -> None:
+    """Build every method's filter once, as the runner will: bad settings and model files
+    are refused here, before anything is simulated."""
+    from ftnav.eval.montecarlo import build_filter
+
+    if not sc.methods:
+        raise UsageError("methods: a run needs at least one method")
+    if _integrated(sc):
+        from ftnav.eval.integrated import build_ins_system
+
+        system = build_ins_system(sc)
+    else:
+        from ftnav.fusion.system import LinearSystem
+
+        system = LinearSystem.from_scenario(sc)
+    for m in sc.methods:
+        build_filter(system, m)
+
+
+def _check_memory(sc, runs: int, **options) -> None:
+    """Refuse a run whose estimated peak memory exceeds what the machine has available."""
+    from ftnav.eval.resources import (
+        available_memory_bytes,
+        format_bytes,
+        max_runs_within,
+        run_memory_bytes,
+    )
+
+    available = available_memory_bytes()
+    if available is None:
+        return
+    need = run_memory_bytes(sc, runs, **options)
+    if need <= available:
+        return
+    have = f"more than the {format_bytes(available)} available"
+    fit = max_runs_within(sc, available, **options)
+    if fit == 0:
+        field = "filter.duration_s" if _integrated(sc) else "steps"
+        one = run_memory_bytes(sc, 1, **options)
+        raise UsageError(f"{field}: one run of {sc.name} ({sc.steps} epochs of {sc.dt:g} s) "
+                         f"needs about {format_bytes(one)}, {have}")
+    raise UsageError(f"--runs: {runs} runs of {sc.name} need about {format_bytes(need)}, "
+                     f"{have} (at most {fit} would fit)")
+
+
+def _compile_note(kind: str, quiet: bool) -> None:
+    from ftnav.eval.resources import kernels_compiled
+
+    if not quiet and not kernels_compiled(kind):
+        print(COMPILING, file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------------ output files
+
+
+def _nearest_existing(path: Path) -> Path:
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def _check_writable(folder: Path, out: Path) -> None:
+    """``folder`` (to be created if missing) can be created and written into."""
+    base = _nearest_existing(folder)
+    if not base.is_dir():
+        raise UsageError(f"--out: cannot create {str(out)!r}: {str(base)!r} is not a folder")
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise UsageError(f"--out: cannot write to {str(base)!r} (permission denied)")
+
+
+def _check_out_folder(out: Path) -> None:
+    """Refuse an ``--out`` folder that cannot be written, before anything is computed."""
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"--out: {str(out)!r} is a file, not a folder")
+    _check_writable(Path(os.path.abspath(out)), out)
+
+
+def _check_out_file(out: Path) -> None:
+    """Refuse an ``--out`` file that cannot be written, before anything is computed."""
+    if out.is_dir():
+        raise UsageError(f"--out: {str(out)!r} is a folder; give a file name")
+    _check_writable(Path(os.path.abspath(out)).parent, out)
+
+
+def _make_folders(folder: Path) -> list[Path]:
+    """Create ``folder`` and its missing parents; the ones created, deepest first."""
+    missing = []
+    while not folder.exists():
+        missing.append(folder)
+        folder = folder.parent
+    for f in reversed(missing):
+        f.mkdir()
+    return missing
+
+
+def _remove_folders(created: list[Path]) -> None:
+    for f in created:  # deepest first; stops at one that is no longer empty
+        try:
+            f.rmdir()
+        except OSError:
+            break
+
+
+def _owned(folder: Path) -> list[str]:
+    """Files that an earlier run listed in ``folder``'s manifest and that still exist."""
+    try:
+        names = json.loads((folder / MANIFEST).read_text())["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    if not isinstance(names, list):
+        return []
+    return [n for n in names if isinstance(n, str) and n not in ("", ".", "..", MANIFEST)
+            and "/" not in n and "\\" not in n and (folder / n).is_file()
+            and not (folder / n).is_symlink()]
+
+
+@contextmanager
+def _staged(out: Path, *, folder: bool) -> Iterator[Path]:
+    """A staging folder whose files are moved into place when the block succeeds.
+
+    ``folder=True``: ``out`` is an output folder; the files of the earlier run listed
+    in its :data:`MANIFEST` are deleted first and a new manifest is written.
+    ``folder=False``: ``out`` is a file; each staged file replaces its namesake in
+    ``out``'s folder.  On any exception the staging folder, and every folder created
+    for it, is removed, and the target is left as it was.
+    """
+    target = Path(os.path.abspath(out))
+    home = target if folder and target.is_dir() else target.parent
+    created: list[Path] = []
+    try:
+        created = _make_folders(home)
+        # mkdir, not mkdtemp: the folder gets the umask's mode, as it will be the output
+        stage = home / f".{target.name}.ftnav-partial-{secrets.token_hex(6)}"
+        stage.mkdir()
+    except OSError as e:
+        _remove_folders(created)
+        raise UsageError(f"--out: cannot create {str(out)!r}: {e.strerror or e}") from None
+    try:
+        yield stage
+        names = sorted(p.name for p in stage.iterdir())
+        if not folder:
+            for name in names:
+                os.replace(stage / name, home / name)
+            stage.rmdir()
+            return
+        from ftnav import __version__
+
+        (stage / MANIFEST).write_text(json.dumps(
+            {"written_by": f"ftnav {__version__}", "files": names}, indent=1) + "\n")
+        if not target.exists():
+            os.rename(stage, target)
+            return
+        for name in _owned(target):
+            if name not in names:
+                (target / name).unlink()
+        for name in [*names, MANIFEST]:
+            os.replace(stage / name, target / name)
+        stage.rmdir()
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        _remove_folders(created)
+        raise
+
+
+# ------------------------------------------------------------------------------ commands
+
+
+def _cmd_list(args) -> int:
     from ftnav.io.scenario_file import load_scenario
     from ftnav.scenarios import builtin_names, builtin_path
 
@@ -143,14 +408,17 @@ def _cmd_list() -> int:
     return 0
 
 
-def _cmd_schema(out: Path | None) -> int:
+def _cmd_schema(args) -> int:
     from ftnav.io.scenario_file import scenario_json_schema
 
+    if args.out is not None:
+        _check_out_file(args.out)
     text = json.dumps(scenario_json_schema(), indent=2)
-    if out is None:
+    if args.out is None:
         print(text)
-    else:
-        Path(out).write_text(text + "\n")
+        return 0
+    with _staged(args.out, folder=False) as stage:
+        (stage / args.out.name).write_text(text + "\n")
     return 0
 
 
@@ -159,19 +427,22 @@ def _cmd_run(args) -> int:
 
     from ftnav.eval.evaluate import evaluate, metrics_to_json
     from ftnav.eval.montecarlo import run_scenario
+    from ftnav.eval.resources import mark_kernels_compiled
     from ftnav.io.results import write_estimates, write_metrics
     from ftnav.report.claims import check_claims
     from ftnav.report.summary import detector_table, markdown_report, results_table
 
-    sc = _resolve(args.scenario)
-    out = args.out if args.out is not None else Path("results") / sc.name
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UsageError(f"--out: cannot create {str(out)!r}: {e.strerror}") from None
+    with _checking():
+        sc = _resolve(args.scenario)
+        out = args.out if args.out is not None else Path("results") / sc.name
+        _check_out_folder(out)
+        _check_memory(sc, args.runs, save_estimates=args.save_estimates)
+        _build_filters(sc)
+    integrated = _integrated(sc)
+    kind = "integrated" if integrated else "linear"
+    _compile_note(kind, args.quiet)
     passes = 2 if sc.faults else 1
     total = len(sc.methods) * sc.steps * passes
-    integrated = getattr(sc, "kind", "linear") == "integrated"
     t0 = time.perf_counter()
     with tqdm(total=total, disable=True if args.quiet else None, unit="epoch",
               desc=f"{sc.name} x{args.runs}", file=sys.stderr, mininterval=0.5) as bar:
@@ -197,26 +468,28 @@ def _cmd_run(args) -> int:
             ir2 = run_ins_scenario(sc2, args.runs, args.seed, progress=bar.update)
         second = (ir2.result, evaluate(ir2.result))
     elapsed = time.perf_counter() - t0
+    mark_kernels_compiled(kind)
     metrics = evaluate(result)
     claims = check_claims(result, metrics, ir.local if integrated else None, second)
-    figures = []
-    if not args.no_figures:
-        if integrated:
-            from ftnav.plot.integrated import save_integrated
+    with _staged(out, folder=True) as stage:
+        figures = []
+        if not args.no_figures:
+            if integrated:
+                from ftnav.plot.integrated import save_integrated
 
-            figures = [p.name for p in save_integrated(ir, out)]
-        else:
-            from ftnav.plot.figures import save_all
+                figures = [p.name for p in save_integrated(ir, stage)]
+            else:
+                from ftnav.plot.figures import save_all
 
-            figures = [p.name for p in save_all(result, out)]
-    doc = metrics_to_json(result, metrics, claims)
-    if second is not None:
-        doc["second_trajectory"] = metrics_to_json(*second)
-    write_metrics(doc, out / "metrics.json")
-    (out / "report.md").write_text(markdown_report(result, metrics, claims, figures))
-    written = ["metrics.json", "report.md", *figures]
-    if args.save_estimates:
-        written += [p.name for p in write_estimates(result, out)]
+                figures = [p.name for p in save_all(result, stage)]
+        doc = metrics_to_json(result, metrics, claims)
+        if second is not None:
+            doc["second_trajectory"] = metrics_to_json(*second)
+        write_metrics(doc, stage / "metrics.json")
+        (stage / "report.md").write_text(markdown_report(result, metrics, claims, figures))
+        written = ["metrics.json", "report.md", *figures]
+        if args.save_estimates:
+            written += [p.name for p in write_estimates(result, stage)]
     print(f"{sc.name}: {args.runs} runs, seed {args.seed}, {len(sc.methods)} methods, "
           f"{elapsed:.1f} s")
     print(results_table(result, metrics))
@@ -228,57 +501,63 @@ def _cmd_run(args) -> int:
         print("\nDetectors side by side (learned and statistical):")
         print(detectors)
     for c in claims:
-        verdict = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c["holds"]]
-        print(f"[{verdict}] {c['source']}: {c['claim']}")
+        if c.get("checked", True):
+            verdict = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c["holds"]]
+            print(f"[{verdict}] {c['source']}: {c['claim']}")
+        else:
+            print(f"[not checked] {c['source']}: {c['claim']} ({c['note']})")
     print(f"Results written to {out}/: {', '.join(written)}")
     return 0
 
 
 def _cmd_trajectory(args) -> int:
+    from ftnav.eval.resources import (
+        available_memory_bytes,
+        format_bytes,
+        mark_kernels_compiled,
+        trajectory_memory_bytes,
+    )
     from ftnav.io.profile_file import resolve_profile
     from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
     from ftnav.sim.trajectory import generate
 
-    profile = resolve_profile(args.profile)
-    errors = None
-    if args.imu is not None:
-        from ftnav.sim.imu import imu_preset
+    with _checking():
+        profile = resolve_profile(args.profile)
+        errors = None
+        if args.imu is not None:
+            from ftnav.sim.imu import imu_preset
 
-        errors = imu_preset(args.imu)
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UsageError(f"--out: cannot create {str(out)!r}: {e.strerror}") from None
+            errors = imu_preset(args.imu)
+        out = Path(args.out)
+        _check_out_folder(out)
+        need = trajectory_memory_bytes(profile, errors is not None)
+        available = available_memory_bytes()
+        if available is not None and need > available:
+            raise UsageError(f"profile: {profile.duration:g} s at {profile.imu_rate:g} Hz "
+                             f"needs about {format_bytes(need)}, more than the "
+                             f"{format_bytes(available)} available")
+    _compile_note("trajectory", False)
     traj = generate(profile)
     dtheta, dv = traj.dtheta, traj.dv
     if errors is not None:
         from ftnav.sim.imu import simulate_imu_errors
 
         dtheta, dv, _ = simulate_imu_errors(dtheta, dv, traj.dt, errors, seed=args.seed)
-    written = [write_truth_csv(traj, out / "truth.csv").name,
-               write_imu_csv(traj.t[1:], dtheta, dv, out / "imu.csv").name]
-    if not args.no_figure:
-        from ftnav.plot.navigation import trajectory_figure
+    mark_kernels_compiled("trajectory")
+    with _staged(out, folder=True) as stage:
+        written = [write_truth_csv(traj, stage / "truth.csv").name,
+                   write_imu_csv(traj.t[1:], dtheta, dv, stage / "imu.csv").name]
+        if not args.no_figure:
+            from ftnav.plot.navigation import trajectory_figure
 
-        fig = trajectory_figure(traj, title=f"{profile.name}: {profile.duration:g} s")
-        fig.savefig(out / "trajectory.png", dpi=110)
-        written.append("trajectory.png")
+            fig = trajectory_figure(traj, title=f"{profile.name}: {profile.duration:g} s")
+            fig.savefig(stage / "trajectory.png", dpi=110)
+            written.append("trajectory.png")
     imu = f"IMU errors '{args.imu}', seed {args.seed}" if errors is not None else "ideal IMU"
     print(f"{profile.name}: {profile.duration:g} s at {profile.imu_rate:g} Hz, "
           f"{len(profile.segments)} segments, {imu}")
     print(f"Written to {out}/: {', '.join(written)}")
     return 0
-
-
-def _output_file(path: Path) -> Path:
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UsageError(f"--out: cannot create {str(path.parent)!r}: {e.strerror}") from None
-    if path.is_dir():
-        raise UsageError(f"--out: {str(path)!r} is a folder; give a model file name")
-    return path
 
 
 def _bar(total: int, quiet: bool, desc: str):
@@ -289,37 +568,47 @@ def _bar(total: int, quiet: bool, desc: str):
 
 
 def _cmd_train_detector(args) -> int:
+    import numpy as np
+
+    from ftnav.eval.resources import mark_kernels_compiled
     from ftnav.fdi.training import DetectorTraining, default_method, held_out_table, train_detector
     from ftnav.sim.fault_family import fault_variants
 
-    if args.centres < 2:
-        raise UsageError(f"--centres: must be >= 2, got {args.centres}")
-    sc = _resolve(args.scenario)
-    out = _output_file(args.out)
-    method = default_method(sc)
-    if args.method is not None:
-        named = {m.name: m for m in sc.methods}
-        if args.method not in named:
-            raise UsageError(f"--method: {args.method!r} is not a method of {sc.name} "
-                             f"({', '.join(named)})")
-        method = named[args.method]
-    settings = DetectorTraining(runs=args.runs, holdout_runs=args.holdout, seed=args.seed,
-                                n_centres=args.centres)
-    import numpy as np
-
-    n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+    with _checking():
+        sc = _resolve(args.scenario)
+        out = args.out
+        _check_out_file(out)
+        if _integrated(sc):
+            raise UsageError(f"scenario: {sc.name} is an integrated scenario; the RBF "
+                             "detector is trained on linear scenarios")
+        method = default_method(sc)
+        if args.method is not None:
+            named = {m.name: m for m in sc.methods}
+            if args.method not in named:
+                raise UsageError(f"--method: {args.method!r} is not a method of {sc.name} "
+                                 f"({', '.join(named)})")
+            method = named[args.method]
+        if method.architecture not in ("federated", "distributed"):
+            raise UsageError(f"methods[{method.name}].architecture: the RBF detector's "
+                             "features need local filters (federated or distributed)")
+        settings = DetectorTraining(runs=args.runs, holdout_runs=args.holdout, seed=args.seed,
+                                    n_centres=args.centres)
+        n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+    _compile_note("train-linear", args.quiet)
     total = sc.steps * n_var * (args.runs * (1 + settings.closed_loop) + 2 * args.holdout)
     t0 = time.perf_counter()
     with _bar(total, args.quiet, f"train-detector {sc.name}") as bar:
         model, report = train_detector(sc, settings, method, progress=bar.update)
-    model.save(out)
+    mark_kernels_compiled("train-linear")
     written = [str(out)]
-    if not args.no_figure:
-        from ftnav.plot.learning import detector_figure
+    with _staged(out, folder=False) as stage:
+        model.save(stage / out.name)
+        if not args.no_figure:
+            from ftnav.plot.learning import detector_figure
 
-        fig = detector_figure(report, f"{sc.name}: RBF detector vs chi-square, held-out runs")
-        fig.savefig(out.with_suffix(".png"), dpi=110)
-        written.append(str(out.with_suffix(".png")))
+            fig = detector_figure(report, f"{sc.name}: RBF detector vs chi-square, held-out runs")
+            fig.savefig(stage / out.with_suffix(".png").name, dpi=110)
+            written.append(str(out.with_suffix(".png")))
     print(f"{sc.name}: RBF detector for method {method.name!r} ({method.architecture}), "
           f"{n_var} fault variants x {args.runs} training runs, {report.train_samples} "
           f"samples, {time.perf_counter() - t0:.1f} s")
@@ -330,30 +619,41 @@ def _cmd_train_detector(args) -> int:
 
 
 def _cmd_train_fusion(args) -> int:
+    import numpy as np
+
+    from ftnav.eval.resources import mark_kernels_compiled
     from ftnav.fusion.neural_training import FusionTraining, fusion_table, train_fusion
     from ftnav.sim.fault_family import fault_variants
 
-    sc = _resolve(args.scenario)
-    out = _output_file(args.out)
-    if getattr(sc, "kind", "linear") == "integrated":
+    with _checking():
+        sc = _resolve(args.scenario)
+        out = args.out
+        _check_out_file(out)
+        if _integrated(sc):
+            if sc.error_model.n != 18:
+                raise UsageError("filter.states: neuron training needs the 18-state model")
+        else:
+            settings = FusionTraining(runs=args.runs, holdout_runs=args.holdout,
+                                      seed=args.seed, projection=args.projection,
+                                      free_input=args.free_input)
+            n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+    if _integrated(sc):
         return _train_ins_fusion(sc, out, args)
-    settings = FusionTraining(runs=args.runs, holdout_runs=args.holdout, seed=args.seed,
-                              projection=args.projection, free_input=args.free_input)
-    import numpy as np
-
-    n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+    _compile_note("train-linear", args.quiet)
     total = sc.steps * n_var * (args.runs + 4 * args.holdout)
     t0 = time.perf_counter()
     with _bar(total, args.quiet, f"train-fusion {sc.name}") as bar:
         model, report = train_fusion(sc, settings, progress=bar.update)
-    model.save(out)
+    mark_kernels_compiled("train-linear")
     written = [str(out)]
-    if not args.no_figure:
-        from ftnav.plot.learning import fusion_figure
+    with _staged(out, folder=False) as stage:
+        model.save(stage / out.name)
+        if not args.no_figure:
+            from ftnav.plot.learning import fusion_figure
 
-        fig = fusion_figure(model, report, f"{sc.name}: neuron fusion centre, held-out runs")
-        fig.savefig(out.with_suffix(".png"), dpi=110)
-        written.append(str(out.with_suffix(".png")))
+            fig = fusion_figure(model, report, f"{sc.name}: neuron fusion centre, held-out runs")
+            fig.savefig(stage / out.with_suffix(".png").name, dpi=110)
+            written.append(str(out.with_suffix(".png")))
     print(f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
           f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s")
     print(fusion_table(model, report))
@@ -364,15 +664,16 @@ def _cmd_train_fusion(args) -> int:
 def _train_ins_fusion(sc, out: Path, args) -> int:
     """``train-fusion`` on an integrated scenario (paper 001's five configurations)."""
     from ftnav.eval.ins_training import ins_configurations, train_ins_fusion
+    from ftnav.eval.resources import mark_kernels_compiled
 
+    _compile_note("train-integrated", args.quiet)
     t0 = time.perf_counter()
     total = sc.steps * len(ins_configurations(sc))
     with _bar(total, args.quiet, f"train-fusion {sc.name}") as bar:
-        try:
-            model = train_ins_fusion(sc, runs=args.runs, seed=args.seed, progress=bar.update)
-        except ValueError as e:
-            raise UsageError(" ".join(str(e).split())) from None
-    model.save(out)
+        model = train_ins_fusion(sc, runs=args.runs, seed=args.seed, progress=bar.update)
+    mark_kernels_compiled("train-integrated")
+    with _staged(out, folder=False) as stage:
+        model.save(stage / out.name)
     print(f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
           f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s")
     print("weights of the position neurons (" + ", ".join(model.inputs) + "):")
@@ -383,30 +684,42 @@ def _train_ins_fusion(sc, out: Path, args) -> int:
     return 0
 
 
+_COMMANDS = {"list": _cmd_list, "schema": _cmd_schema, "run": _cmd_run,
+             "trajectory": _cmd_trajectory, "train-detector": _cmd_train_detector,
+             "train-fusion": _cmd_train_fusion}
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``ftnav`` command; returns the exit status."""
+    """Entry point of the ``ftnav`` command; returns the exit status (module docstring)."""
+    from ftnav.io.model_file import ModelFileError
     from ftnav.io.scenario_file import ScenarioError
 
+    debug = False
     try:
-        args = _parser().parse_args(argv)
-        if args.command == "list":
-            return _cmd_list()
-        if args.command == "schema":
-            return _cmd_schema(args.out)
-        if args.command == "trajectory":
-            return _cmd_trajectory(args)
-        if args.command == "train-detector":
-            return _cmd_train_detector(args)
-        if args.command == "train-fusion":
-            return _cmd_train_fusion(args)
-        return _cmd_run(args)
-    except (UsageError, ScenarioError, ValueError) as e:
-        msg = " ".join(str(e).split("\n"))
-        print(f"ftnav: error: {msg}", file=sys.stderr)
+        parser = _parser()
+        args = parser.parse_args(argv)
+        debug = args.debug
+        if args.command is None:
+            parser.print_help(sys.stderr)
+            return 2
+        return _COMMANDS[args.command](args)
+    except _Exit as e:
+        return e.status
+    except (UsageError, ScenarioError, ModelFileError) as e:
+        if debug:
+            traceback.print_exception(e)
+        print(f"ftnav: error: {_one_line(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("ftnav: interrupted", file=sys.stderr)
         return 130
+    except Exception as e:
+        if debug:
+            traceback.print_exception(e)
+        hint = "" if debug else " (run again with --debug for the traceback)"
+        print(f"ftnav: internal error, please report: {type(e).__name__}: {_one_line(e)}"
+              f"{hint}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -80,13 +80,12 @@ def test_run_writes_the_metrics_contract_and_estimates(small, tmp_path, capsys):
     assert doc["methods"]["ckf"]["detection"] is None
     xr = pytest.importorskip("xarray")
     ds = xr.open_dataset(out / "estimates.nc")
-    assert ds["x_hat"].dims == ("method", "run", "time", "state")
+    assert ds["x_hat"].dims == ("method_name", "run", "time", "state")
     assert ds["x_hat"].shape == (3, 3, 60, 3)
     assert ds["truth"].dims == ("run", "time", "state")
-    assert ds["fault_flag"].dims == ("method", "run", "time", "sensor")
-    # `method` is also a keyword of DataArray.sel: select the dimension with a dict
-    assert int(ds["fault_flag"].sel({"method": "ckf"}).max()) == -1
-    assert int(ds["fault_flag"].sel({"method": "fkf"}).max()) == 1
+    assert ds["fault_flag"].dims == ("method_name", "run", "time", "sensor")
+    assert int(ds["fault_flag"].sel(method_name="ckf").max()) == -1
+    assert int(ds["fault_flag"].sel(method_name="fkf").max()) == 1
     ds.close()
     assert (out / "report.md").read_text().startswith("# ftnav run: small")
     table = capsys.readouterr().out
@@ -191,3 +190,117 @@ def test_nan_measurement_is_missing_and_counted(small):
         assert np.isfinite(r.x).all() and np.isfinite(r.P_diag).all()
         assert r.nan_count[:, 0].tolist() == [0, 1, 3]
         np.testing.assert_array_equal(r.x, ref.x)  # NaN == missing measurement
+
+
+# ------------------------------------------------- exit status: bad input, bugs, --debug
+
+
+def test_type_errors_name_the_option_once(capsys):
+    assert main(["run", "seed000", "--runs", "0"]) == 2
+    assert capsys.readouterr().err == "ftnav: error: --runs: must be >= 1, got 0\n"
+    assert main(["train-detector", "seed000", "--out", "m.npz", "--centres", "1"]) == 2
+    assert capsys.readouterr().err == "ftnav: error: --centres: must be >= 2, got 1\n"
+    assert main(["run", "seed000", "--seed", "-1"]) == 2
+    assert capsys.readouterr().err == "ftnav: error: --seed: must be >= 0, got -1\n"
+
+
+def test_version_and_help_exit_0(capsys):
+    from ftnav import __version__
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out == f"ftnav {__version__}\n"
+    assert main(["run", "--help"]) == 0
+    assert capsys.readouterr().out.startswith("usage: ftnav run")
+
+
+def test_bare_command_prints_the_help_and_exits_2(capsys):
+    assert main([]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.startswith("usage: ftnav") and "train-detector" in captured.err
+
+
+def _crash(*args, **kwargs):
+    raise RuntimeError("boom\nsecond line")
+
+
+def test_an_error_during_the_computation_is_an_internal_error(small, tmp_path, capsys,
+                                                              monkeypatch):
+    import ftnav.eval.montecarlo as mc
+
+    monkeypatch.setattr(mc, "run_scenario", _crash)
+    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"),
+                 "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert err == ("ftnav: internal error, please report: RuntimeError: boom second line "
+                   "(run again with --debug for the traceback)\n")
+
+
+def test_a_value_error_during_the_computation_is_not_the_users_fault(small, tmp_path, capsys,
+                                                                     monkeypatch):
+    import ftnav.eval.montecarlo as mc
+
+    def bug(*args, **kwargs):
+        raise ValueError("x: a bug that looks like bad input")
+
+    monkeypatch.setattr(mc, "run_scenario", bug)
+    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"),
+                 "--quiet"]) == 1
+    assert capsys.readouterr().err.startswith("ftnav: internal error, please report: "
+                                              "ValueError: x: a bug")
+
+
+def test_a_value_error_while_building_the_filters_is_bad_input(small, tmp_path, capsys,
+                                                               monkeypatch):
+    import ftnav.eval.montecarlo as mc
+
+    def refuse(system, method, features=None):
+        raise ValueError(f"methods[{method.name}].sharing: not for this system")
+
+    monkeypatch.setattr(mc, "build_filter", refuse)
+    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"),
+                 "--quiet"]) == 2
+    assert capsys.readouterr().err == \
+        "ftnav: error: methods[ckf].sharing: not for this system\n"
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("where", ["before", "after"])
+def test_debug_shows_the_traceback_of_both_kinds(small, tmp_path, capsys, monkeypatch, where):
+    import ftnav.eval.montecarlo as mc
+
+    def argv(*rest):
+        head = ["--debug", "run"] if where == "before" else ["run"]
+        tail = [] if where == "before" else ["--debug"]
+        return [*head, *rest, *tail]
+
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SMALL.replace('sensor = "pos1"', 'sensor = "pos9"', 1))
+    assert main(argv(str(bad), "--out", str(tmp_path / "o"), "--quiet")) == 2
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err
+    assert err.splitlines()[-1].startswith("ftnav: error: faults[0].sensor: unknown sensor")
+    monkeypatch.setattr(mc, "run_scenario", _crash)
+    assert main(argv(str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet")) == 1
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err and "in _crash" in err
+    assert err.splitlines()[-1] == \
+        "ftnav: internal error, please report: RuntimeError: boom second line"
+
+
+def test_console_script_internal_error_is_one_line(tmp_path):
+    """A bug in a subprocess (the real entry point): exit 1, one line, no traceback."""
+    code = ("import sys, ftnav.eval.montecarlo as mc\n"
+            "def crash(*a, **k): raise KeyError('lost')\n"
+            "mc.run_scenario = crash\n"
+            "from ftnav.cli import main\n"
+            "sys.exit(main(sys.argv[1:]))\n")
+    p = tmp_path / "small.toml"
+    p.write_text(SMALL)
+    proc = subprocess.run([sys.executable, "-c", code, "run", str(p), "--runs", "2",
+                           "--quiet", "--out", str(tmp_path / "o")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 1
+    assert proc.stderr == ("ftnav: internal error, please report: KeyError: 'lost' (run again "
+                           "with --debug for the traceback)\n")
+    assert not (tmp_path / "o").exists()

@@ -1,0 +1,243 @@
+"""What the ftnav commands leave on disk: nothing when refused or crashed, no stale files.
+
+Oracles: the listing and bytes of the target before and after.  Every command that
+takes ``--out`` (run, trajectory, train-detector, train-fusion, schema) is refused for
+bad input and made to crash in its computation: it writes nothing (no folder, none of
+the parents it would have created) and an earlier result in the same place is left
+byte for byte.  A re-run into a folder replaces exactly the files ftnav listed there.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from ftnav.cli import MANIFEST, main
+
+SMALL = """
+name = "small"
+dt = 1.0
+steps = 60
+[model]
+states = ["s", "v", "a"]
+F  = [[1.0, 0.05, 0.00125], [0.0, 1.0, 0.05], [0.0, 0.0, 1.0]]
+Q  = [[5.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]
+x0 = [0.0, 0.0, 0.0]
+P0 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 100.0]]
+[[sensors]]
+name = "pos1"
+H = [[1.0, 0.0, 0.0]]
+R = [[30.0]]
+[[sensors]]
+name = "pos2"
+H = [[2.5, 0.0, 0.0]]
+R = [[30.0]]
+every = 2
+[[faults]]
+sensor = "pos1"
+kind = "bias"
+start = 20.0
+end = 40.0
+magnitude = [60.0]
+[[methods]]
+name = "ckf"
+architecture = "centralized"
+[[methods]]
+name = "fkf"
+architecture = "federated"
+sharing = "inverse-trace"
+detector = "residual-chi2"
+prior = "global"
+[[methods]]
+name = "dkf"
+architecture = "distributed"
+detector = "state-chi2"
+"""
+
+PROFILE = """
+name = "short"
+imu_rate_hz = 100.0
+[start]
+lat_deg = 32.0
+lon_deg = 118.0
+h_m = 500.0
+speed_m_s = 80.0
+heading_deg = 45.0
+[[segments]]
+duration_s = 4.0
+[[segments]]
+duration_s = 2.0
+roll_rate_deg_s = 10.0
+[[segments]]
+duration_s = 4.0
+yaw_rate_deg_s = "coordinated"
+"""
+
+
+def _snapshot(root: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
+            if p.is_file()}
+
+
+@pytest.fixture
+def inputs(tmp_path):
+    scenario = tmp_path / "small.toml"
+    scenario.write_text(SMALL)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SMALL.replace('sensor = "pos1"', 'sensor = "pos9"', 1))
+    profile = tmp_path / "short.toml"
+    profile.write_text(PROFILE)
+    return {"scenario": scenario, "bad": bad, "profile": profile}
+
+
+def _crash(*args, **kwargs):
+    raise RuntimeError("crashed on purpose")
+
+
+# command, target (folder or file below a new folder), refused argv, where to crash
+COMMANDS = {
+    "run": ("out", lambda i, o: ["run", i["bad"], "--out", o, "--quiet"],
+            lambda i, o: ["run", i["scenario"], "--runs", "2", "--out", o, "--quiet"],
+            ("ftnav.eval.montecarlo", "run_scenario")),
+    "trajectory": ("out", lambda i, o: ["trajectory", i["profile"], "--out", o, "--imu", "x"],
+                   lambda i, o: ["trajectory", i["profile"], "--out", o],
+                   ("ftnav.sim.trajectory", "generate")),
+    "train-detector": ("out/det.npz",
+                       lambda i, o: ["train-detector", i["scenario"], "--out", o,
+                                     "--method", "nope", "--quiet"],
+                       lambda i, o: ["train-detector", i["scenario"], "--out", o, "--quiet"],
+                       ("ftnav.fdi.training", "train_detector")),
+    "train-fusion": ("out/fus.npz",
+                     lambda i, o: ["train-fusion", i["bad"], "--out", o, "--quiet"],
+                     lambda i, o: ["train-fusion", i["scenario"], "--out", o, "--quiet"],
+                     ("ftnav.fusion.neural_training", "train_fusion")),
+    "schema": ("out/schema.json", lambda i, o: ["schema", "--out", Path(o).parent],
+               lambda i, o: ["schema", "--out", o],
+               ("ftnav.io.scenario_file", "scenario_json_schema")),
+}
+
+
+def _argv(items) -> list[str]:
+    return [str(a) for a in items]
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_refused_command_creates_nothing(name, inputs, tmp_path, capsys):
+    target, refused, _, _ = COMMANDS[name]
+    out = tmp_path / "new" / "deeper" / target
+    if name == "schema":  # refused because --out is an existing folder
+        out.parent.mkdir(parents=True)
+    before = _snapshot(tmp_path)
+    assert main(_argv(refused(inputs, out))) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("ftnav: error: ") and err.count("\n") == 1, err
+    assert _snapshot(tmp_path) == before
+    if name != "schema":
+        assert not (tmp_path / "new").exists()
+    else:
+        assert [p.name for p in (tmp_path / "new").rglob("*")] == ["deeper", "out"]
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_crashed_command_creates_nothing(name, inputs, tmp_path, capsys, monkeypatch):
+    import importlib
+
+    target, _, good, (module, attr) = COMMANDS[name]
+    monkeypatch.setattr(importlib.import_module(module), attr, _crash)
+    out = tmp_path / "new" / "deeper" / target
+    before = _snapshot(tmp_path)
+    assert main(_argv(good(inputs, out))) == 1
+    err = capsys.readouterr().err
+    assert err.splitlines()[-1].startswith("ftnav: internal error, please report: "
+                                          "RuntimeError: crashed on purpose")
+    assert _snapshot(tmp_path) == before
+    assert not (tmp_path / "new").exists()
+
+
+@pytest.mark.parametrize("name", ["run", "trajectory"])
+def test_refused_or_crashed_run_leaves_the_earlier_results(name, inputs, tmp_path, capsys,
+                                                          monkeypatch):
+    import importlib
+
+    _, refused, good, (module, attr) = COMMANDS[name]
+    out = tmp_path / "results"
+    assert main(_argv(good(inputs, out))) == 0
+    (out / "notes.txt").write_text("mine")
+    before = _snapshot(out)
+    assert main(_argv(refused(inputs, out))) == 2
+    assert _snapshot(out) == before
+    monkeypatch.setattr(importlib.import_module(module), attr, _crash)
+    assert main(_argv(good(inputs, out))) == 1
+    assert _snapshot(out) == before
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
+    capsys.readouterr()
+
+
+def test_crash_while_writing_keeps_the_earlier_results(inputs, tmp_path, monkeypatch, capsys):
+    import ftnav.io.results as results
+
+    out = tmp_path / "results"
+    argv = _argv(["run", inputs["scenario"], "--runs", "2", "--out", out, "--quiet"])
+    assert main(argv) == 0
+    before = _snapshot(out)
+    # the figures are written, then metrics.json fails
+    monkeypatch.setattr(results, "write_metrics", _crash)
+    assert main(argv) == 1
+    assert _snapshot(out) == before
+    assert [p.name for p in out.iterdir() if ".ftnav-partial-" in p.name] == []
+    capsys.readouterr()
+
+
+def test_rerun_with_fewer_outputs_leaves_no_stale_file(inputs, tmp_path, capsys):
+    out = tmp_path / "results"
+    scenario = str(inputs["scenario"])
+    assert main(["run", scenario, "--runs", "2", "--out", str(out), "--quiet",
+                 "--save-estimates"]) == 0
+    first = {p.name for p in out.iterdir()}
+    assert {"estimates.nc", "sharing.png", MANIFEST} <= first
+    (out / "notes.txt").write_text("my notes")
+    (out / "mine.png").write_bytes(b"not ftnav's")
+    assert main(["run", scenario, "--runs", "2", "--out", str(out), "--quiet",
+                 "--no-figures"]) == 0
+    assert {p.name for p in out.iterdir()} == {"metrics.json", "report.md", MANIFEST,
+                                              "notes.txt", "mine.png"}
+    assert (out / "notes.txt").read_text() == "my notes"
+    assert json.loads((out / MANIFEST).read_text())["files"] == ["metrics.json", "report.md"]
+    assert "Results written to" in capsys.readouterr().out
+
+
+def test_trajectory_rerun_without_figure_removes_it(inputs, tmp_path, capsys):
+    out = tmp_path / "traj"
+    assert main(["trajectory", str(inputs["profile"]), "--out", str(out)]) == 0
+    assert (out / "trajectory.png").is_file()
+    assert main(["trajectory", str(inputs["profile"]), "--out", str(out), "--no-figure"]) == 0
+    assert {p.name for p in out.iterdir()} == {"truth.csv", "imu.csv", MANIFEST}
+    capsys.readouterr()
+
+
+def test_a_manifest_never_deletes_outside_its_folder_or_a_folder(inputs, tmp_path, capsys):
+    out = tmp_path / "results"
+    out.mkdir()
+    (tmp_path / "outside.txt").write_text("keep")
+    (out / "sub").mkdir()
+    (out / "sub" / "f.txt").write_text("keep")
+    (out / MANIFEST).write_text(json.dumps(
+        {"files": ["../outside.txt", "sub", "sub/f.txt", "/etc/passwd", 3]}))
+    assert main(["run", str(inputs["scenario"]), "--runs", "2", "--out", str(out),
+                 "--quiet", "--no-figures"]) == 0
+    assert (tmp_path / "outside.txt").read_text() == "keep"
+    assert (out / "sub" / "f.txt").read_text() == "keep"
+    capsys.readouterr()
+
+
+def test_out_that_is_a_file_is_refused_before_running(inputs, tmp_path, capsys):
+    out = tmp_path / "taken"
+    out.write_text("a file")
+    assert main(["run", str(inputs["scenario"]), "--out", str(out), "--quiet"]) == 2
+    assert capsys.readouterr().err == f"ftnav: error: --out: {str(out)!r} is a file, not a folder\n"
+    below = out / "sub"
+    assert main(["trajectory", str(inputs["profile"]), "--out", str(below)]) == 2
+    assert "is not a folder" in capsys.readouterr().err
+    assert out.read_text() == "a file"
