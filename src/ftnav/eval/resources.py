@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -117,7 +118,9 @@ def _linear_bytes(sc, runs: int, workers: int, fault_free: bool,
     if save_estimates:
         M = len(sc.methods)
         per_condition = 2 * M * B * K * nc * _F8 + M * B * K * N * (_F8 + 1)
-        transient = max(transient, 2 * per_condition)  # stacked, then encoded
+        # stacked into the dataset, then each variable and the truth copied big-endian
+        # (netCDF-3) while written: about three times the stacked arrays (measured)
+        transient = max(transient, 3 * per_condition + 2 * B * K * nc * _F8)
     if workers > 1:
         # every worker simulates its own runs; the parent receives and merges the results
         return workers * (simulation + state) + 2 * results + transient
@@ -176,7 +179,7 @@ def _integrated_bytes(sc, runs: int, workers: int, fault_free: bool,
     if save_estimates:
         M = len(sc.methods)
         per_condition = 2 * M * runs * K * 9 * _F8 + M * runs * K * N * (_F8 + 1)
-        transient = max(transient, 2 * per_condition)
+        transient = max(transient, 3 * per_condition + 2 * runs * K * 9 * _F8)
     merged = runs > b or workers > 1
     if merged:
         # batches run one after the other (or one per worker); every result is held,
@@ -318,16 +321,20 @@ def available_memory_bytes() -> int | None:
 # --------------------------------------------------------------- compiled-kernel cache
 
 
+_NUMBA_IMPORT = re.compile(r"^(import numba|from numba)", re.MULTILINE)
+
+
 def _kernel_sources() -> list[Path]:
-    """The package's modules with cached numba kernels (``cache=True``)."""
+    """The package's modules with cached numba kernels (numba imported, ``cache=True``)."""
     root = Path(__file__).resolve().parents[1]
     found = []
     for path in sorted(root.rglob("*.py")):
         try:
-            if "cache=True" in path.read_text(encoding="utf-8"):
-                found.append(path)
+            text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError):
             continue
+        if "cache=True" in text and _NUMBA_IMPORT.search(text):
+            found.append(path)
     return found
 
 
@@ -346,7 +353,7 @@ def _marker(kind: str) -> Path:
     h.update(f"{kind}|{numba.__version__}|{sys.version}|{cache}".encode())
     for path in _kernel_sources():
         st = path.stat()
-        h.update(f"|{path.relative_to(root)}:{st.st_size}:{st.st_mtime_ns}".encode())
+        h.update(f"|{path}:{st.st_size}:{st.st_mtime_ns}".encode())
     folder = Path(cache) if cache else root / "__pycache__"
     return folder / f"ftnav-kernels-{kind}-{h.hexdigest()[:16]}.done"
 
