@@ -46,8 +46,11 @@ __all__ = ["MANIFEST", "main"]
 #: File in an output folder that lists the files ftnav wrote there (JSON).
 MANIFEST = ".ftnav-outputs.json"
 
-#: Said on standard error before a run that compiles the numba kernels.
-COMPILING = "ftnav: compiling the numerical kernels on first use (about 30 s, once)"
+#: Said on standard error before a run that compiles the numba kernels, with the
+#: seconds it took on the 2-core reference machine per kind of run (cold cache).
+COMPILING = "ftnav: compiling the numerical kernels on first use (about {} s, once)"
+_COMPILE_S = {"linear": 15, "integrated": 40, "trajectory": 5, "train-linear": 20,
+              "train-integrated": 40}
 
 
 class UsageError(Exception):
@@ -267,7 +270,7 @@ def _compile_note(kind: str, quiet: bool) -> None:
     from ftnav.eval.resources import kernels_compiled
 
     if not quiet and not kernels_compiled(kind):
-        print(COMPILING, file=sys.stderr, flush=True)
+        print(COMPILING.format(_COMPILE_S[kind]), file=sys.stderr, flush=True)
 
 
 # ------------------------------------------------------------------------ output files

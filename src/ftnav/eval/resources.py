@@ -338,23 +338,27 @@ def _kernel_sources() -> list[Path]:
     return found
 
 
+def _marker_folder() -> Path:
+    """Where numba keeps its cache: ``NUMBA_CACHE_DIR``, else the package's ``__pycache__``."""
+    cache = os.environ.get("NUMBA_CACHE_DIR")
+    return Path(cache) if cache else Path(__file__).resolve().parents[1] / "__pycache__"
+
+
 def _marker(kind: str) -> Path:
     """The marker file that records compiled kernels for ``kind`` of run.
 
-    Its name hashes what invalidates numba's cache: the kernel modules' sizes and
-    modification times, the numba and Python versions, and the cache folder
-    (``NUMBA_CACHE_DIR`` or the package's ``__pycache__``).  It lives in that folder.
+    Its name hashes what invalidates numba's cache: the kernel modules' paths, sizes
+    and modification times, the numba and Python versions, and the cache folder,
+    where it lives (:func:`_marker_folder`).
     """
     import numba
 
-    root = Path(__file__).resolve().parents[1]
-    cache = os.environ.get("NUMBA_CACHE_DIR") or ""
+    folder = _marker_folder()
     h = hashlib.sha256()
-    h.update(f"{kind}|{numba.__version__}|{sys.version}|{cache}".encode())
+    h.update(f"{kind}|{numba.__version__}|{sys.version}|{folder}".encode())
     for path in _kernel_sources():
         st = path.stat()
         h.update(f"|{path}:{st.st_size}:{st.st_mtime_ns}".encode())
-    folder = Path(cache) if cache else root / "__pycache__"
     return folder / f"ftnav-kernels-{kind}-{h.hexdigest()[:16]}.done"
 
 
