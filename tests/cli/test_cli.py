@@ -111,7 +111,28 @@ def test_list_and_schema(capsys, tmp_path):
     assert "seed000" in capsys.readouterr().out
     assert main(["schema"]) == 0
     schema = json.loads(capsys.readouterr().out)
-    assert "methods" in schema["properties"]
+    branches = [schema["$defs"][ref["$ref"].split("/")[-1]] for ref in schema["oneOf"]]
+    assert [b["title"] for b in branches] == ["ftnav scenario", "ftnav integrated scenario"]
+    out = tmp_path / "sub" / "schema.json"
+    assert main(["schema", "--out", str(out)]) == 0
+    assert json.loads(out.read_text()) == schema
+
+
+def test_schema_branches_hold_the_top_level_keys_of_every_built_in():
+    import tomllib
+
+    from ftnav.io.scenario_file import scenario_json_schema
+    from ftnav.scenarios import builtin_names, builtin_path
+
+    schema = scenario_json_schema()
+    linear, integrated = (schema["$defs"][r["$ref"].split("/")[-1]] for r in schema["oneOf"])
+    for name in builtin_names():
+        doc = tomllib.loads(builtin_path(name).read_text())
+        branch = integrated if doc.get("kind") == "integrated" else linear
+        other = linear if branch is integrated else integrated
+        assert set(doc) <= set(branch["properties"]), name
+        assert set(branch["required"]) <= set(doc), name
+        assert not set(other["required"]) <= set(doc) or not set(doc) <= set(other["properties"])
 
 
 BAD = [

@@ -636,14 +636,34 @@ def test_validation_error_from_file_keeps_field_path(tmp_path) -> None:
 def test_json_schema() -> None:
     schema = scenario_json_schema()
     assert isinstance(schema, dict)
-    props = schema["properties"]
+    assert schema["oneOf"] == [{"$ref": "#/$defs/ScenarioFile"},
+                               {"$ref": "#/$defs/InsScenarioFile"}]
+    linear = schema["$defs"]["ScenarioFile"]
+    props = linear["properties"]
     for key in ("name", "dt", "steps", "model", "sensors", "faults", "methods", "evaluation"):
         assert key in props, key
-    assert schema.get("additionalProperties") is False
+    assert linear.get("additionalProperties") is False
+    assert "kind" not in props  # a linear file has no kind: the branches cannot overlap
     text = json.dumps(schema)
     assert "inverse-trace" in text and "noise-scale" in text
     assert json.loads(text) == schema
-    assert set(schema["required"]) >= {"name", "dt", "steps", "model", "sensors", "methods"}
+    assert set(linear["required"]) >= {"name", "dt", "steps", "model", "sensors", "methods"}
+    model = schema["$defs"]["ModelFile"]
+    assert {"F", "Q", "F_c", "Q_c", "Q_c_true"} <= set(model["properties"])
+
+
+def test_json_schema_covers_integrated_files() -> None:
+    schema = scenario_json_schema()
+    ins = schema["$defs"]["InsScenarioFile"]
+    assert ins["properties"]["kind"]["const"] == "integrated"
+    assert set(ins["required"]) >= {"kind", "name", "profile", "filter", "aids"}
+    assert ins.get("additionalProperties") is False
+    for key in ("filter", "aids", "faults", "methods", "terrain", "imu"):
+        assert key in ins["properties"], key
+    # both kinds share the method table
+    assert ins["properties"]["methods"]["items"] == {"$ref": "#/$defs/MethodFile"}
+    text = json.dumps(schema)
+    assert "gyro-bias" in text and "duration_s" in text
 
 
 def test_method_defaults_match_dataclass() -> None:
@@ -677,3 +697,69 @@ def test_documented_example_is_valid(tmp_path) -> None:
     assert sc.sensor_names == ("pos1", "pos2", "pos3")
     assert [m.name for m in sc.methods] == ["fkf-fault-factor", "fkf-fixed", "ckf"]
     assert sc.sensors[0].private is not None and sc.methods[1].betas == (0.2, 0.6, 0.2)
+
+
+# ------------------------------------------------------- continuous-time model (F_c, Q_c)
+
+
+def continuous() -> dict[str, Any]:
+    """base() with the double integrator in continuous time instead of F and Q."""
+    d = base()
+    m = d["model"]
+    del m["F"], m["Q"]
+    m["states"], m["x0"] = ["s", "v"], [0.0, 0.0]
+    m["P0"] = [[100.0, 0.0], [0.0, 100.0]]
+    m["F_c"] = [[0.0, 1.0], [0.0, 0.0]]
+    m["Q_c"] = [[0.0, 0.0], [0.0, 2.0]]
+    for sensor in d["sensors"]:
+        sensor["H"] = [sensor["H"][0][:2]]
+    return d
+
+
+CONTINUOUS_BAD: list[tuple[str, Callable[[], dict], str]] = [
+    ("F-and-F_c", _set("model.F", [[1.0, 1.0], [0.0, 1.0]], continuous),
+     r"^model\.F: not used with F_c and Q_c .*give either F or F_c$"),
+    ("Q-and-Q_c", _set("model.Q", [[1.0, 0.0], [0.0, 1.0]], continuous),
+     r"^model\.Q: not used with F_c and Q_c .*give either Q or Q_c$"),
+    ("F_c-without-Q_c", _del("model.Q_c", continuous),
+     r"^model\.Q_c: missing required key \(F_c makes a continuous-time model\)$"),
+    ("Q_c-without-F_c", _del("model.F_c", continuous),
+     r"^model\.F_c: missing required key \(Q_c makes a continuous-time model\)$"),
+    ("neither-F-nor-F_c", _del("model.F"),
+     r"^model\.F: missing required key \(or F_c and Q_c for a continuous-time model\)$"),
+    ("Q_c_true-with-F", _set("model.Q_c_true", [[1.0, 0.0, 0.0]] * 3),
+     r"^model\.Q_c_true: only used with F_c and Q_c"),
+    ("Q_true-and-Q_c_true", _set("model.Q_c_true", [[0.0, 0.0], [0.0, 1.0]],
+                                 lambda: _set("model.Q_true", [[1.0, 0.0], [0.0, 1.0]],
+                                              continuous)()),
+     r"^model\.Q_c_true: give either Q_true \(discrete\) or Q_c_true"),
+    ("Q_c-not-psd", _set("model.Q_c", [[0.0, 0.0], [0.0, -2.0]], continuous),
+     r"^model\.Q_c: not positive semi-definite"),
+    ("Q_c-shape", _set("model.Q_c", [[2.0]], continuous),
+     r"^model\.Q_c: expected a 2x2 matrix \(from model.states\), got 1x1$"),
+    ("Q_c-nan", _set("model.Q_c", [[0.0, 0.0], [0.0, NAN]], continuous),
+     r"^model\.Q_c: contains NaN or inf$"),
+    ("F_c-string", _set("model.F_c", [[0.0, "x"], [0.0, 0.0]], continuous),
+     r"^model\.F_c\[0\]\[1\]: expected a number"),
+    ("Q_c-reaches-no-state", _set("model.Q_c", [[0.0, 0.0], [0.0, 0.0]], continuous),
+     r"^model\.Q_c: its discrete Q over dt = 1.0 s is not positive definite"),
+    ("F_c-overflows", _set("model.F_c", [[1e6, 0.0], [0.0, 0.0]], continuous),
+     r"^model\.F_c: the discretization over dt = 1.0 s overflows"),
+]
+
+
+@pytest.mark.parametrize(("mutate", "pattern"), [b[1:] for b in CONTINUOUS_BAD],
+                         ids=[b[0] for b in CONTINUOUS_BAD])
+def test_invalid_continuous_models_name_the_field(mutate, pattern) -> None:
+    with pytest.raises(ScenarioError, match=pattern) as info:
+        parse_scenario(mutate())
+    assert "\n" not in str(info.value)
+
+
+def test_continuous_model_round_trips_as_its_discrete_form() -> None:
+    sc = parse_scenario(continuous())
+    again = parse_scenario(scenario_to_dict(sc))
+    np.testing.assert_array_equal(again.model.F, sc.model.F)
+    np.testing.assert_array_equal(again.model.Q, sc.model.Q)
+    np.testing.assert_array_equal(sc.model.Q_true, sc.model.Q)  # default: Q_c
+    assert not sc.model.F.flags.writeable and not sc.model.Q.flags.writeable

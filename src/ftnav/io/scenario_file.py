@@ -268,18 +268,31 @@ class SensorFile(BaseModel):
 
 
 class ModelFile(BaseModel):
-    """``[model]``: common-state model x_{k+1} = F x_k + w_k, w ~ N(0, Q)."""
+    """``[model]``: common-state model x_{k+1} = F x_k + w_k, w ~ N(0, Q).
+
+    Either discrete (``F``, ``Q``) or continuous (``F_c``, ``Q_c``: dx/dt = F_c x + w(t)
+    with white noise of spectral density ``Q_c``, discretized over ``dt`` by Van Loan).
+    """
 
     model_config = _STRICT
 
     states: list[Name] = Field(min_length=1, description="unique names of the n states")
-    F: Matrix = Field(description="n x n transition matrix")
-    Q: Matrix = Field(description="n x n process noise assumed by the filters (SPD)")
+    F: Matrix | None = Field(default=None, description="n x n transition matrix (or F_c)")
+    Q: Matrix | None = Field(
+        default=None, description="n x n process noise assumed by the filters (SPD; or Q_c)")
+    F_c: Matrix | None = Field(
+        default=None, description="n x n continuous-time system matrix, instead of F")
+    Q_c: Matrix | None = Field(
+        default=None, description="n x n spectral density of the continuous process noise "
+        "(PSD, units²/s), instead of Q; the filters' Q is its Van Loan discretization")
     x0: Vector = Field(description="n initial mean")
     P0: Matrix = Field(description="n x n initial covariance (SPD)")
     Q_true: Matrix | None = Field(
         default=None, description="n x n process noise of the simulator (PSD); default Q"
     )
+    Q_c_true: Matrix | None = Field(
+        default=None, description="with F_c: n x n spectral density of the simulator's "
+        "process noise (PSD), instead of Q_true; default Q_c")
 
 
 class FaultFile(BaseModel):
@@ -480,15 +493,75 @@ def _unique(names: Sequence[str], what: str, *path: str | int) -> None:
         seen.add(name)
 
 
-def _build_model(m: ModelFile) -> LinearModel:
+def _model_form(m: ModelFile) -> bool:
+    """True for a continuous-time model (F_c, Q_c); checks that the keys are not mixed."""
+    continuous = m.F_c is not None or m.Q_c is not None
+    given = [k for k in ("F", "Q", "F_c", "Q_c", "Q_true", "Q_c_true")
+             if getattr(m, k) is not None]
+    if continuous:
+        for key in ("F", "Q"):
+            if key in given:
+                raise _fail(f"not used with F_c and Q_c (a continuous-time model: F and Q "
+                            f"come from them by Van Loan); give either {key} or "
+                            f"{key[0]}_c", "model", key)
+        for key in ("F_c", "Q_c"):
+            if key not in given:
+                raise _fail(f"missing required key ({'F_c' if key == 'Q_c' else 'Q_c'} "
+                            "makes a continuous-time model)", "model", key)
+        if "Q_true" in given and "Q_c_true" in given:
+            raise _fail("give either Q_true (discrete) or Q_c_true (spectral density)",
+                        "model", "Q_c_true")
+    else:
+        for key in ("F", "Q"):
+            if key not in given:
+                raise _fail("missing required key (or F_c and Q_c for a continuous-time "
+                            "model)", "model", key)
+        if "Q_c_true" in given:
+            raise _fail("only used with F_c and Q_c (a continuous-time model)",
+                        "model", "Q_c_true")
+    return continuous
+
+
+def _discretized(F_c: np.ndarray, Q_c: np.ndarray, dt: float, key: str,
+                 spd: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Van Loan's discretization (spec §8.4) of (F_c, Q_c) over dt, Q checked."""
+    from ftnav.core.discretize import van_loan
+
+    with np.errstate(all="ignore"):  # an overflow is reported below, as one line
+        F, Q = van_loan(F_c, Q_c, dt)
+    if not (np.all(np.isfinite(F)) and np.all(np.isfinite(Q))):
+        raise _fail(f"the discretization over dt = {dt!r} s overflows (F_c too large)",
+                    "model", "F_c")
+    if spd:
+        try:
+            np.linalg.cholesky(Q)
+        except np.linalg.LinAlgError:
+            raise _fail(f"its discrete Q over dt = {dt!r} s is not positive definite (the "
+                        "noise does not reach every state)", "model", key) from None
+    return _frozen(np.array(F)), _frozen(np.array(Q))
+
+
+def _build_model(m: ModelFile, dt: float) -> LinearModel:
     _unique(m.states, "state name", "model", "states")
     n = len(m.states)
     src = "model.states"
-    F = _matrix(m.F, (n, n), src, "model", "F")
-    Q = _matrix(m.Q, (n, n), src, "model", "Q", spd=True)
+    continuous = _model_form(m)
+    if continuous:
+        F_c = _matrix(m.F_c, (n, n), src, "model", "F_c")
+        Q_c = _matrix(m.Q_c, (n, n), src, "model", "Q_c", psd=True)
+        F, Q = _discretized(F_c, Q_c, dt, "Q_c", spd=True)
+    else:
+        F = _matrix(m.F, (n, n), src, "model", "F")
+        Q = _matrix(m.Q, (n, n), src, "model", "Q", spd=True)
     x0 = _vector(m.x0, n, src, "model", "x0")
     P0 = _matrix(m.P0, (n, n), src, "model", "P0", spd=True)
-    Q_true = Q if m.Q_true is None else _matrix(m.Q_true, (n, n), src, "model", "Q_true", psd=True)
+    if m.Q_c_true is not None:
+        Q_c_true = _matrix(m.Q_c_true, (n, n), src, "model", "Q_c_true", psd=True)
+        Q_true = _discretized(F_c, Q_c_true, dt, "Q_c_true", spd=False)[1]
+    elif m.Q_true is not None:
+        Q_true = _matrix(m.Q_true, (n, n), src, "model", "Q_true", psd=True)
+    else:
+        Q_true = Q
     return LinearModel(tuple(m.states), F, Q, x0, P0, Q_true)
 
 
@@ -690,7 +763,7 @@ def _build_figures(files: Sequence[FigureFile], **context: Any) -> tuple[FigureS
 
 
 def _build(f: ScenarioFile) -> Scenario:
-    model = _build_model(f.model)
+    model = _build_model(f.model, float(f.dt))
     sensors = []
     seen: set[str] = set()
     for i, s in enumerate(f.sensors):
@@ -809,8 +882,27 @@ def resolve_model_paths(sc: Scenario, base: Path) -> Scenario:
 
 
 def scenario_json_schema() -> dict[str, Any]:
-    """JSON schema of the scenario file format (what ``ftnav schema`` prints)."""
-    return ScenarioFile.model_json_schema()
+    """JSON schema of scenario files, linear and integrated (what ``ftnav schema`` prints).
+
+    ``oneOf`` two objects: a linear scenario (``$defs.ScenarioFile``, no ``kind`` key)
+    or an integrated one (``$defs.InsScenarioFile`` of :mod:`ftnav.io.ins_scenario_file`,
+    ``kind = "integrated"``).  Both forbid unknown keys, so a file matches exactly one.
+    Every table of either is under ``$defs`` (``ModelFile``, ``MethodFile``, ...).
+    """
+    from pydantic import TypeAdapter
+
+    from ftnav.io.ins_scenario_file import InsScenarioFile
+
+    union = TypeAdapter(ScenarioFile | InsScenarioFile).json_schema()
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": "ftnav scenario file",
+        "description": "A linear scenario (model, sensors, faults, methods) or, with "
+        "kind = \"integrated\", an integrated-navigation scenario (flight, IMU, aids, "
+        "faults, methods); docs/scenario-format.md",
+        "oneOf": union["anyOf"],
+        "$defs": union["$defs"],
+    }
 
 
 def _rows(a: np.ndarray) -> list[list[float]]:
