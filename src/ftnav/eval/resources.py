@@ -20,8 +20,10 @@ runners hold at their peak:
 * after the run: the metrics' temporaries, and with ``save_estimates`` the stacked
   arrays of ``estimates.nc``.
 
-``workers`` worker processes each hold one batch (their simulation and results) at
-a time, while the parent holds every result and their merge.  The estimate counts
+``workers`` worker processes (:mod:`ftnav.parallel`) each hold one task at a time: an
+integrated batch (its simulation and results; batches are then no larger than an
+even share of the runs), or for a linear run its own copy of the simulation for a
+group of methods; the parent holds every result received, and merges the batches.  The estimate counts
 the arrays of the run only, not the interpreter and its libraries (about 0.2 GiB
 resident before the run starts, already counted as used by the operating system).
 ``tests/validation/test_resources.py`` compares it with the peak resident memory
@@ -121,10 +123,20 @@ def _linear_bytes(sc, runs: int, workers: int, fault_free: bool,
         # stacked into the dataset, then each variable and the truth copied big-endian
         # (netCDF-3) while written: about three times the stacked arrays (measured)
         transient = max(transient, 3 * per_condition + 2 * B * K * nc * _F8)
-    if workers > 1:
-        # every worker simulates its own runs; the parent receives and merges the results
-        return workers * (simulation + state) + 2 * results + transient
+    if workers > 1 and len(sc.methods) * K >= _parallel_min_work():
+        # run_scenario: the parent simulates and keeps both conditions, each worker
+        # simulates its own copy for its group of methods (3 groups per worker, one at a
+        # time); the parent receives every result
+        group = -(-results // min(len(sc.methods), 3 * workers))
+        worker = max(simulation, held + group + state)
+        return after + results + workers * worker + transient
     return max(simulation, held + results + state, after + results + transient)
+
+
+def _parallel_min_work() -> int:
+    from ftnav.eval.montecarlo import PARALLEL_MIN_WORK
+
+    return PARALLEL_MIN_WORK
 
 
 def _imu_arrays(imu) -> int:
@@ -166,6 +178,8 @@ def _integrated_bytes(sc, runs: int, workers: int, fault_free: bool,
 
     twin = fault_free and bool(sc.faults)
     b = min(int(runs), chunk_runs(sc, twin) if chunk is None else int(chunk))
+    if workers > 1:  # as run_ins_scenario: no more runs per batch than share the workers
+        b = min(b, -(-runs // workers))
     K, N = int(sc.steps), len(sc.aids)
     dims = sum(int(a.dim) for a in sc.aids)
     Bf_total = 2 * runs if twin else runs
