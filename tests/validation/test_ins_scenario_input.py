@@ -71,6 +71,17 @@ BAD = [
      'architecture = "centralized"\nprior = "intersection"', "methods[0].prior"),
     ("quorum without the common-mode rule", 'architecture = "centralized"',
      'architecture = "federated"\ncommon_mode_quorum = 2', "methods[0].common_mode_quorum"),
+    ("TAN aid without a terrain", '[terrain]\nkind = "analytic"', "", "terrain"),
+    ("fault after the end of the flight", "start = 60.0\nend = 90.0",
+     "start = 500.0\nend = 600.0", "faults[0].start"),
+    ("unknown IMU preset", 'imu = "seed001"', 'imu = "navigation-grade"', "imu"),
+    ("datasheet key of the wrong unit family", 'imu = "seed001"',
+     '[imu]\ngyro_arw = "0.1 deg/h"', "imu.gyro_arw"),
+    ("unknown datasheet key", 'imu = "seed001"', '[imu]\ngyro_drift = "0.1 deg/h"',
+     "imu.gyro_drift"),
+    ("unknown datasheet base", 'imu = "seed001"', '[imu]\nbase = "strategic"', "imu.base"),
+    ("assumed IMU of the wrong unit family", "duration_s = 120.0",
+     'duration_s = 120.0\n[filter.imu]\naccel_bias_sd = "1 deg/h"', "filter.imu.accel_bias_sd"),
 ]
 
 

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, NamedTuple
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema, create_model
 
 from ftnav.io.scenario_file import (
     EvaluationFile,
@@ -30,7 +31,7 @@ from ftnav.io.scenario_file import (
     _to_scenario_error,
 )
 from ftnav.nav.error_model import ErrorModelParams
-from ftnav.sim.imu import ImuErrors, imu_preset
+from ftnav.sim.imu import DATASHEET_KEYS, IMU_PRESETS, ImuErrors, imu_preset
 from ftnav.sim.ins_scenario import (
     METRIC_STATES,
     POSITION_NORMS,
@@ -41,7 +42,8 @@ from ftnav.sim.ins_scenario import (
 )
 from ftnav.sim.scenario import Evaluation
 
-__all__ = ["parse_ins_scenario", "AID_TYPES", "sensor_from_table", "matched_error_model",
+__all__ = ["parse_ins_scenario", "AID_TYPES", "sensor_from_table", "filter_model",
+           "FilterModel", "ScenarioWarning", "imu_errors",
            "initial_sigma"]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
@@ -102,6 +104,46 @@ class InsFaultFile(BaseModel):
                                                 description="gyro-bias: step in deg/h")
 
 
+_Quantity = str | float | int | list[str | float | int]
+
+#: an IMU datasheet table: ``base`` (a preset the table starts from) and the datasheet
+#: keys of :meth:`ImuErrors.from_datasheet`, each ``"<number> <unit>"`` or three of them
+ImuTableFile = create_model(
+    "ImuTableFile", __config__=ConfigDict(extra="forbid", strict=True),
+    base=(Literal[tuple(IMU_PRESETS)] | None, Field(
+        default=None, description="preset whose values the keys not given take")),
+    **{key: (_Quantity | None, Field(default=None, description="'<number> <unit>' or three"))
+       for key in DATASHEET_KEYS})
+
+#: an IMU: a preset name or a datasheet table (validated by :func:`imu_errors`, so that an
+#: error names ``imu.<key>``; the JSON schema shows both forms)
+ImuSpec = Annotated[str | dict[str, Any], WithJsonSchema({"anyOf": [
+    {"enum": list(IMU_PRESETS), "type": "string"},
+    ImuTableFile.model_json_schema()]})]
+
+
+def imu_errors(spec: str | Mapping[str, Any], field: str, origin: str) -> ImuErrors:
+    """The :class:`ImuErrors` of a preset name or a datasheet table; errors name the key."""
+    if isinstance(spec, str):
+        if spec not in IMU_PRESETS:
+            raise _err(field, f"unknown preset {spec!r}; valid: {', '.join(IMU_PRESETS)}, "
+                       "or a datasheet table", origin)
+        return imu_preset(spec)
+    try:
+        table = ImuTableFile.model_validate(dict(spec)).model_dump(exclude_none=True)
+    except ValidationError as exc:
+        inner = _to_scenario_error(exc, origin)
+        raise _err(f"{field}.{inner.path}", inner.reason, origin) from None
+    base = table.pop("base", None)
+    try:
+        return ImuErrors.from_datasheet(table, base=None if base is None else imu_preset(base),
+                                        field=field)
+    except ValueError as exc:
+        msg = " ".join(str(exc).split())
+        path, _, reason = msg.partition(": ")
+        raise _err(path, reason, origin) from None
+
+
 class InitialFile(BaseModel):
     """``[filter.initial]``: σ of the initial INS errors (S1 Table 1 defaults)."""
 
@@ -122,6 +164,8 @@ class FilterFile(BaseModel):
     states: Literal[18, 15] = 18
     bias_frame: Literal["body", "nav"] = "body"
     initial: InitialFile = Field(default_factory=InitialFile)
+    imu: ImuSpec | None = Field(default=None, description=(
+        "the IMU the filters assume (preset or datasheet table); default the true IMU"))
 
 
 class InsScenarioFile(BaseModel):
@@ -131,7 +175,7 @@ class InsScenarioFile(BaseModel):
     description: str = ""
     profile: str
     test_profile: str | None = None
-    imu: str | dict[str, Any] = "seed001"
+    imu: ImuSpec = "seed001"
     filter: FilterFile
     terrain: TerrainFile | None = None
     aids: list[AidFile] = Field(min_length=1)
@@ -141,45 +185,117 @@ class InsScenarioFile(BaseModel):
     figures: list[FigureFile] = Field(default_factory=list)
 
 
+class ScenarioWarning(UserWarning):
+    """A scenario that runs, with a modelling choice its author should know about."""
+
+
 def _err(path: str, reason: str, origin: str) -> ScenarioError:
     return ScenarioError(path, reason, origin)
 
 
-def matched_error_model(imu: ImuErrors, states: int = 18, bias_frame: str = "body"
-                        ) -> ErrorModelParams:
-    """The filters' error model matched to the true IMU errors (spec §8.3)."""
-    return ErrorModelParams(
-        gyro_psd=tuple(np.asarray(imu.gyro_arw) ** 2),
-        gyro_markov_sigma=tuple(imu.gyro_markov_sd), gyro_markov_tau=tuple(imu.gyro_markov_tau),
-        accel_markov_sigma=tuple(imu.accel_markov_sd),
-        accel_markov_tau=tuple(imu.accel_markov_tau),
-        accel_psd=tuple(np.asarray(imu.accel_vrw) ** 2), bias_frame=bias_frame, states=states)
+class FilterModel(NamedTuple):
+    """The filters' SINS error model derived from an IMU description (spec §8.3).
 
-
-def initial_sigma(init: InitialFile, imu: ImuErrors, lat_rad: float, states: int = 18
-                  ) -> np.ndarray:
-    """(n,) σ of the initial errors: navigation from ``[filter.initial]``, biases from the IMU.
-
-    The bias states start at their a-priori σ (random-constant drift, Markov σ).
+    Attributes
+    ----------
+    params : the error model (noise PSDs, Markov σ and τ, bias random walks).
+    bias_sigma : (n − 9,) σ of the initial bias states in state units.
+    notes : one line per IMU error the model cannot represent exactly, with what the
+        model does instead (the scenario warns with them).
     """
+
+    params: ErrorModelParams
+    bias_sigma: np.ndarray
+    notes: tuple[str, ...]
+
+
+def _deg_h(x) -> str:
+    return f"{np.max(np.asarray(x)) / _DEG_H:.3g} deg/h"
+
+
+def _ug(x) -> str:
+    return f"{np.max(np.asarray(x)) / _G * 1e6:.3g} ug"
+
+
+def filter_model(imu: ImuErrors, states: int = 18, bias_frame: str = "body") -> FilterModel:
+    """The default filter model of an IMU: every error term the IMU declares, represented.
+
+    White noise: the angle and velocity random walks give the PSDs ``q_g = ARW²``,
+    ``q_v = VRW²``.  Biases (constant σ = hypot(fixed value, σ of the random constant)):
+
+    * 18 states (spec §8.3): ε_b is the gyro constant drift, ε_r the gyro Markov drift
+      (σ_g, T_g) and ∇ the accelerometer Markov bias (σ_a, T_a).  The model has no
+      accelerometer constant bias: one the IMU declares is folded into ∇, a Markov
+      state of σ = hypot(σ_c, σ_a) and correlation time T_a (the stationary variance
+      of the sum; the model lets it decorrelate, which is conservative).
+    * 15 states: ε and ∇ are random constants of σ = hypot(constant, Markov σ) driven
+      by random walks of PSD ``2σ²/T`` of the Markov part, the rate at which a
+      first-order Markov process of σ, T wanders over times short against T (the
+      random walk's variance grows without bound over longer times: conservative).
+
+    Scale-factor and misalignment errors have no state in either model; they are
+    named in ``notes`` (their effect grows with the angular rate and specific force).
+    """
+    notes = []
+    g_const = np.hypot(imu.gyro_bias_sd, imu.gyro_bias)
+    # accelerometer scale factor and misalignment under the ~1 g specific force of flight:
+    # axis i reads s_i f_i + Σ_j M_ij f_j, of variance at most g² max(σ_s,i, σ_m,i)²
+    # whatever the attitude; it moves as the attitude and manoeuvres turn f_b
+    a_equiv = _G * np.maximum(imu.accel_scale_sd, imu.accel_misalignment_sd)
+    a_const = np.hypot(imu.accel_bias_sd, imu.accel_bias)
+    a_markov = np.hypot(imu.accel_markov_sd, a_equiv)
+    if np.any(a_equiv > 0):
+        notes.append(f"no state for the accelerometer scale factor and misalignment: under "
+                     f"the ~1 g specific force they act as a bias of up to {_ug(a_equiv)} that "
+                     f"changes with the attitude, added to the accelerometer Markov term "
+                     f"(τ {np.max(imu.accel_markov_tau):g} s)")
+    if np.any(imu.gyro_scale_sd > 0) or np.any(imu.gyro_misalignment_sd > 0):
+        notes.append("no state for the gyro scale factor and misalignment: their drift, "
+                     "proportional to the angular rate, is unmodelled (small at cruise, "
+                     "up to σ·rate in turns)")
+    if states == 18:
+        accel_sigma = np.hypot(a_const, a_markov)
+        if np.any(a_const > 0):
+            notes.append(f"the 18-state model has no accelerometer constant-bias state: the "
+                         f"constant bias (σ {_ug(a_const)}) is folded into the Markov bias ∇ "
+                         f"(σ {_ug(accel_sigma)}, τ {np.max(imu.accel_markov_tau):g} s); "
+                         f"states = 15 models it as a random constant")
+        params = ErrorModelParams(
+            gyro_psd=tuple(np.asarray(imu.gyro_arw) ** 2),
+            gyro_markov_sigma=tuple(imu.gyro_markov_sd),
+            gyro_markov_tau=tuple(imu.gyro_markov_tau),
+            accel_markov_sigma=tuple(accel_sigma), accel_markov_tau=tuple(imu.accel_markov_tau),
+            accel_psd=tuple(np.asarray(imu.accel_vrw) ** 2), bias_frame=bias_frame, states=18)
+        bias = np.concatenate([g_const, imu.gyro_markov_sd, accel_sigma])
+    else:
+        g_rw = 2.0 * np.asarray(imu.gyro_markov_sd) ** 2 / np.asarray(imu.gyro_markov_tau)
+        a_rw = 2.0 * a_markov ** 2 / np.asarray(imu.accel_markov_tau)
+        if np.any(imu.gyro_markov_sd > 0) or np.any(a_markov > 0):
+            notes.append("the 15-state model has no Markov states: the Markov terms are "
+                         "random walks of PSD 2σ²/τ on the bias states (conservative over "
+                         "times longer than τ); states = 18 models them")
+        params = ErrorModelParams(
+            gyro_psd=tuple(np.asarray(imu.gyro_arw) ** 2),
+            accel_psd=tuple(np.asarray(imu.accel_vrw) ** 2), gyro_bias_rw_psd=tuple(g_rw),
+            accel_bias_rw_psd=tuple(a_rw), bias_frame=bias_frame, states=15)
+        bias = np.concatenate([np.hypot(g_const, imu.gyro_markov_sd),
+                               np.hypot(a_const, a_markov)])
+    return FilterModel(params, bias, tuple(notes))
+
+
+def initial_sigma(init: InitialFile, bias_sigma: np.ndarray) -> np.ndarray:
+    """(n,) σ of the initial errors: navigation from ``[filter.initial]``, then the biases."""
     nav = np.concatenate([np.asarray(init.attitude_arcsec) * _ARCSEC,
                           np.asarray(init.velocity_m_s),
                           np.asarray(init.latlon_arcsec) * _ARCSEC, [init.height_m]])
-    gb = np.hypot(np.asarray(imu.gyro_bias_sd), np.asarray(imu.gyro_bias))
-    if states == 18:
-        rest = np.concatenate([gb, imu.gyro_markov_sd, imu.accel_markov_sd])
-    else:
-        ab = np.hypot(np.asarray(imu.accel_bias_sd), np.asarray(imu.accel_markov_sd))
-        rest = np.concatenate([np.hypot(gb, imu.gyro_markov_sd), ab])
     # a zero σ would make P0 singular; keep a tiny floor (the state is then known)
-    return np.maximum(np.concatenate([nav, rest]), 1e-12)
+    return np.maximum(np.concatenate([nav, bias_sigma]), 1e-12)
 
 
-def _terrain(t: TerrainFile | None, origin_lat: float, origin_lon: float, base: Path,
+def _terrain(t: TerrainFile, origin_lat: float, origin_lon: float, base: Path,
              origin: str):
     from ftnav.sensors.terrain import AnalyticTerrain, GridDem
 
-    t = t or TerrainFile()
     if t.kind == "grid":
         if not t.path:
             raise _err("terrain.path", "required with kind = 'grid'", origin)
@@ -241,10 +357,8 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
 
     prof = profile("profile", f.profile)
     test_prof = profile("test_profile", f.test_profile) if f.test_profile else None
-    try:
-        imu = imu_preset(f.imu) if isinstance(f.imu, str) else ImuErrors.from_datasheet(**f.imu)
-    except (TypeError, ValueError) as exc:
-        raise _err("imu", " ".join(str(exc).split()), origin) from None
+    imu = imu_errors(f.imu, "imu", origin)
+    assumed = imu if f.filter.imu is None else imu_errors(f.filter.imu, "filter.imu", origin)
     fl = f.filter
     steps = int(round(fl.duration_s / fl.dt))
     spe = fl.dt / prof.dt
@@ -254,7 +368,12 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
         raise _err("filter.duration_s", f"longer than the profile ({prof.duration} s)", origin)
     lat0, lon0 = (float(np.degrees(a)) for a in prof.start.position[:2])
     terrain = None
-    if any(a.type == "tan" for a in f.aids):
+    tan = [i for i, a in enumerate(f.aids) if a.type == "tan"]
+    if tan:
+        if f.terrain is None:
+            raise _err("terrain", f"required by the TAN aid aids[{tan[0]}]: the surface it "
+                       f"flies over (kind = 'analytic' or 'grid', docs/scenario-format.md)",
+                       origin)
         terrain = _terrain(f.terrain, lat0, lon0, base, origin)
     aids, names = [], []
     for i, a in enumerate(f.aids):
@@ -279,6 +398,10 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
                        f"{', '.join([*names, SINS])})", origin)
         if not x.end > x.start:
             raise _err(f"{p}.end", "must be greater than start", origin)
+        if not x.start < steps * fl.dt:
+            raise _err(f"{p}.start", f"{x.start:g} s is not before the end of the flight "
+                       f"({steps * fl.dt:g} s, filter.duration_s): the fault would never act",
+                       origin)
         if (x.kind == "gyro-bias") != (x.sensor == SINS):
             raise _err(f"{p}.kind", "'gyro-bias' is the only fault of the SINS and applies "
                        "only to it", origin)
@@ -326,11 +449,14 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
     except Exception as exc:  # pydantic custom error outside validation
         ctx = getattr(exc, "context", None) or {}
         raise _err(_format_loc(ctx.get("path", ())) or "figures", str(exc), origin) from None
-    sigma = initial_sigma(fl.initial, imu, np.radians(lat0), fl.states)
+    model = filter_model(assumed, fl.states, fl.bias_frame)
+    field = "imu" if f.filter.imu is None else "filter.imu"
+    for note in model.notes:
+        warnings.warn(f"{origin}: {field}: {note}", ScenarioWarning, stacklevel=2)
     return InsScenario(
-        name=f.name, profile=prof, imu=imu,
-        error_model=matched_error_model(imu, fl.states, fl.bias_frame),
-        initial_sigma=sigma, dt=float(fl.dt), steps=steps, aids=tuple(aids),
+        name=f.name, profile=prof, imu=imu, error_model=model.params,
+        initial_sigma=initial_sigma(fl.initial, model.bias_sigma), model_notes=model.notes,
+        dt=float(fl.dt), steps=steps, aids=tuple(aids),
         faults=tuple(faults), methods=tuple(methods),
         evaluation=Evaluation(float(ev.skip_initial), float(ev.grace)),
         correction=fl.correction, discretization=fl.discretization,

@@ -120,6 +120,8 @@ class InsScenario:
     discretization : ``"series"`` (order 5, PSINS kfc2d) or ``"van-loan"``.
     test_profile : optional second flight for the "different trajectory" evaluation of
         learned methods (paper 001).
+    model_notes : the IMU errors the filters' error model cannot represent exactly, and
+        what it does instead (:func:`ftnav.io.ins_scenario_file.filter_model`).
     figures : the figures a run draws (``[[figures]]``); empty = the default figures.
     """
 
@@ -140,6 +142,7 @@ class InsScenario:
     test_profile: Profile | None = None
     algorithm: str = "two-sample"
     figures: tuple[FigureSpec, ...] = ()
+    model_notes: tuple[str, ...] = ()
 
     kind = "integrated"
 
