@@ -23,11 +23,11 @@ runners hold at their peak:
 ``workers`` worker processes (:mod:`ftnav.parallel`) each hold one task at a time: an
 integrated batch (its simulation and results; batches are then no larger than an
 even share of the runs), or for a linear run its own copy of the simulation for a
-group of methods; the parent holds every result received, and merges the batches.  The estimate counts
-the arrays of the run only, not the interpreter and its libraries (about 0.2 GiB
-resident before the run starts, already counted as used by the operating system).
-``tests/validation/test_resources.py`` compares it with the peak resident memory
-measured in a subprocess.
+group of methods; the parent holds every result received, and merges the batches.
+The estimate counts the arrays of the run only, not the interpreter and its
+libraries (about 0.2 GiB resident before the run starts, already counted as used by
+the operating system).  ``tests/reference/test_memory_estimate.py`` compares it with
+the peak resident memory measured in a subprocess.
 
 :func:`available_memory_bytes` is what the operating system can still give
 (``MemAvailable`` on Linux, bounded by a cgroup limit).  :func:`kernels_compiled` and
