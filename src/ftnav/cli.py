@@ -12,6 +12,10 @@ Exit status, and what goes to standard error:
   <ExceptionType>: <message> (run again with --debug for the traceback)``.
 * 130: interrupted.
 
+A warning (a modelling approximation of the scenario, e.g. an IMU error its filter
+model cannot represent) is one line ``ftnav: warning: <message>`` and does not
+change the exit status.
+
 ``--debug`` (before or after the command name) prints the full traceback of either
 kind before the line.
 
@@ -37,6 +41,7 @@ import shutil
 import sys
 import time
 import traceback
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -155,6 +160,9 @@ def _parser() -> _Parser:
                    help="also write estimates.nc (NetCDF) with every estimate")
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--workers", type=_positive, default=None,
+                   help="worker processes (default: FTNAV_WORKERS, else the CPUs available); "
+                        "the results do not depend on it")
     t = command("trajectory", help="generate a flight's truth and IMU increments")
     t.add_argument("profile", help="built-in profile (seed001, seed002) or a profile TOML path")
     t.add_argument("--out", type=Path, required=True, help="output folder")
@@ -432,6 +440,7 @@ def _cmd_run(args) -> int:
     from ftnav.eval.montecarlo import run_scenario
     from ftnav.eval.resources import mark_kernels_compiled
     from ftnav.io.results import write_estimates, write_metrics
+    from ftnav.parallel import default_workers
     from ftnav.report.claims import check_claims
     from ftnav.report.summary import detector_table, markdown_report, results_table
 
@@ -439,25 +448,26 @@ def _cmd_run(args) -> int:
         sc = _resolve(args.scenario)
         out = args.out if args.out is not None else Path("results") / sc.name
         _check_out_folder(out)
-        _check_memory(sc, args.runs, save_estimates=args.save_estimates)
+        workers = default_workers() if args.workers is None else args.workers
+        _check_memory(sc, args.runs, save_estimates=args.save_estimates, workers=workers)
         _build_filters(sc)
     integrated = _integrated(sc)
     kind = "integrated" if integrated else "linear"
     _compile_note(kind, args.quiet)
-    passes = 2 if sc.faults else 1
-    total = len(sc.methods) * sc.steps * passes
+    # one unit per method and epoch (the fault-free twin runs in the same batch)
+    total = len(sc.methods) * sc.steps
     t0 = time.perf_counter()
     with tqdm(total=total, disable=True if args.quiet else None, unit="epoch",
               desc=f"{sc.name} x{args.runs}", file=sys.stderr, mininterval=0.5) as bar:
         if integrated:
             from ftnav.eval.integrated import run_ins_scenario
 
-            total = len(sc.methods) * sc.steps
-            bar.total = total
-            ir = run_ins_scenario(sc, args.runs, args.seed, progress=bar.update)
+            ir = run_ins_scenario(sc, args.runs, args.seed, progress=bar.update,
+                                  workers=workers)
             result = ir.result
         else:
-            result = run_scenario(sc, args.runs, args.seed, progress=bar.update)
+            result = run_scenario(sc, args.runs, args.seed, progress=bar.update,
+                                  workers=workers)
     second = None
     if integrated and sc.test_profile is not None:
         # learned methods are also scored on a flight they were not trained on
@@ -468,7 +478,8 @@ def _cmd_run(args) -> int:
         with tqdm(total=len(sc2.methods) * sc2.steps, disable=True if args.quiet else None,
                   unit="epoch", desc=f"{sc2.name} x{args.runs}", file=sys.stderr,
                   mininterval=0.5) as bar:
-            ir2 = run_ins_scenario(sc2, args.runs, args.seed, progress=bar.update)
+            ir2 = run_ins_scenario(sc2, args.runs, args.seed, progress=bar.update,
+                                   workers=workers)
         second = (ir2.result, evaluate(ir2.result))
     elapsed = time.perf_counter() - t0
     mark_kernels_compiled(kind)
@@ -625,21 +636,24 @@ def _cmd_train_fusion(args) -> int:
     import numpy as np
 
     from ftnav.eval.resources import mark_kernels_compiled
-    from ftnav.fusion.neural_training import FusionTraining, fusion_table, train_fusion
+    from ftnav.fusion.neural_training import (
+        FusionTraining,
+        check_training,
+        fusion_table,
+        train_fusion,
+    )
     from ftnav.sim.fault_family import fault_variants
 
     with _checking():
         sc = _resolve(args.scenario)
         out = args.out
         _check_out_file(out)
-        if _integrated(sc):
-            if sc.error_model.n != 18:
-                raise UsageError("filter.states: neuron training needs the 18-state model")
-        else:
+        if not _integrated(sc):
             settings = FusionTraining(runs=args.runs, holdout_runs=args.holdout,
                                       seed=args.seed, projection=args.projection,
                                       free_input=args.free_input)
             n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+            check_training(sc, settings)
     if _integrated(sc):
         return _train_ins_fusion(sc, out, args)
     _compile_note("train-linear", args.quiet)
@@ -692,6 +706,11 @@ _COMMANDS = {"list": _cmd_list, "schema": _cmd_schema, "run": _cmd_run,
              "train-fusion": _cmd_train_fusion}
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning (e.g. a scenario's modelling approximation) as one line on stderr."""
+    print(f"ftnav: warning: {_one_line(message)}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``ftnav`` command; returns the exit status (module docstring)."""
     from ftnav.io.model_file import ModelFileError
@@ -705,7 +724,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command is None:
             parser.print_help(sys.stderr)
             return 2
-        return _COMMANDS[args.command](args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return _COMMANDS[args.command](args)
     except _Exit as e:
         return e.status
     except (UsageError, ScenarioError, ModelFileError) as e:

@@ -13,11 +13,12 @@ for bit in ``tests/equivalence/test_workers.py``).
 
 Worker processes are started with ``spawn`` (a fresh interpreter: no inherited
 thread state); as with :mod:`multiprocessing`, a script that asks for workers must
-guard its top level with ``if __name__ == "__main__":`` (the ``ftnav`` command does).  The number of workers is the ``workers`` argument, else the
-environment variable ``FTNAV_WORKERS``, else the CPUs this process may run on.
-Inside a worker ``FTNAV_WORKERS`` is 1, so nothing nests a second level of
-parallelism (the thread pool of :func:`ftnav.sim.imu.simulate_imu_errors` included).
-This module uses the standard library only, so every layer may import it.
+guard its top level with ``if __name__ == "__main__":`` (the ``ftnav`` command does).
+The number of workers is the ``workers`` argument, else the environment variable
+``FTNAV_WORKERS``, else the CPUs this process may run on.  Inside a worker
+``FTNAV_WORKERS`` is 1, so nothing nests a second level of parallelism (the thread
+pool of :func:`ftnav.sim.imu.simulate_imu_errors` included).  This module uses the
+standard library only, so every layer may import it.
 """
 
 from __future__ import annotations

@@ -1,14 +1,16 @@
 """The peak-memory estimate of a run (:mod:`ftnav.eval.resources`) against a measurement.
 
-Oracle: the peak resident memory of a fresh Python process (``ru_maxrss``) running the
-same command, minus its resident memory just before the run (everything imported, the
-kernels loaded by a small warm-up run of another size, the flight's cache cleared).
+Oracle: the peak of the memory traced by :mod:`tracemalloc` (Python objects and every
+NumPy array buffer) while a fresh Python process runs the command, minus what was
+traced just before (everything imported, every kernel compiled or loaded by a first run
+of the same command, the flight's cache cleared).  Unlike the resident memory it does
+not depend on what the allocator kept from the first run, nor on a numba cache that
+another test process writes at the same time.
 The estimate counts the run's arrays only, so it must lie within
-``[LOW, HIGH] x`` the measured increase.  Measured on the 2-core reference machine
-(estimate / measured): the linear file below 0.97 (117 / 122 MiB), with
-``--save-estimates`` 0.90 (197 / 219 MiB); seed000 with 30 runs 0.98 (157 / 160 MiB);
-the integrated file below 0.88 (199 / 225 MiB), in batches of 8 runs 1.25 (199 /
-159 MiB: the merge of the batches' results does not always coincide with the peak).
+``[LOW, HIGH] x`` the measured peak.  Measured on the 2-core reference machine
+(estimate / measured): the linear file below 0.97 (118 / 122 MiB), with
+``--save-estimates`` 1.13 (197 / 175 MiB); the integrated file below 1.13 (199 / 177
+MiB), in batches of 8 runs 1.13.
 """
 
 from __future__ import annotations
@@ -25,22 +27,13 @@ from ftnav.io.scenario_file import load_scenario
 LOW, HIGH = 0.7, 1.5
 
 MEASURE = r"""
-import json, os, resource, sys, tempfile
+import gc, json, sys, tempfile, tracemalloc
 args = json.loads(sys.argv[1])
-
-def rss():
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 from ftnav.cli import main
 from ftnav.sim.ins_data import trajectory_of
-with tempfile.TemporaryDirectory() as d:
-    assert main(["run", args["warmup"], "--runs", "1", "--out", d + "/w", "--quiet",
-                 "--no-figures"]) == 0
-    trajectory_of.cache_clear()
-    import gc
-    gc.collect()
-    before = rss()
+
+def command(d, name):
     if args.get("chunk"):
         from ftnav.eval.evaluate import evaluate
         from ftnav.eval.integrated import run_ins_scenario
@@ -48,9 +41,20 @@ with tempfile.TemporaryDirectory() as d:
         ir = run_ins_scenario(load_scenario(args["path"]), args["runs"], 1, chunk=args["chunk"])
         evaluate(ir.result)
     else:
-        assert main(["run", args["path"], "--runs", str(args["runs"]), "--out", d + "/r",
+        assert main(["run", args["path"], "--runs", str(args["runs"]), "--out", d + name,
                      "--quiet", "--no-figures", *args["extra"]]) == 0
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+with tempfile.TemporaryDirectory() as d:
+    # the same command once first: every kernel it calls is compiled or loaded in this
+    # process before the measurement (compiling allocates hundreds of MiB)
+    command(d, "/w")
+    trajectory_of.cache_clear()
+    gc.collect()
+    tracemalloc.start()  # NumPy reports its array buffers to tracemalloc
+    before = tracemalloc.get_traced_memory()[0]
+    command(d, "/r")
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
 print(json.dumps({"measured": peak - before}))
 """
 
@@ -119,8 +123,8 @@ isolation = "time-update"
 """
 
 
-def _measure(path, warmup, runs, extra=(), chunk=None) -> int:
-    args = {"path": str(path), "warmup": str(warmup), "runs": runs, "extra": list(extra),
+def _measure(path, runs, extra=(), chunk=None) -> int:
+    args = {"path": str(path), "runs": runs, "extra": list(extra),
             "chunk": chunk}
     proc = subprocess.run([sys.executable, "-c", MEASURE, json.dumps(args)],
                           capture_output=True, text=True, timeout=600)
@@ -134,9 +138,7 @@ def files(tmp_path_factory):
     out = {}
     ins = INTEGRATED.format
     for name, text in (("linear", LINEAR.format(steps=4000)),
-                       ("linear-warmup", LINEAR.format(steps=50)),
-                       ("integrated", ins(duration=300.0, start=100.0, end=200.0)),
-                       ("integrated-warmup", ins(duration=20.0, start=5.0, end=15.0))):
+                       ("integrated", ins(duration=300.0, start=100.0, end=200.0))):
         out[name] = d / f"{name}.toml"
         out[name].write_text(text)
     return out
@@ -144,7 +146,7 @@ def files(tmp_path_factory):
 
 @pytest.mark.parametrize(("runs", "extra"), [(40, ()), (40, ("--save-estimates",))])
 def test_linear_run_estimate_is_within_the_factor_of_the_measured_peak(files, runs, extra):
-    measured = _measure(files["linear"], files["linear-warmup"], runs, extra)
+    measured = _measure(files["linear"], runs, extra)
     estimate = run_memory_bytes(load_scenario(files["linear"]), runs,
                                 save_estimates=bool(extra))
     assert measured > 50 << 20  # the run's arrays dominate the allocator's noise
@@ -154,7 +156,7 @@ def test_linear_run_estimate_is_within_the_factor_of_the_measured_peak(files, ru
 @pytest.mark.parametrize("chunk", [None, 8])
 def test_integrated_run_estimate_is_within_the_factor_of_the_measured_peak(files, chunk):
     runs = 24
-    measured = _measure(files["integrated"], files["integrated-warmup"], runs, chunk=chunk)
+    measured = _measure(files["integrated"], runs, chunk=chunk)
     estimate = run_memory_bytes(load_scenario(files["integrated"]), runs, chunk=chunk)
     assert measured > 50 << 20
     assert LOW <= estimate / measured <= HIGH, (estimate, measured)

@@ -64,8 +64,6 @@ def train_ins_fusion(sc: InsScenario, runs: int = 4, seed: int = 1, *, fault_sta
     for GPS / TAN / DNS against the optimum 0.94 / 0.03 / 0.02).  ``samples``, if given,
     receives the centred, scaled training arrays ``U`` (J, M, N_in) and ``t`` (J, M).
     """
-    if sc.error_model.n != 18:
-        raise ValueError("filter.states: neuron training needs the 18-state model")
     system = build_ins_system(sc)
     nc = system.n_common
     collect_method = Method(name="collect", architecture="neural", detector="oracle")

@@ -215,7 +215,9 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
     ``check_spd`` also requires every fused covariance to be symmetric positive
     definite at every epoch.  ``true_states`` (B, K, n), if given, is filled with the
     true error state before feedback (navigation errors of the first method's SINS,
-    then the IMU's true biases): the targets of learned fusion.
+    then the IMU's true biases as the error model's states hold them: 18 states
+    ε_b, ε_r, ∇ = constant + Markov accelerometer bias; 15 states ε and ∇ each
+    constant + Markov): the targets of learned fusion.
     """
     names = list(filters)
     M = len(names)
@@ -270,9 +272,10 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
                                    truth.p[k - 1])
         if true_states is not None:
             it = data.imu_truth
-            true_states[:, k - 1] = np.concatenate(
-                [e_true[:B], it.gyro_bias, it.gyro_markov[:, k - 1], it.accel_markov[:, k - 1]],
-                -1)[:, :true_states.shape[-1]]
+            accel = it.accel_bias + it.accel_markov[:, k - 1]  # ∇ holds both (18 and 15)
+            gyro = [it.gyro_bias, it.gyro_markov[:, k - 1]] if n == 18 else \
+                [it.gyro_bias + it.gyro_markov[:, k - 1]]
+            true_states[:, k - 1] = np.concatenate([e_true[:B], *gyro, accel], -1)
         for j, nm in enumerate(names):
             p = parts[j]
             lin_k = Linearization(Phi[p], Q[p], tuple(h[p] for h in H))

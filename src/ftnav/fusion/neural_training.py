@@ -39,7 +39,7 @@ from ftnav.sim.fault_family import (
 )
 from ftnav.sim.scenario import Method, Scenario
 
-__all__ = ["FusionTraining", "FusionReport", "train_fusion", "fusion_table"]
+__all__ = ["check_training", "FusionTraining", "FusionReport", "train_fusion", "fusion_table"]
 
 _WINDOW_STREAM = 0x4E46
 _SAMPLE_STREAM = 0x4E53
@@ -118,6 +118,25 @@ def _epoch_masks(scenario: Scenario, variants, runs: int, skip: float):
     return masks
 
 
+def _training_epochs(scenario: Scenario, variants, s: FusionTraining):
+    """The epochs of each configuration and the samples per neuron (known before any
+    simulation); too few for the inputs raise ``ValueError`` naming ``runs``."""
+    masks = _epoch_masks(scenario, variants, s.runs, s.skip_fraction)
+    M = min(s.max_samples, *(int(m.sum()) for m in masks.values()))
+    n_in = len(scenario.sensors) + int(s.free_input)
+    if M <= n_in:
+        raise ValueError(f"runs: too few training epochs ({M}) for {n_in} inputs; "
+                         "raise runs or the fault windows")
+    return masks, M
+
+
+def check_training(scenario: Scenario, settings: FusionTraining = FusionTraining()) -> None:
+    """Raise the ``ValueError`` :func:`train_fusion` would, before anything is computed."""
+    rng = np.random.default_rng(np.random.SeedSequence(settings.seed,
+                                                       spawn_key=(_WINDOW_STREAM,)))
+    _training_epochs(scenario, fault_variants(scenario, settings.family, rng), settings)
+
+
 def _inputs(system, sim, free_input, progress):
     """Stacked local estimates (B, K, N_in, n_c) of independent local filters."""
     from ftnav.eval.montecarlo import run_filter
@@ -146,16 +165,11 @@ def train_fusion(
     nc, N = system.n_common, system.n_sensors
     rng = np.random.default_rng(np.random.SeedSequence(s.seed, spawn_key=(_WINDOW_STREAM,)))
     variants = fault_variants(scenario, s.family, rng)
+    masks, M = _training_epochs(scenario, variants, s)
+    configs = tuple(masks)
     sim, _ = simulate_variants(scenario, variants, s.runs, s.seed)
     U = _inputs(system, sim, s.free_input, progress)  # (B, K, N_in, nc)
     truth = sim.truth[..., :nc]
-    masks = _epoch_masks(scenario, variants, s.runs, s.skip_fraction)
-    configs = tuple(masks)
-    counts = [int(m.sum()) for m in masks.values()]
-    M = min(s.max_samples, *counts)
-    if M <= U.shape[2]:
-        raise ValueError(f"runs: too few training epochs ({M}) for {U.shape[2]} inputs; "
-                         "raise runs or the fault windows")
     pick = np.random.default_rng(np.random.SeedSequence(s.seed, spawn_key=(_SAMPLE_STREAM,)))
     Us, ts = [], []
     for c in configs:

@@ -214,7 +214,8 @@ def _deg_h(x) -> str:
 
 
 def _ug(x) -> str:
-    return f"{np.max(np.asarray(x)) / _G * 1e6:.3g} ug"
+    ug = np.max(np.asarray(x)) / _G * 1e6
+    return f"{ug / 1e3:.3g} mg" if ug >= 1e3 else f"{ug:.3g} ug"
 
 
 def filter_model(imu: ImuErrors, states: int = 18, bias_frame: str = "body") -> FilterModel:

@@ -376,7 +376,8 @@ def markdown_report(result: ScenarioResult, metrics: dict[str, MethodMetrics],
     if claims:
         md += ["## Claims checked", ""]
         for c in claims:
-            verdict = {True: "holds", False: "does NOT hold", None: "not decided"}[c["holds"]]
+            verdict = {True: "holds", False: "does NOT hold", None: "not decided"}[c["holds"]] \
+                if c.get("checked", True) else "not checked"
             md.append(f"- **{c['source']}** — {c['claim']}: **{verdict}**."
                       + (f" {c['note']}." if c["note"] else ""))
             md.append(f"  Measured: `{_compact(c['measured'])}`")

@@ -66,8 +66,8 @@ from ftnav.nav.units import (
 from ftnav.parallel import default_workers
 
 __all__ = [
-    "DATASHEET_KEYS", "IMU_PRESETS", "IMU_STREAM_KEY", "ImuErrorTruth", "ImuErrors", "ImuSimulation",
-    "gauss_markov", "imu_preset", "simulate_imu_errors",
+    "DATASHEET_KEYS", "IMU_PRESETS", "IMU_STREAM_KEY", "ImuErrorTruth", "ImuErrors",
+    "ImuSimulation", "gauss_markov", "imu_preset", "simulate_imu_errors",
 ]
 
 IMU_STREAM_KEY = 0x494D55  #: second spawn-key element of the IMU streams ("IMU" in ASCII)
