@@ -126,3 +126,29 @@ def test_console_script_reports_a_bad_file_without_traceback(tmp_path):
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
     assert "aids[0].pos_white_sigma_m" in proc.stderr
+
+
+def test_imu_datasheet_table_and_base_preset_give_the_documented_errors():
+    from ftnav.nav.units import deg_per_h, milli_g
+    from ftnav.sim.imu import imu_preset
+
+    text = GOOD.replace('imu = "seed001"', '[imu]\nbase = "tactical"\ngyro_bias_sd = "0.5 deg/h"\n'
+                        'accel_bias_sd = ["1 mg", "1 mg", "2 mg"]')
+    sc = parse_ins_scenario(tomllib.loads(text))
+    tactical = imu_preset("tactical")
+    assert sc.imu.gyro_bias_sd == pytest.approx([deg_per_h(0.5)] * 3)
+    assert sc.imu.accel_bias_sd == pytest.approx([milli_g(1.0), milli_g(1.0), milli_g(2.0)])
+    assert sc.imu.gyro_arw == pytest.approx(tactical.gyro_arw)  # from the base
+    plain = parse_ins_scenario(tomllib.loads(GOOD.replace(
+        'imu = "seed001"', '[imu]\ngyro_arw = "0.1 deg/sqrt(h)"')))
+    assert plain.imu.gyro_bias_sd == pytest.approx([0.0] * 3)  # no base: zero elsewhere
+
+
+def test_filter_imu_sets_what_the_filters_assume_and_not_the_truth():
+    text = GOOD.replace("duration_s = 120.0",
+                        'duration_s = 120.0\n[filter.imu]\nbase = "seed001"\n'
+                        'gyro_bias_sd = "1 deg/h"')
+    sc = parse_ins_scenario(tomllib.loads(text))
+    truth = parse_ins_scenario(tomllib.loads(GOOD))
+    assert sc.imu == truth.imu  # the simulator's IMU is unchanged
+    assert sc.initial_sigma[9] == pytest.approx(10 * truth.initial_sigma[9])  # 1 vs 0.1 deg/h
