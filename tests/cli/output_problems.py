@@ -1,4 +1,5 @@
-"""Small runs shared by the tests of the per-state tables, figures and estimates.nc.
+"""Small runs shared by the CLI tests (:data:`SMALL`) and by the tests of the per-state
+tables, figures and estimates.nc.
 
 * :func:`north_ramp_run`: a linear scenario with East and North states and a ramp fault
   on the North row of one of two position sensors (the East row is clean), so the fault
@@ -11,6 +12,48 @@ from __future__ import annotations
 
 import tomllib
 from functools import cache
+
+#: a 60-epoch linear scenario (three states, two position sensors, a bias on one, the
+#: centralized, a federated and a distributed method): the CLI tests' small run
+SMALL = """
+name = "small"
+dt = 1.0
+steps = 60
+[model]
+states = ["s", "v", "a"]
+F  = [[1.0, 0.05, 0.00125], [0.0, 1.0, 0.05], [0.0, 0.0, 1.0]]
+Q  = [[5.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]
+x0 = [0.0, 0.0, 0.0]
+P0 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 100.0]]
+[[sensors]]
+name = "pos1"
+H = [[1.0, 0.0, 0.0]]
+R = [[30.0]]
+[[sensors]]
+name = "pos2"
+H = [[2.5, 0.0, 0.0]]
+R = [[30.0]]
+every = 2
+[[faults]]
+sensor = "pos1"
+kind = "bias"
+start = 20.0
+end = 40.0
+magnitude = [60.0]
+[[methods]]
+name = "ckf"
+architecture = "centralized"
+[[methods]]
+name = "fkf"
+architecture = "federated"
+sharing = "inverse-trace"
+detector = "residual-chi2"
+prior = "global"
+[[methods]]
+name = "dkf"
+architecture = "distributed"
+detector = "state-chi2"
+"""
 
 NORTH_RAMP = """
 name = "my-north-ramp"

@@ -9,48 +9,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from output_problems import SMALL
 
 from ftnav.cli import main
-
-SMALL = """
-name = "small"
-dt = 1.0
-steps = 60
-[model]
-states = ["s", "v", "a"]
-F  = [[1.0, 0.05, 0.00125], [0.0, 1.0, 0.05], [0.0, 0.0, 1.0]]
-Q  = [[5.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]
-x0 = [0.0, 0.0, 0.0]
-P0 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 100.0]]
-[[sensors]]
-name = "pos1"
-H = [[1.0, 0.0, 0.0]]
-R = [[30.0]]
-[[sensors]]
-name = "pos2"
-H = [[2.5, 0.0, 0.0]]
-R = [[30.0]]
-every = 2
-[[faults]]
-sensor = "pos1"
-kind = "bias"
-start = 20.0
-end = 40.0
-magnitude = [60.0]
-[[methods]]
-name = "ckf"
-architecture = "centralized"
-[[methods]]
-name = "fkf"
-architecture = "federated"
-sharing = "inverse-trace"
-detector = "residual-chi2"
-prior = "global"
-[[methods]]
-name = "dkf"
-architecture = "distributed"
-detector = "state-chi2"
-"""
 
 
 @pytest.fixture

@@ -95,3 +95,16 @@ def assert_same(traj: Trajectory, ref: Trajectory, rtol: float = 1e-9) -> None:
 
 def simulate_problem(scenario: Scenario, runs: int = 3, seed: int = 11) -> Simulation:
     return simulate(scenario, runs, seed)
+
+
+def assert_identical(a, b) -> None:
+    """Two result tuples (e.g. :class:`~ftnav.eval.montecarlo.MethodResult`) equal bit for
+    bit, field by field (None in both, or equal arrays, or tuples of equal arrays)."""
+    for field, u, v in zip(a._fields, a, b, strict=True):
+        if u is None or v is None:
+            assert u is None and v is None, field
+        elif isinstance(u, tuple):
+            for p, q in zip(u, v, strict=True):
+                np.testing.assert_array_equal(p, q, err_msg=field)
+        else:
+            np.testing.assert_array_equal(u, v, err_msg=field)

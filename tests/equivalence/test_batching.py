@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 import pytest
+from equivalence_problems import assert_identical
 
 from ftnav.eval.montecarlo import build_filter, run_filter, run_scenario
 from ftnav.fusion.system import LinearSystem
@@ -30,17 +30,6 @@ def scenario():
     return dataclasses.replace(sc, steps=600, methods=methods)
 
 
-def _assert_same(a, b):
-    for field, u, v in zip(a._fields, a, b, strict=True):
-        if u is None or v is None:
-            assert u is None and v is None, field
-        elif isinstance(u, tuple):
-            for p, q in zip(u, v, strict=True):
-                np.testing.assert_array_equal(p, q, err_msg=field)
-        else:
-            np.testing.assert_array_equal(u, v, err_msg=field)
-
-
 def test_fault_free_twin_in_one_batch_equals_separate_batches(scenario):
     runs, seed = 5, 11
     res = run_scenario(scenario, runs, seed)
@@ -48,5 +37,5 @@ def test_fault_free_twin_in_one_batch_equals_separate_batches(scenario):
     sim = simulate(scenario, runs, seed)
     sim_ff = simulate(scenario.without_faults(), runs, seed)
     for m in scenario.methods:
-        _assert_same(res.results[m.name], run_filter(build_filter(system, m), sim, 3))
-        _assert_same(res.fault_free[m.name], run_filter(build_filter(system, m), sim_ff, 3))
+        assert_identical(res.results[m.name], run_filter(build_filter(system, m), sim, 3))
+        assert_identical(res.fault_free[m.name], run_filter(build_filter(system, m), sim_ff, 3))

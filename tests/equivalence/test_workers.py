@@ -12,6 +12,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from equivalence_problems import assert_identical
 
 from ftnav.eval import montecarlo
 from ftnav.eval.integrated import run_ins_scenario
@@ -21,24 +22,13 @@ from ftnav.parallel import default_workers, run_tasks, split_even
 from ftnav.scenarios import builtin_path
 
 
-def _assert_same(a, b):
-    for field, u, v in zip(a._fields, a, b, strict=True):
-        if u is None or v is None:
-            assert u is None and v is None, field
-        elif isinstance(u, tuple):
-            for p, q in zip(u, v, strict=True):
-                np.testing.assert_array_equal(p, q, err_msg=field)
-        else:
-            np.testing.assert_array_equal(u, v, err_msg=field)
-
-
 def _assert_same_results(one, two):
     assert list(one.results) == list(two.results)
     assert list(one.fault_free) == list(two.fault_free)
     for name in one.results:
-        _assert_same(one.results[name], two.results[name])
+        assert_identical(one.results[name], two.results[name])
     for name in one.fault_free:
-        _assert_same(one.fault_free[name], two.fault_free[name])
+        assert_identical(one.fault_free[name], two.fault_free[name])
 
 
 def test_linear_method_groups_in_two_processes_equal_one(monkeypatch):
