@@ -27,7 +27,7 @@ group of methods; the parent holds every result received, and merges the batches
 The estimate counts the arrays of the run only, not the interpreter and its
 libraries (about 0.2 GiB resident before the run starts, already counted as used by
 the operating system).  ``tests/reference/test_memory_estimate.py`` compares it with
-the peak resident memory measured in a subprocess.
+the peak memory :mod:`tracemalloc` traces in a subprocess running the same command.
 
 :func:`available_memory_bytes` is what the operating system can still give
 (``MemAvailable`` on Linux, bounded by a cgroup limit).  :func:`kernels_compiled` and
@@ -234,9 +234,9 @@ def run_memory_bytes(scenario, runs: int, *, workers: int = 1, fault_free: bool 
 
     Returns
     -------
-    bytes : the arrays of the run at its peak (module docstring), an upper estimate
-        within a factor of about 1.5 of the measured increase of resident memory; a test
-        with a measured oracle checks the factor.  A second flight (``test_profile``)
+    bytes : the arrays of the run at its peak (module docstring), within a factor of
+        about 1.5 of the measured peak (0.97-1.13 on the test's runs); a test with a
+        measured oracle checks the factor.  A second flight (``test_profile``)
         runs after the first, whose results stay held.
     """
     runs, workers = int(runs), int(workers)
