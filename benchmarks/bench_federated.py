@@ -44,8 +44,9 @@ def ftnav_federated(system, method, sim):
     state = f.init(B)
     x = np.empty((B, K, system.n_common))
     for k in range(1, K + 1):
-        state, out = f.step(state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1],
-                            sim.oracle[k - 1])
+        state, out = f.step(
+            state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], sim.oracle[k - 1]
+        )
         x[:, k - 1] = out.x
     return x
 
@@ -88,8 +89,12 @@ def main():
     ap.add_argument("--runs", type=int, default=1000, help="ftnav batch size")
     ap.add_argument("--peer-runs", type=int, default=10, help="FilterPy runs (sequential)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--workers", type=int, default=available_cpus(),
-                    help="worker processes of the end-to-end run (default: the CPUs)")
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=available_cpus(),
+        help="worker processes of the end-to-end run (default: the CPUs)",
+    )
     args = ap.parse_args()
 
     sc = load_scenario(builtin_path("seed000")).without_faults()
@@ -119,29 +124,39 @@ def main():
     x_peer = [filterpy_federated(sc, [z[r] for z in sim.z]) for r in range(args.peer_runs)]
     t_peer = time.perf_counter() - t0
     per_run_peer = 1e3 * t_peer / args.peer_runs
-    diff = max(np.abs(x_peer[r] - x_ft[r]).max() / max(1.0, np.abs(x_peer[r]).max())
-               for r in range(args.peer_runs))
+    diff = max(
+        np.abs(x_peer[r] - x_ft[r]).max() / max(1.0, np.abs(x_peer[r]).max())
+        for r in range(args.peer_runs)
+    )
 
     print(f"seed000 model, {sc.steps} epochs, fusion-reset every epoch, inverse-trace sharing")
-    print(f"ftnav    : {args.runs} runs batched, best of 3: "
-          f"{per_run_ft:.2f} ms per run (peak traced memory {peak / 2**20:.0f} MiB)")
-    print(f"FilterPy : {args.peer_runs} runs one by one in {t_peer:.2f} s -> "
-          f"{per_run_peer:.1f} ms per run")
+    print(
+        f"ftnav    : {args.runs} runs batched, best of 3: "
+        f"{per_run_ft:.2f} ms per run (peak traced memory {peak / 2**20:.0f} MiB)"
+    )
+    print(
+        f"FilterPy : {args.peer_runs} runs one by one in {t_peer:.2f} s -> "
+        f"{per_run_peer:.1f} ms per run"
+    )
     print(f"ratio    : ftnav is {per_run_peer / per_run_ft:.0f}x faster per run")
     print(f"agreement: max relative difference of fused estimates {diff:.1e}")
     # the machine's speed drifts (shared VM); scaling by FilterPy's time in the same run
     # gives the cost on a machine where FilterPy takes the 126 ms per run
-    print(f"target   : <= 3 ms per run per 1200 steps -> "
-          f"{'met' if per_run_ft <= 3.0 else 'NOT met'} as measured; "
-          f"{126.0 * per_run_ft / per_run_peer:.2f} ms scaled to FilterPy = 126 ms")
+    print(
+        f"target   : <= 3 ms per run per 1200 steps -> "
+        f"{'met' if per_run_ft <= 3.0 else 'NOT met'} as measured; "
+        f"{126.0 * per_run_ft / per_run_peer:.2f} ms scaled to FilterPy = 126 ms"
+    )
 
     full = load_scenario(builtin_path("seed000"))
     for workers in (1, args.workers):
         t0 = time.perf_counter()
         run_scenario(full, 100, args.seed, workers=workers)
         t_full = time.perf_counter() - t0
-        print(f"run_scenario(seed000, runs=100, workers={workers}): {len(full.methods)} "
-              f"methods with and without the fault in {t_full:.1f} s (target < 60 s)")
+        print(
+            f"run_scenario(seed000, runs=100, workers={workers}): {len(full.methods)} "
+            f"methods with and without the fault in {t_full:.1f} s (target < 60 s)"
+        )
 
 
 if __name__ == "__main__":

@@ -60,11 +60,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=600.0)
     ap.add_argument("--runs", type=int, nargs="+", default=[1, 20])
-    ap.add_argument("--workers", type=int, default=1,
-                    help="worker processes (ftnav.parallel); 1 = this process")
-    ap.add_argument("--repeat", type=int, default=3,
-                    help="timings per batch size; the fastest is reported (the others are "
-                         "printed: a shared machine's load only ever adds time)")
+    ap.add_argument(
+        "--workers", type=int, default=1, help="worker processes (ftnav.parallel); 1 = this process"
+    )
+    ap.add_argument(
+        "--repeat",
+        type=int,
+        default=3,
+        help="timings per batch size; the fastest is reported (the others are "
+        "printed: a shared machine's load only ever adds time)",
+    )
     a = ap.parse_args()
     sc = load_scenario(builtin_path("seed002"))
     steps = int(a.seconds / sc.dt)
@@ -81,11 +86,13 @@ def main() -> None:
             walls.append(time.perf_counter() - t0)
         wall = min(walls)
         per_run = wall * scale / runs
-        print(f"ftnav seed002 ({a.workers} worker(s)), {len(sc.methods)} methods + fault-free "
-              f"twin, {runs} run(s) x "
-              f"{a.seconds:.0f} s: {wall:.1f} s (of {', '.join(f'{w:.1f}' for w in walls)}) -> "
-              f"{per_run:.2f} s per run per 3600 s (ratio to the FilterPy single filter: "
-              f"{per_run / peer:.1f}x)")
+        print(
+            f"ftnav seed002 ({a.workers} worker(s)), {len(sc.methods)} methods + fault-free "
+            f"twin, {runs} run(s) x "
+            f"{a.seconds:.0f} s: {wall:.1f} s (of {', '.join(f'{w:.1f}' for w in walls)}) -> "
+            f"{per_run:.2f} s per run per 3600 s (ratio to the FilterPy single filter: "
+            f"{per_run / peer:.1f}x)"
+        )
 
 
 if __name__ == "__main__":

@@ -49,9 +49,11 @@ def bench_lms():
     t0 = time.perf_counter()
     _python_lms_epoch(U, t, np.full(4, 0.25), eta, rng.permutation(M)[:2000])
     peer = (time.perf_counter() - t0) * M / 2000
-    print(f"LMS, 20 000 samples, N = 4: ftnav {1e3 * ours:.2f} ms/epoch, NumPy loop "
-          f"{1e3 * peer:.0f} ms/epoch, ratio {peer / ours:.0f}x; weights "
-          f"{np.round(res.weights[0], 3)}")
+    print(
+        f"LMS, 20 000 samples, N = 4: ftnav {1e3 * ours:.2f} ms/epoch, NumPy loop "
+        f"{1e3 * peer:.0f} ms/epoch, ratio {peer / ours:.0f}x; weights "
+        f"{np.round(res.weights[0], 3)}"
+    )
 
 
 def bench_detectors(runs: int = 200):
@@ -59,8 +61,11 @@ def bench_detectors(runs: int = 200):
     system = LinearSystem.from_scenario(sc)
     sim = simulate(sc, runs, 1)
     by = {m.name: m for m in sc.methods}
-    cases = {"rbf": by["fkf-inverse-trace-rbf"], "chi2": by["fkf-inverse-trace-chi2"],
-             "none": replace(by["fkf-inverse-trace-chi2"], detector="none")}
+    cases = {
+        "rbf": by["fkf-inverse-trace-rbf"],
+        "chi2": by["fkf-inverse-trace-chi2"],
+        "none": replace(by["fkf-inverse-trace-chi2"], detector="none"),
+    }
     out = {}
     for name, m in cases.items():
         filt = build_filter(system, m)
@@ -80,12 +85,16 @@ def bench_detectors(runs: int = 200):
         kf.predict()
         kf.update(zk)
     peer = time.perf_counter() - t0
-    print(f"seed000 federated inverse-trace, {runs} runs batched, per run: "
-          + ", ".join(f"{k} {1e3 * v:.2f} ms" for k, v in out.items())
-          + f"; RBF overhead over chi2 {out['rbf'] / out['chi2']:.2f}x")
-    print(f"FilterPy, one local filter (1 sensor, 1200 epochs): {1e3 * peer:.1f} ms/run; "
-          f"ftnav's whole federated filter with the RBF detector is {peer / out['rbf']:.0f}x "
-          "faster per run")
+    print(
+        f"seed000 federated inverse-trace, {runs} runs batched, per run: "
+        + ", ".join(f"{k} {1e3 * v:.2f} ms" for k, v in out.items())
+        + f"; RBF overhead over chi2 {out['rbf'] / out['chi2']:.2f}x"
+    )
+    print(
+        f"FilterPy, one local filter (1 sensor, 1200 epochs): {1e3 * peer:.1f} ms/run; "
+        f"ftnav's whole federated filter with the RBF detector is {peer / out['rbf']:.0f}x "
+        "faster per run"
+    )
 
 
 if __name__ == "__main__":

@@ -34,8 +34,22 @@ FTNAV = [sys.executable, "-m", "ftnav.cli"]
 def timed_run(scenario: str, runs: int, out: Path, env: dict[str, str]) -> float:
     """Wall seconds of one ``ftnav run`` (fails loudly if the command fails)."""
     t0 = time.perf_counter()
-    subprocess.run([*FTNAV, "run", scenario, "--runs", str(runs), "--no-figures", "--quiet",
-                    "--out", str(out)], check=True, stdout=subprocess.DEVNULL, env=env)
+    subprocess.run(
+        [
+            *FTNAV,
+            "run",
+            scenario,
+            "--runs",
+            str(runs),
+            "--no-figures",
+            "--quiet",
+            "--out",
+            str(out),
+        ],
+        check=True,
+        stdout=subprocess.DEVNULL,
+        env=env,
+    )
     return time.perf_counter() - t0
 
 
@@ -60,8 +74,10 @@ def main() -> None:
     args = ap.parse_args()
     base = dict(os.environ)
     base.pop("FTNAV_WORKERS", None)
-    configs = {"ftnav (default workers)": base, "ftnav, FTNAV_WORKERS=1": base | {
-        "FTNAV_WORKERS": "1"}}
+    configs = {
+        "ftnav (default workers)": base,
+        "ftnav, FTNAV_WORKERS=1": base | {"FTNAV_WORKERS": "1"},
+    }
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out"
         timed_run(args.scenario, 2, out, base)  # warm the kernel cache and the OS caches
@@ -69,18 +85,24 @@ def main() -> None:
         for _ in range(args.repeat):
             for label, env in configs.items():
                 times.setdefault((label, "quiet"), []).append(
-                    timed_run(args.scenario, args.runs, out, env))
+                    timed_run(args.scenario, args.runs, out, env)
+                )
                 with BusyCore():
                     times.setdefault((label, "busy"), []).append(
-                        timed_run(args.scenario, args.runs, out, env))
+                        timed_run(args.scenario, args.runs, out, env)
+                    )
     cpus = len(os.sched_getaffinity(0))
-    print(f"ftnav run {args.scenario} --runs {args.runs} --no-figures on {cpus} CPUs, "
-          f"{args.repeat} repeat(s), median (min-max) wall seconds")
+    print(
+        f"ftnav run {args.scenario} --runs {args.runs} --no-figures on {cpus} CPUs, "
+        f"{args.repeat} repeat(s), median (min-max) wall seconds"
+    )
     for label in configs:
         q, b = times[(label, "quiet")], times[(label, "busy")]
         mq, mb = statistics.median(q), statistics.median(b)
-        print(f"  {label:26s} quiet {mq:7.1f} ({min(q):.1f}-{max(q):.1f})   "
-              f"one busy core {mb:7.1f} ({min(b):.1f}-{max(b):.1f})   ratio {mb / mq:.2f}")
+        print(
+            f"  {label:26s} quiet {mq:7.1f} ({min(q):.1f}-{max(q):.1f})   "
+            f"one busy core {mb:7.1f} ({min(b):.1f}-{max(b):.1f})   ratio {mb / mq:.2f}"
+        )
 
 
 if __name__ == "__main__":

@@ -17,4 +17,3 @@ sys.path.insert(0, str(Path(__file__).parent / "reference"))
 
 if os.environ.get("PYTEST_XDIST_WORKER"):
     os.environ["FTNAV_WORKERS"] = "1"
-

@@ -54,8 +54,13 @@ MANIFEST = ".ftnav-outputs.json"
 #: Said on standard error before a run that compiles the numba kernels, with the
 #: seconds it took on the 2-core reference machine per kind of run (cold cache).
 COMPILING = "ftnav: compiling the numerical kernels on first use (about {} s, once)"
-_COMPILE_S = {"linear": 15, "integrated": 40, "trajectory": 5, "train-linear": 20,
-              "train-integrated": 40}
+_COMPILE_S = {
+    "linear": 15,
+    "integrated": 40,
+    "trajectory": 5,
+    "train-linear": 20,
+    "train-integrated": 40,
+}
 
 
 class UsageError(Exception):
@@ -98,6 +103,7 @@ class _Parser(argparse.ArgumentParser):
 
 def _at_least(low: int):
     """argparse type: an integer >= ``low`` (argparse names the option in the message)."""
+
     def parse(text):
         try:
             value = int(text)
@@ -106,6 +112,7 @@ def _at_least(low: int):
         if value < low:
             raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
         return value
+
     return parse
 
 
@@ -137,11 +144,18 @@ def _parser() -> _Parser:
     from ftnav import __version__
 
     debug = argparse.ArgumentParser(add_help=False)
-    debug.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                       help="show the full traceback of an error")
-    p = _Parser(prog="ftnav", description="Fault-tolerant multi-sensor navigation fusion.",
-                epilog="exit status: 0 done, 2 bad input (one line naming the field), "
-                       "1 internal error (a bug: please report it)")
+    debug.add_argument(
+        "--debug",
+        action="store_true",
+        default=argparse.SUPPRESS,
+        help="show the full traceback of an error",
+    )
+    p = _Parser(
+        prog="ftnav",
+        description="Fault-tolerant multi-sensor navigation fusion.",
+        epilog="exit status: 0 done, 2 bad input (one line naming the field), "
+        "1 internal error (a bug: please report it)",
+    )
     p.add_argument("--version", action="version", version=f"ftnav {__version__}")
     p.add_argument("--debug", action="store_true", help="show the full traceback of an error")
     sub = p.add_subparsers(dest="command", parser_class=_Parser)
@@ -151,60 +165,82 @@ def _parser() -> _Parser:
 
     r = command("run", help="run a scenario's methods over Monte Carlo runs")
     r.add_argument("scenario", help="built-in scenario name (see `ftnav list`) or a TOML path")
-    r.add_argument("--runs", type=_positive, default=100,
-                   help="Monte Carlo runs (default 100)")
+    r.add_argument("--runs", type=_positive, default=100, help="Monte Carlo runs (default 100)")
     r.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
-    r.add_argument("--out", type=Path, default=None,
-                   help="output folder (default results/<scenario name>)")
-    r.add_argument("--save-estimates", action="store_true",
-                   help="also write estimates.nc (NetCDF) with every estimate")
+    r.add_argument(
+        "--out", type=Path, default=None, help="output folder (default results/<scenario name>)"
+    )
+    r.add_argument(
+        "--save-estimates",
+        action="store_true",
+        help="also write estimates.nc (NetCDF) with every estimate",
+    )
     r.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
-    r.add_argument("--workers", type=_positive, default=None,
-                   help="worker processes (default: FTNAV_WORKERS, else the CPUs available); "
-                        "the results do not depend on it")
+    r.add_argument(
+        "--workers",
+        type=_positive,
+        default=None,
+        help="worker processes (default: FTNAV_WORKERS, else the CPUs available); "
+        "the results do not depend on it",
+    )
     t = command("trajectory", help="generate a flight's truth and IMU increments")
     t.add_argument("profile", help="built-in profile (seed001, seed002) or a profile TOML path")
     t.add_argument("--out", type=Path, required=True, help="output folder")
-    t.add_argument("--imu", default=None,
-                   help="IMU error preset (ideal increments if omitted), e.g. seed001")
+    t.add_argument(
+        "--imu", default=None, help="IMU error preset (ideal increments if omitted), e.g. seed001"
+    )
     t.add_argument("--seed", type=_seed, default=1, help="random seed of the IMU errors")
     t.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
-    d = command("train-detector",
-                       help="train the RBF fault detector (paper 000) on a scenario's system")
+    d = command(
+        "train-detector", help="train the RBF fault detector (paper 000) on a scenario's system"
+    )
     d.add_argument("scenario", help="built-in scenario name or a TOML path")
     d.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
-    d.add_argument("--runs", type=_positive, default=8,
-                   help="training runs per typical fault (default 8)")
-    d.add_argument("--holdout", type=_positive, default=4,
-                   help="held-out runs per typical fault (default 4)")
+    d.add_argument(
+        "--runs", type=_positive, default=8, help="training runs per typical fault (default 8)"
+    )
+    d.add_argument(
+        "--holdout", type=_positive, default=4, help="held-out runs per typical fault (default 4)"
+    )
     d.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
-    d.add_argument("--method", default=None,
-                   help="scenario method whose filters produce the features (default: the "
-                        "first with detector 'rbf', else federated inverse-trace)")
-    d.add_argument("--centres", type=_at_least(2), default=60,
-                   help="hidden RBF units (default 60)")
+    d.add_argument(
+        "--method",
+        default=None,
+        help="scenario method whose filters produce the features (default: the "
+        "first with detector 'rbf', else federated inverse-trace)",
+    )
+    d.add_argument("--centres", type=_at_least(2), default=60, help="hidden RBF units (default 60)")
     d.add_argument("--no-figure", action="store_true", help="skip the ROC/confusion figure")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
-    f = command("train-fusion",
-                       help="train the neuron fusion centre (paper 001) on a scenario's system")
+    f = command(
+        "train-fusion", help="train the neuron fusion centre (paper 001) on a scenario's system"
+    )
     f.add_argument("scenario", help="built-in scenario name or a TOML path")
     f.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
-    f.add_argument("--runs", type=_positive, default=4,
-                   help="training runs per typical fault (default 4)")
-    f.add_argument("--holdout", type=_positive, default=2,
-                   help="held-out runs per typical fault (default 2)")
+    f.add_argument(
+        "--runs", type=_positive, default=4, help="training runs per typical fault (default 4)"
+    )
+    f.add_argument(
+        "--holdout", type=_positive, default=2, help="held-out runs per typical fault (default 2)"
+    )
     f.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
-    f.add_argument("--projection", choices=("simplex", "seed"), default="simplex",
-                   help="weight constraint: exact simplex projection or the paper's "
-                        "clip-and-renormalize (default simplex)")
-    f.add_argument("--free-input", action="store_true",
-                   help="add the free propagation (no measurements) as an input")
+    f.add_argument(
+        "--projection",
+        choices=("simplex", "seed"),
+        default="simplex",
+        help="weight constraint: exact simplex projection or the paper's "
+        "clip-and-renormalize (default simplex)",
+    )
+    f.add_argument(
+        "--free-input",
+        action="store_true",
+        help="add the free propagation (no measurements) as an input",
+    )
     f.add_argument("--no-figure", action="store_true", help="skip the RMSE/weights figure")
     f.add_argument("--quiet", action="store_true", help="no progress bar")
     command("list", help="list built-in scenarios and their methods")
-    s = command("schema", help="print the JSON schema of scenario files (linear and "
-                "integrated)")
+    s = command("schema", help="print the JSON schema of scenario files (linear and integrated)")
     s.add_argument("--out", type=Path, default=None, help="write to a file instead")
     return p
 
@@ -218,8 +254,10 @@ def _resolve(spec: str):
     path = Path(spec)
     if path.suffix == ".toml" or path.exists():
         return load_scenario(path)
-    raise UsageError(f"scenario: {spec!r} is neither a built-in scenario "
-                     f"({', '.join(builtin_names())}) nor a TOML file")
+    raise UsageError(
+        f"scenario: {spec!r} is neither a built-in scenario "
+        f"({', '.join(builtin_names())}) nor a TOML file"
+    )
 
 
 def _integrated(sc) -> bool:
@@ -268,10 +306,14 @@ def _check_memory(sc, runs: int, **options) -> None:
     if fit == 0:
         field = "filter.duration_s" if _integrated(sc) else "steps"
         one = run_memory_bytes(sc, 1, **options)
-        raise UsageError(f"{field}: one run of {sc.name} ({sc.steps} epochs of {sc.dt:g} s) "
-                         f"needs about {format_bytes(one)}, {have}")
-    raise UsageError(f"--runs: {runs} runs of {sc.name} need about {format_bytes(need)}, "
-                     f"{have} (at most {fit} would fit)")
+        raise UsageError(
+            f"{field}: one run of {sc.name} ({sc.steps} epochs of {sc.dt:g} s) "
+            f"needs about {format_bytes(one)}, {have}"
+        )
+    raise UsageError(
+        f"--runs: {runs} runs of {sc.name} need about {format_bytes(need)}, "
+        f"{have} (at most {fit} would fit)"
+    )
 
 
 def _compile_note(kind: str, quiet: bool) -> None:
@@ -340,9 +382,16 @@ def _owned(folder: Path) -> list[str]:
         return []
     if not isinstance(names, list):
         return []
-    return [n for n in names if isinstance(n, str) and n not in ("", ".", "..", MANIFEST)
-            and "/" not in n and "\\" not in n and (folder / n).is_file()
-            and not (folder / n).is_symlink()]
+    return [
+        n
+        for n in names
+        if isinstance(n, str)
+        and n not in ("", ".", "..", MANIFEST)
+        and "/" not in n
+        and "\\" not in n
+        and (folder / n).is_file()
+        and not (folder / n).is_symlink()
+    ]
 
 
 @contextmanager
@@ -376,8 +425,9 @@ def _staged(out: Path, *, folder: bool) -> Iterator[Path]:
             return
         from ftnav import __version__
 
-        (stage / MANIFEST).write_text(json.dumps(
-            {"written_by": f"ftnav {__version__}", "files": names}, indent=1) + "\n")
+        (stage / MANIFEST).write_text(
+            json.dumps({"written_by": f"ftnav {__version__}", "files": names}, indent=1) + "\n"
+        )
         if not target.exists():
             os.rename(stage, target)
             return
@@ -403,8 +453,10 @@ def _cmd_list(args) -> int:
     for name in builtin_names():
         sc = load_scenario(builtin_path(name))
         print(f"{name}: {sc.description}")
-        print(f"  {sc.steps} epochs x {sc.dt} s, states {', '.join(sc.model.states)}; sensors "
-              f"{', '.join(sc.sensor_names)}; {len(sc.faults)} fault(s)")
+        print(
+            f"  {sc.steps} epochs x {sc.dt} s, states {', '.join(sc.model.states)}; sensors "
+            f"{', '.join(sc.sensor_names)}; {len(sc.faults)} fault(s)"
+        )
         for m in sc.methods:
             detail = m.architecture
             if m.architecture == "federated":
@@ -413,8 +465,10 @@ def _cmd_list(args) -> int:
                 detail += f", detector {m.detector}"
             print(f"    {m.name:28s} {detail}")
     print("architectures: centralized | federated | distributed | neural")
-    print("sharing rules: equal | fixed | information | trace | eigen-trace | frobenius | "
-          "inverse-trace")
+    print(
+        "sharing rules: equal | fixed | information | trace | eigen-trace | frobenius | "
+        "inverse-trace"
+    )
     print("detectors: none | residual-chi2 | state-chi2 | oracle | rbf")
     return 0
 
@@ -457,29 +511,38 @@ def _cmd_run(args) -> int:
     # one unit per method and epoch (the fault-free twin runs in the same batch)
     total = len(sc.methods) * sc.steps
     t0 = time.perf_counter()
-    with tqdm(total=total, disable=True if args.quiet else None, unit="epoch",
-              desc=f"{sc.name} x{args.runs}", file=sys.stderr, mininterval=0.5) as bar:
+    with tqdm(
+        total=total,
+        disable=True if args.quiet else None,
+        unit="epoch",
+        desc=f"{sc.name} x{args.runs}",
+        file=sys.stderr,
+        mininterval=0.5,
+    ) as bar:
         if integrated:
             from ftnav.eval.integrated import run_ins_scenario
 
-            ir = run_ins_scenario(sc, args.runs, args.seed, progress=bar.update,
-                                  workers=workers)
+            ir = run_ins_scenario(sc, args.runs, args.seed, progress=bar.update, workers=workers)
             result = ir.result
         else:
-            result = run_scenario(sc, args.runs, args.seed, progress=bar.update,
-                                  workers=workers)
+            result = run_scenario(sc, args.runs, args.seed, progress=bar.update, workers=workers)
     second = None
     if integrated and sc.test_profile is not None:
         # learned methods are also scored on a flight they were not trained on
         from dataclasses import replace
 
-        sc2 = replace(sc, name=f"{sc.name}@{sc.test_profile.name}", profile=sc.test_profile,
-                      test_profile=None)
-        with tqdm(total=len(sc2.methods) * sc2.steps, disable=True if args.quiet else None,
-                  unit="epoch", desc=f"{sc2.name} x{args.runs}", file=sys.stderr,
-                  mininterval=0.5) as bar:
-            ir2 = run_ins_scenario(sc2, args.runs, args.seed, progress=bar.update,
-                                   workers=workers)
+        sc2 = replace(
+            sc, name=f"{sc.name}@{sc.test_profile.name}", profile=sc.test_profile, test_profile=None
+        )
+        with tqdm(
+            total=len(sc2.methods) * sc2.steps,
+            disable=True if args.quiet else None,
+            unit="epoch",
+            desc=f"{sc2.name} x{args.runs}",
+            file=sys.stderr,
+            mininterval=0.5,
+        ) as bar:
+            ir2 = run_ins_scenario(sc2, args.runs, args.seed, progress=bar.update, workers=workers)
         second = (ir2.result, evaluate(ir2.result))
     elapsed = time.perf_counter() - t0
     mark_kernels_compiled(kind)
@@ -504,8 +567,9 @@ def _cmd_run(args) -> int:
         written = ["metrics.json", "report.md", *figures]
         if args.save_estimates:
             written += [p.name for p in write_estimates(result, stage)]
-    print(f"{sc.name}: {args.runs} runs, seed {args.seed}, {len(sc.methods)} methods, "
-          f"{elapsed:.1f} s")
+    print(
+        f"{sc.name}: {args.runs} runs, seed {args.seed}, {len(sc.methods)} methods, {elapsed:.1f} s"
+    )
     print(results_table(result, metrics))
     if second is not None:
         print(f"\nSame methods on a flight not used for training ({second[0].scenario.name}):")
@@ -547,9 +611,11 @@ def _cmd_trajectory(args) -> int:
         need = trajectory_memory_bytes(profile, errors is not None)
         available = available_memory_bytes()
         if available is not None and need > available:
-            raise UsageError(f"profile: {profile.duration:g} s at {profile.imu_rate:g} Hz "
-                             f"needs about {format_bytes(need)}, more than the "
-                             f"{format_bytes(available)} available")
+            raise UsageError(
+                f"profile: {profile.duration:g} s at {profile.imu_rate:g} Hz "
+                f"needs about {format_bytes(need)}, more than the "
+                f"{format_bytes(available)} available"
+            )
     _compile_note("trajectory", False)
     traj = generate(profile)
     dtheta, dv = traj.dtheta, traj.dv
@@ -559,8 +625,10 @@ def _cmd_trajectory(args) -> int:
         dtheta, dv, _ = simulate_imu_errors(dtheta, dv, traj.dt, errors, seed=args.seed)
     mark_kernels_compiled("trajectory")
     with _staged(out, folder=True) as stage:
-        written = [write_truth_csv(traj, stage / "truth.csv").name,
-                   write_imu_csv(traj.t[1:], dtheta, dv, stage / "imu.csv").name]
+        written = [
+            write_truth_csv(traj, stage / "truth.csv").name,
+            write_imu_csv(traj.t[1:], dtheta, dv, stage / "imu.csv").name,
+        ]
         if not args.no_figure:
             from ftnav.plot.navigation import trajectory_figure
 
@@ -568,8 +636,10 @@ def _cmd_trajectory(args) -> int:
             fig.savefig(stage / "trajectory.png", dpi=110)
             written.append("trajectory.png")
     imu = f"IMU errors '{args.imu}', seed {args.seed}" if errors is not None else "ideal IMU"
-    print(f"{profile.name}: {profile.duration:g} s at {profile.imu_rate:g} Hz, "
-          f"{len(profile.segments)} segments, {imu}")
+    print(
+        f"{profile.name}: {profile.duration:g} s at {profile.imu_rate:g} Hz, "
+        f"{len(profile.segments)} segments, {imu}"
+    )
     print(f"Written to {out}/: {', '.join(written)}")
     return 0
 
@@ -577,8 +647,14 @@ def _cmd_trajectory(args) -> int:
 def _bar(total: int, quiet: bool, desc: str):
     from tqdm import tqdm
 
-    return tqdm(total=total, disable=True if quiet else None, unit="epoch", desc=desc,
-                file=sys.stderr, mininterval=0.5)
+    return tqdm(
+        total=total,
+        disable=True if quiet else None,
+        unit="epoch",
+        desc=desc,
+        file=sys.stderr,
+        mininterval=0.5,
+    )
 
 
 def _cmd_train_detector(args) -> int:
@@ -593,20 +669,26 @@ def _cmd_train_detector(args) -> int:
         out = args.out
         _check_out_file(out)
         if _integrated(sc):
-            raise UsageError(f"scenario: {sc.name} is an integrated scenario; the RBF "
-                             "detector is trained on linear scenarios")
+            raise UsageError(
+                f"scenario: {sc.name} is an integrated scenario; the RBF "
+                "detector is trained on linear scenarios"
+            )
         method = default_method(sc)
         if args.method is not None:
             named = {m.name: m for m in sc.methods}
             if args.method not in named:
-                raise UsageError(f"--method: {args.method!r} is not a method of {sc.name} "
-                                 f"({', '.join(named)})")
+                raise UsageError(
+                    f"--method: {args.method!r} is not a method of {sc.name} ({', '.join(named)})"
+                )
             method = named[args.method]
         if method.architecture not in ("federated", "distributed"):
-            raise UsageError(f"methods[{method.name}].architecture: the RBF detector's "
-                             "features need local filters (federated or distributed)")
-        settings = DetectorTraining(runs=args.runs, holdout_runs=args.holdout, seed=args.seed,
-                                    n_centres=args.centres)
+            raise UsageError(
+                f"methods[{method.name}].architecture: the RBF detector's "
+                "features need local filters (federated or distributed)"
+            )
+        settings = DetectorTraining(
+            runs=args.runs, holdout_runs=args.holdout, seed=args.seed, n_centres=args.centres
+        )
         n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
     _compile_note("train-linear", args.quiet)
     total = sc.steps * n_var * (args.runs * (1 + settings.closed_loop) + 2 * args.holdout)
@@ -623,9 +705,11 @@ def _cmd_train_detector(args) -> int:
             fig = detector_figure(report, f"{sc.name}: RBF detector vs chi-square, held-out runs")
             fig.savefig(stage / out.with_suffix(".png").name, dpi=110)
             written.append(str(out.with_suffix(".png")))
-    print(f"{sc.name}: RBF detector for method {method.name!r} ({method.architecture}), "
-          f"{n_var} fault variants x {args.runs} training runs, {report.train_samples} "
-          f"samples, {time.perf_counter() - t0:.1f} s")
+    print(
+        f"{sc.name}: RBF detector for method {method.name!r} ({method.architecture}), "
+        f"{n_var} fault variants x {args.runs} training runs, {report.train_samples} "
+        f"samples, {time.perf_counter() - t0:.1f} s"
+    )
     print(f"thresholds per output: {', '.join(f'{t:.3g}' for t in model.threshold)}")
     print(held_out_table(report))
     print(f"Written: {', '.join(written)}")
@@ -649,9 +733,13 @@ def _cmd_train_fusion(args) -> int:
         out = args.out
         _check_out_file(out)
         if not _integrated(sc):
-            settings = FusionTraining(runs=args.runs, holdout_runs=args.holdout,
-                                      seed=args.seed, projection=args.projection,
-                                      free_input=args.free_input)
+            settings = FusionTraining(
+                runs=args.runs,
+                holdout_runs=args.holdout,
+                seed=args.seed,
+                projection=args.projection,
+                free_input=args.free_input,
+            )
             n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
             check_training(sc, settings)
     if _integrated(sc):
@@ -671,8 +759,10 @@ def _cmd_train_fusion(args) -> int:
             fig = fusion_figure(model, report, f"{sc.name}: neuron fusion centre, held-out runs")
             fig.savefig(stage / out.with_suffix(".png").name, dpi=110)
             written.append(str(out.with_suffix(".png")))
-    print(f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
-          f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s")
+    print(
+        f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
+        f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s"
+    )
     print(fusion_table(model, report))
     print(f"Written: {', '.join(written)}")
     return 0
@@ -691,8 +781,10 @@ def _train_ins_fusion(sc, out: Path, args) -> int:
     mark_kernels_compiled("train-integrated")
     with _staged(out, folder=False) as stage:
         model.save(stage / out.name)
-    print(f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
-          f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s")
+    print(
+        f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
+        f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s"
+    )
     print("weights of the position neurons (" + ", ".join(model.inputs) + "):")
     for j, st in ((6, "dL"), (7, "dlambda"), (8, "dh")):
         for c, w in zip(model.configurations, model.weights[:, j], strict=True):
@@ -701,9 +793,14 @@ def _train_ins_fusion(sc, out: Path, args) -> int:
     return 0
 
 
-_COMMANDS = {"list": _cmd_list, "schema": _cmd_schema, "run": _cmd_run,
-             "trajectory": _cmd_trajectory, "train-detector": _cmd_train_detector,
-             "train-fusion": _cmd_train_fusion}
+_COMMANDS = {
+    "list": _cmd_list,
+    "schema": _cmd_schema,
+    "run": _cmd_run,
+    "trajectory": _cmd_trajectory,
+    "train-detector": _cmd_train_detector,
+    "train-fusion": _cmd_train_fusion,
+}
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -741,8 +838,10 @@ def main(argv: list[str] | None = None) -> int:
         if debug:
             traceback.print_exception(e)
         hint = "" if debug else " (run again with --debug for the traceback)"
-        print(f"ftnav: internal error, please report: {type(e).__name__}: {_one_line(e)}"
-              f"{hint}", file=sys.stderr)
+        print(
+            f"ftnav: internal error, please report: {type(e).__name__}: {_one_line(e)}{hint}",
+            file=sys.stderr,
+        )
         return 1
 
 

@@ -116,8 +116,12 @@ def _call(fn: Callable[..., R], task) -> R:
 
 
 # ----------------------------------------------------------------------- parent side
-def run_tasks(fn: Callable[[T, Callable[[int], None] | None], R], tasks: Sequence[T],
-              workers: int, progress: Callable[[int], None] | None = None) -> list[R]:
+def run_tasks(
+    fn: Callable[[T, Callable[[int], None] | None], R],
+    tasks: Sequence[T],
+    workers: int,
+    progress: Callable[[int], None] | None = None,
+) -> list[R]:
     """``[fn(task, progress) for task in tasks]``, in up to ``workers`` processes.
 
     Parameters
@@ -151,8 +155,9 @@ def run_tasks(fn: Callable[[T, Callable[[int], None] | None], R], tasks: Sequenc
         reader = threading.Thread(target=drain, daemon=True)
         reader.start()
     try:
-        with ProcessPoolExecutor(min(workers, len(tasks)), mp_context=ctx,
-                                 initializer=_init_worker, initargs=(q,)) as pool:
+        with ProcessPoolExecutor(
+            min(workers, len(tasks)), mp_context=ctx, initializer=_init_worker, initargs=(q,)
+        ) as pool:
             futures = [pool.submit(_call, fn, t) for t in tasks]
             try:
                 return [f.result() for f in futures]

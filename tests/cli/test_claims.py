@@ -32,8 +32,9 @@ def _never_nan_verdict(claims):
         if not c["checked"]:
             assert c["note"].startswith("not checked: "), c
         else:
-            assert not any(isinstance(v, float) and math.isnan(v)
-                           for v in _numbers(c["measured"])), c
+            assert not any(
+                isinstance(v, float) and math.isnan(v) for v in _numbers(c["measured"])
+            ), c
 
 
 def _numbers(obj):
@@ -65,23 +66,35 @@ def test_shortened_seed000_copy_reports_not_checked_with_the_reason():
     claims = {c["id"]: c for c in check_claims(result, evaluate(result))}
     _never_nan_verdict(claims.values())
     assert claims["exact-fusion"]["checked"] and claims["p000-fig3"]["checked"]
-    for cid in ("p000-fig4a-reset1", "p000-fig4a-reset10", "p000-fig4b",
-                "p000-no-isolation", "p000-recovery", "p000-rbf"):
+    for cid in (
+        "p000-fig4a-reset1",
+        "p000-fig4a-reset10",
+        "p000-fig4b",
+        "p000-no-isolation",
+        "p000-recovery",
+        "p000-rbf",
+    ):
         c = claims[cid]
         assert not c["checked"] and c["holds"] is None, cid
-        assert c["note"] == ("not checked: no epoch of the run (0, 200] s lies in a fault "
-                             "window ([300, 500) s)"), c["note"]
+        assert c["note"] == (
+            "not checked: no epoch of the run (0, 200] s lies in a fault window ([300, 500) s)"
+        ), c["note"]
 
 
 def test_seed000_copy_ending_inside_the_grace_period_leaves_recovery_not_checked():
     sc = replace(_builtin("seed000"), name="short000", steps=505)  # grace ends at 510 s
-    result = run_scenario(sc, 2, 1, methods=tuple(
-        m for m in _builtin("seed000").methods if m.name == "fkf-inverse-trace-chi2"))
+    result = run_scenario(
+        sc,
+        2,
+        1,
+        methods=tuple(m for m in _builtin("seed000").methods if m.name == "fkf-inverse-trace-chi2"),
+    )
     claims = {c["id"]: c for c in check_claims(result, evaluate(result))}
     assert claims["p000-fig4b"]["checked"]
     assert claims["p000-recovery"]["note"] == (
         "not checked: no epoch of the run (0, 505] s after the fault window and the grace "
-        "period (500 + 10 s)")
+        "period (500 + 10 s)"
+    )
 
 
 @pytest.fixture(scope="module")
@@ -96,17 +109,26 @@ def test_shortened_seed002_copy_checks_the_cut_window_and_not_the_one_outside(sh
     ir, metrics = short002
     claims = {c["id"]: c for c in check_claims(ir.result, metrics, ir.local)}
     _never_nan_verdict(claims.values())
-    for cid in ("p002-adaptive-noise-scale", "p002-fkf-isolates-noise-scale",
-                "p002-height-noise-scale", "p002-vb-sigma"):
+    for cid in (
+        "p002-adaptive-noise-scale",
+        "p002-fkf-isolates-noise-scale",
+        "p002-height-noise-scale",
+        "p002-vb-sigma",
+    ):
         assert claims[cid]["checked"], claims[cid]
     assert claims["p002-adaptive-noise-scale"]["note"].endswith(
-        "the window is cut at the end of the run (1000 s)")
-    for cid in ("p002-adaptive-noise-ramp", "p002-fkf-isolates-noise-ramp",
-                "p002-height-noise-ramp"):
+        "the window is cut at the end of the run (1000 s)"
+    )
+    for cid in (
+        "p002-adaptive-noise-ramp",
+        "p002-fkf-isolates-noise-ramp",
+        "p002-height-noise-ramp",
+    ):
         c = claims[cid]
         assert not c["checked"] and c["holds"] is None
-        assert c["note"] == ("not checked: no epoch of the run (0, 1000] s lies in a fault "
-                             "window ([2100, 3000) s)")
+        assert c["note"] == (
+            "not checked: no epoch of the run (0, 1000] s lies in a fault window ([2100, 3000) s)"
+        )
 
 
 def test_vb_claim_needs_300_s_of_the_noise_step(short002):
@@ -114,27 +136,48 @@ def test_vb_claim_needs_300_s_of_the_noise_step(short002):
     sc = ir.result.scenario
 
     def vb_note(start, end):
-        faults = tuple(replace(f, start=start, end=end) if f.kind == "noise-scale" else f
-                       for f in sc.faults)
+        faults = tuple(
+            replace(f, start=start, end=end) if f.kind == "noise-scale" else f for f in sc.faults
+        )
         result = ir.result._replace(scenario=replace(sc, faults=faults))
         claims = {c["id"]: c for c in check_claims(result, metrics)}
         return claims["p002-vb-sigma"]["note"]
 
-    assert vb_note(900.0, 1500.0) == ("not checked: the run ends at 1000 s, before 300 s "
-                                      "after the noise step begins (900 + 300 s)")
-    assert vb_note(600.0, 800.0) == ("not checked: the noise step [600, 800) s is over "
-                                     "before 300 s have passed")
+    assert vb_note(900.0, 1500.0) == (
+        "not checked: the run ends at 1000 s, before 300 s "
+        "after the noise step begins (900 + 300 s)"
+    )
+    assert vb_note(600.0, 800.0) == (
+        "not checked: the noise step [600, 800) s is over before 300 s have passed"
+    )
 
 
 def test_named_like_a_built_in_without_its_methods(tmp_path, capsys):
     path = tmp_path / "fake.toml"
-    path.write_text('kind = "integrated"\nname = "seed002"\nprofile = "seed002"\n'
-                    '[filter]\nduration_s = 10.0\n[[aids]]\ntype = "ads"\n'
-                    '[[methods]]\nname = "ckf"\narchitecture = "centralized"\n')
-    assert main(["run", str(path), "--runs", "1", "--out", str(tmp_path / "o"),
-                 "--no-figures", "--quiet"]) == 0
+    path.write_text(
+        'kind = "integrated"\nname = "seed002"\nprofile = "seed002"\n'
+        '[filter]\nduration_s = 10.0\n[[aids]]\ntype = "ads"\n'
+        '[[methods]]\nname = "ckf"\narchitecture = "centralized"\n'
+    )
+    assert (
+        main(
+            [
+                "run",
+                str(path),
+                "--runs",
+                "1",
+                "--out",
+                str(tmp_path / "o"),
+                "--no-figures",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
-    assert ("[not checked] paper 002 §4: Paper 002's claims: the VB-adaptive distributed "
-            "filter against the federated filter with chi-square isolation (not checked: the "
-            "scenario has no method fkf-chi2, dkf-vb (a copy of seed002 keeps ckf, fkf-chi2, "
-            "dkf-vb))") in out
+    assert (
+        "[not checked] paper 002 §4: Paper 002's claims: the VB-adaptive distributed "
+        "filter against the federated filter with chi-square isolation (not checked: the "
+        "scenario has no method fkf-chi2, dkf-vb (a copy of seed002 keeps ckf, fkf-chi2, "
+        "dkf-vb))"
+    ) in out

@@ -23,8 +23,20 @@ def small(tmp_path) -> Path:
 
 def test_run_writes_the_metrics_contract_and_estimates(small, tmp_path, capsys):
     out = tmp_path / "out"
-    code = main(["run", str(small), "--runs", "3", "--seed", "7", "--out", str(out),
-                 "--save-estimates", "--quiet"])
+    code = main(
+        [
+            "run",
+            str(small),
+            "--runs",
+            "3",
+            "--seed",
+            "7",
+            "--out",
+            str(out),
+            "--save-estimates",
+            "--quiet",
+        ]
+    )
     assert code == 0
     doc = json.loads((out / "metrics.json").read_text())
     assert (doc["scenario"], doc["runs"], doc["seed"]) == ("small", 3, 7)
@@ -97,21 +109,29 @@ def test_schema_branches_hold_the_top_level_keys_of_every_built_in():
 
 
 BAD = [
-    ('F  = [[1.0, 0.05, 0.00125], [0.0, 1.0, 0.05], [0.0, 0.0, 1.0]]',
-     'F  = [[1.0, 0.05], [0.0, 1.0]]', "model.F"),
-    ('Q  = [[5.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]',
-     'Q  = [[5.0, 1.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]', "model.Q"),
-    ('Q  = [[5.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]',
-     'Q  = [[5.0, 0.0, 0.0], [0.0, -2.0, 0.0], [0.0, 0.0, 3.0]]', "model.Q"),
-    ('R = [[30.0]]\n[[sensors]]', 'R = [[-30.0]]\n[[sensors]]', r"sensors\[0\].R"),
-    ('P0 = [[100.0, 0.0, 0.0]', 'P0 = [[nan, 0.0, 0.0]', "model.P0"),
-    ('x0 = [0.0, 0.0, 0.0]', 'x0 = [0.0, inf, 0.0]', "model.x0"),
+    (
+        "F  = [[1.0, 0.05, 0.00125], [0.0, 1.0, 0.05], [0.0, 0.0, 1.0]]",
+        "F  = [[1.0, 0.05], [0.0, 1.0]]",
+        "model.F",
+    ),
+    (
+        "Q  = [[5.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]",
+        "Q  = [[5.0, 1.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]",
+        "model.Q",
+    ),
+    (
+        "Q  = [[5.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]]",
+        "Q  = [[5.0, 0.0, 0.0], [0.0, -2.0, 0.0], [0.0, 0.0, 3.0]]",
+        "model.Q",
+    ),
+    ("R = [[30.0]]\n[[sensors]]", "R = [[-30.0]]\n[[sensors]]", r"sensors\[0\].R"),
+    ("P0 = [[100.0, 0.0, 0.0]", "P0 = [[nan, 0.0, 0.0]", "model.P0"),
+    ("x0 = [0.0, 0.0, 0.0]", "x0 = [0.0, inf, 0.0]", "model.x0"),
     ('sensor = "pos1"', 'sensor = "pos9"', r"faults\[0\].sensor"),
-    ('start = 20.0', 'start = -5.0', r"faults\[0\].start"),
-    ('end = 40.0', 'end = 10.0', r"faults\[0\].end"),
+    ("start = 20.0", "start = -5.0", r"faults\[0\].start"),
+    ("end = 40.0", "end = 10.0", r"faults\[0\].end"),
     ('sharing = "inverse-trace"', 'sharing = "inverse-trace"\nbogus = 1', r"methods\[1\].bogus"),
-    ('architecture = "distributed"', 'architecture = "hierarchical"',
-     r"methods\[2\].architecture"),
+    ('architecture = "distributed"', 'architecture = "hierarchical"', r"methods\[2\].architecture"),
     ('kind = "bias"', 'kind = "drift"', r"faults\[0\].kind"),
 ]
 
@@ -128,12 +148,15 @@ def test_bad_scenario_exits_2_with_one_line_naming_the_field(tmp_path, capsys, o
     assert pytest.importorskip("re").search(field, err), err
 
 
-@pytest.mark.parametrize("argv", [
-    ["run", "no-such-scenario"],
-    ["run", "seed000", "--runs", "0"],
-    ["run", "seed000", "--seed", "x"],
-    ["frobnicate"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "no-such-scenario"],
+        ["run", "seed000", "--runs", "0"],
+        ["run", "seed000", "--seed", "x"],
+        ["frobnicate"],
+    ],
+)
 def test_bad_arguments_exit_2_with_one_line(argv, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
@@ -142,9 +165,10 @@ def test_bad_arguments_exit_2_with_one_line(argv, capsys):
 
 def test_console_script_bad_input_has_no_traceback(tmp_path):
     p = tmp_path / "bad.toml"
-    p.write_text(SMALL.replace('R = [[30.0]]', 'R = [[30.0, 1.0]]', 1))
-    proc = subprocess.run([sys.executable, "-m", "ftnav.cli", "run", str(p)],
-                          capture_output=True, text=True)
+    p.write_text(SMALL.replace("R = [[30.0]]", "R = [[30.0, 1.0]]", 1))
+    proc = subprocess.run(
+        [sys.executable, "-m", "ftnav.cli", "run", str(p)], capture_output=True, text=True
+    )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
     assert "sensors[0].R" in proc.stderr
@@ -206,44 +230,44 @@ def _crash(*args, **kwargs):
     raise RuntimeError("boom\nsecond line")
 
 
-def test_an_error_during_the_computation_is_an_internal_error(small, tmp_path, capsys,
-                                                              monkeypatch):
+def test_an_error_during_the_computation_is_an_internal_error(small, tmp_path, capsys, monkeypatch):
     import ftnav.eval.montecarlo as mc
 
     monkeypatch.setattr(mc, "run_scenario", _crash)
-    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"),
-                 "--quiet"]) == 1
+    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet"]) == 1
     err = capsys.readouterr().err
-    assert err == ("ftnav: internal error, please report: RuntimeError: boom second line "
-                   "(run again with --debug for the traceback)\n")
+    assert err == (
+        "ftnav: internal error, please report: RuntimeError: boom second line "
+        "(run again with --debug for the traceback)\n"
+    )
 
 
-def test_a_value_error_during_the_computation_is_not_the_users_fault(small, tmp_path, capsys,
-                                                                     monkeypatch):
+def test_a_value_error_during_the_computation_is_not_the_users_fault(
+    small, tmp_path, capsys, monkeypatch
+):
     import ftnav.eval.montecarlo as mc
 
     def bug(*args, **kwargs):
         raise ValueError("x: a bug that looks like bad input")
 
     monkeypatch.setattr(mc, "run_scenario", bug)
-    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"),
-                 "--quiet"]) == 1
-    assert capsys.readouterr().err.startswith("ftnav: internal error, please report: "
-                                              "ValueError: x: a bug")
+    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    assert capsys.readouterr().err.startswith(
+        "ftnav: internal error, please report: ValueError: x: a bug"
+    )
 
 
-def test_a_value_error_while_building_the_filters_is_bad_input(small, tmp_path, capsys,
-                                                               monkeypatch):
+def test_a_value_error_while_building_the_filters_is_bad_input(
+    small, tmp_path, capsys, monkeypatch
+):
     import ftnav.eval.montecarlo as mc
 
     def refuse(system, method, features=None):
         raise ValueError(f"methods[{method.name}].sharing: not for this system")
 
     monkeypatch.setattr(mc, "build_filter", refuse)
-    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"),
-                 "--quiet"]) == 2
-    assert capsys.readouterr().err == \
-        "ftnav: error: methods[ckf].sharing: not for this system\n"
+    assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    assert capsys.readouterr().err == "ftnav: error: methods[ckf].sharing: not for this system\n"
     assert not (tmp_path / "o").exists()
 
 
@@ -266,23 +290,42 @@ def test_debug_shows_the_traceback_of_both_kinds(small, tmp_path, capsys, monkey
     assert main(argv(str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet")) == 1
     err = capsys.readouterr().err
     assert "Traceback (most recent call last)" in err and "in _crash" in err
-    assert err.splitlines()[-1] == \
-        "ftnav: internal error, please report: RuntimeError: boom second line"
+    assert (
+        err.splitlines()[-1]
+        == "ftnav: internal error, please report: RuntimeError: boom second line"
+    )
 
 
 def test_console_script_internal_error_is_one_line(tmp_path):
     """A bug in a subprocess (the real entry point): exit 1, one line, no traceback."""
-    code = ("import sys, ftnav.eval.montecarlo as mc\n"
-            "def crash(*a, **k): raise KeyError('lost')\n"
-            "mc.run_scenario = crash\n"
-            "from ftnav.cli import main\n"
-            "sys.exit(main(sys.argv[1:]))\n")
+    code = (
+        "import sys, ftnav.eval.montecarlo as mc\n"
+        "def crash(*a, **k): raise KeyError('lost')\n"
+        "mc.run_scenario = crash\n"
+        "from ftnav.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
     p = tmp_path / "small.toml"
     p.write_text(SMALL)
-    proc = subprocess.run([sys.executable, "-c", code, "run", str(p), "--runs", "2",
-                           "--quiet", "--out", str(tmp_path / "o")],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            code,
+            "run",
+            str(p),
+            "--runs",
+            "2",
+            "--quiet",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 1
-    assert proc.stderr == ("ftnav: internal error, please report: KeyError: 'lost' (run again "
-                           "with --debug for the traceback)\n")
+    assert proc.stderr == (
+        "ftnav: internal error, please report: KeyError: 'lost' (run again "
+        "with --debug for the traceback)\n"
+    )
     assert not (tmp_path / "o").exists()

@@ -31,8 +31,12 @@ def _tiny_scenario() -> Scenario:
     faults = (Fault("pos1", "bias", 30.0, 50.0, np.array([60.0])),)
     methods = (
         Method("centralized", architecture="centralized"),
-        Method("fed-inverse-trace-chi2", sharing="inverse-trace", detector="residual-chi2",
-               prior="global"),
+        Method(
+            "fed-inverse-trace-chi2",
+            sharing="inverse-trace",
+            detector="residual-chi2",
+            prior="global",
+        ),
         Method("fed-trace", sharing="trace"),
     )
     return Scenario("tiny", 1.0, 100, model, sensors, faults, methods)
@@ -79,8 +83,7 @@ def test_figure_functions_return_figures(result):
 
 def test_import_ftnav_does_not_import_matplotlib():
     code = "import ftnav, ftnav.plot, sys; print('matplotlib' in sys.modules)"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
 
@@ -99,11 +102,17 @@ def test_default_figures_split_the_methods_at_most_four_per_axes(tmp_path):
     result, _ = north_ramp_run()
     sc = result.scenario
     groups = method_groups(sc, list(result.results))
-    assert groups == [("ckf", "fkf-equal", "fkf-trace", "fkf-inverse-trace"),
-                      ("ckf", "fkf-oracle", "fkf-chi2", "dkf")]
+    assert groups == [
+        ("ckf", "fkf-equal", "fkf-trace", "fkf-inverse-trace"),
+        ("ckf", "fkf-oracle", "fkf-chi2", "dkf"),
+    ]
     specs = default_figures(result)
-    assert [s.name for s in specs] == ["error_no_fault", "error_fault", "error_no_fault_2",
-                                       "error_fault_2"]
+    assert [s.name for s in specs] == [
+        "error_no_fault",
+        "error_fault",
+        "error_no_fault_2",
+        "error_fault_2",
+    ]
     for spec in specs:
         fig = draw_figure(result, spec)
         assert len(fig.axes) == 2 * 2  # (run 0, RMS) x (E, N)
@@ -144,8 +153,7 @@ def test_figure_section_names_methods_states_and_title(tmp_path):
     assert [_method_lines(ax) for ax in fig.axes] == [2, 2]
     assert [line.get_label() for line in fig.axes[0].get_lines()] == ["ckf", "fkf-oracle"]
     assert fig.axes[0].get_title().startswith("N")
-    assert fig.get_suptitle().startswith("North channel under the ramp\nscenario "
-                                         "'my-north-ramp'")
+    assert fig.get_suptitle().startswith("North channel under the ramp\nscenario 'my-north-ramp'")
     paths = save_all(result, tmp_path)
     assert [p.name for p in paths] == ["north.png", "sharing.png", "fault_flags.png"]
     assert paths[0].read_bytes()[:8] == PNG_SIGNATURE
@@ -157,8 +165,12 @@ def test_builtin_seed000_figures_are_the_paper_comparisons():
 
     sc = load_scenario(builtin_path("seed000"))
     figs = {f.name: f for f in sc.figures}
-    assert list(figs) == ["paper000_fig3", "paper000_fig4a", "paper000_fig4b",
-                          "other_architectures"]
+    assert list(figs) == [
+        "paper000_fig3",
+        "paper000_fig4a",
+        "paper000_fig4b",
+        "other_architectures",
+    ]
     assert figs["paper000_fig3"].condition == "fault-free"
     assert {"fkf-fr-trace", "fkf-fr-inverse-trace"} <= set(figs["paper000_fig3"].methods)
     assert {"fkf-fr10-trace", "fkf-fr10-inverse-trace"} <= set(figs["paper000_fig4a"].methods)
@@ -191,8 +203,7 @@ def test_integrated_figures_per_state_and_titles_from_the_scenario(tmp_path):
             assert lines == [locals_ + len(spec.methods)] * 2
         else:  # vb-noise: one panel per GNSS row, each method's sigma and the true sigma
             assert lines == [len(spec.methods) + 1] * 6
-    assert [s.states for s in specs[:1]] == [("pos_E_m", "pos_N_m", "pos_U_m",
-                                              "pos_horizontal_m")]
+    assert [s.states for s in specs[:1]] == [("pos_E_m", "pos_N_m", "pos_U_m", "pos_horizontal_m")]
     paths = save_integrated(ir, tmp_path)
     assert [p.name for p in paths] == [f"{n}.png" for n in names]
 
@@ -205,8 +216,13 @@ def test_integrated_local_fused_of_several_methods_and_bad_input():
     ir, _ = integrated_run()
     fig = local_fused_figure(ir, ["fkf-chi2", "ckf", "dkf-vb"], states=["pos_N_m"])
     labels = [line.get_label() for line in fig.axes[0].get_lines()]
-    assert labels == ["SINS/gnss local (fkf-chi2)", "SINS/ads local (fkf-chi2)",
-                      "fused (fkf-chi2)", "fused (ckf)", "fused (dkf-vb)"]
+    assert labels == [
+        "SINS/gnss local (fkf-chi2)",
+        "SINS/ads local (fkf-chi2)",
+        "fused (fkf-chi2)",
+        "fused (ckf)",
+        "fused (dkf-vb)",
+    ]
     with pytest.raises(ValueError, match="at most 4"):
         local_fused_figure(ir, ["ckf"] * 5)
     with pytest.raises(ValueError, match="position states"):

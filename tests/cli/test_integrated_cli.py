@@ -142,8 +142,14 @@ def test_run_seed002_like_writes_metrics_and_paper_002_figures(tmp_path, capsys)
     _check_metrics(doc, "small002", {"ckf", "fkf-chi2", "dkf-vb"}, ["gnss", "cns", "ads"])
     assert set(doc["methods"]["fkf-chi2"]["detection"]) == {"gnss", "cns", "ads"}
     assert doc["methods"]["ckf"]["detection"] is None
-    assert {"metrics.json", "report.md", "errors_position.png", "errors_velocity.png",
-            "errors_attitude.png", "vb_noise_dkf-vb_gnss.png"} <= files
+    assert {
+        "metrics.json",
+        "report.md",
+        "errors_position.png",
+        "errors_velocity.png",
+        "errors_attitude.png",
+        "vb_noise_dkf-vb_gnss.png",
+    } <= files
     assert "Results written to" in capsys.readouterr().out
 
 
@@ -151,6 +157,9 @@ def test_run_seed001_like_writes_metrics_and_local_fused_figures(tmp_path):
     doc, files = _run(tmp_path, SEED001_LIKE, "small001")
     _check_metrics(doc, "small001", {"ckf", "fkf-nr"}, ["gps", "tan", "dns"])
     assert doc["methods"]["fkf-nr"]["detection"]["dns"]["events"] == 2
-    assert {"errors_position.png", "local_fused_fkf-nr.png",
-            "local_fused_fkf-nr_fault_free.png"} <= files
+    assert {
+        "errors_position.png",
+        "local_fused_fkf-nr.png",
+        "local_fused_fkf-nr_fault_free.png",
+    } <= files
     assert not any(f.startswith("local_fused_ckf") for f in files)  # no locals in the CKF

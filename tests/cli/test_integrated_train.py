@@ -64,8 +64,7 @@ magnitude_deg_h = [10.0, 10.0, 10.0]
 
 def _write(tmp_path, duration=40.0, every=1, extra="", faults=FAULTS):
     path = tmp_path / "small001.toml"
-    path.write_text(SMALL001.format(duration=duration, every=every, extra=extra,
-                                    faults=faults))
+    path.write_text(SMALL001.format(duration=duration, every=every, extra=extra, faults=faults))
     return path
 
 
@@ -83,14 +82,28 @@ def test_train_fusion_then_run(tmp_path, capsys):
     assert main(["train-fusion", str(path), "--out", str(out), "--runs", "1", "--quiet"]) == 0
     model = NeuronModel.load(out)
     assert model.configurations == ("healthy", "gps", "sins")
-    np.testing.assert_array_equal(model.patterns, [[False, False], [True, False],
-                                                   [True, True]])
+    np.testing.assert_array_equal(model.patterns, [[False, False], [True, False], [True, True]])
     assert (model.weights >= 0).all()
     np.testing.assert_allclose(model.weights.sum(-1), 1.0, atol=1e-9)
-    extra = ('[[methods]]\nname = "neural"\narchitecture = "neural"\n'
-             'detector = "residual-chi2"\nprior = "global"\nmodel = "m.npz"\n')
+    extra = (
+        '[[methods]]\nname = "neural"\narchitecture = "neural"\n'
+        'detector = "residual-chi2"\nprior = "global"\nmodel = "m.npz"\n'
+    )
     path = _write(tmp_path, duration=60.0, extra=extra)
-    assert main(["run", str(path), "--runs", "1", "--out", str(tmp_path / "r"), "--quiet",
-                 "--no-figures"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(path),
+                "--runs",
+                "1",
+                "--out",
+                str(tmp_path / "r"),
+                "--quiet",
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
     doc = json.loads((tmp_path / "r" / "metrics.json").read_text())
     assert np.isfinite(doc["methods"]["neural"]["rmse"]["pos_N_m"])

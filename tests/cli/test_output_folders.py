@@ -38,8 +38,9 @@ yaw_rate_deg_s = "coordinated"
 
 
 def _snapshot(root: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*"))
-            if p.is_file()}
+    return {
+        str(p.relative_to(root)): p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()
+    }
 
 
 @pytest.fixture
@@ -59,24 +60,36 @@ def _crash(*args, **kwargs):
 
 # command, target (folder or file below a new folder), refused argv, where to crash
 COMMANDS = {
-    "run": ("out", lambda i, o: ["run", i["bad"], "--out", o, "--quiet"],
-            lambda i, o: ["run", i["scenario"], "--runs", "2", "--out", o, "--quiet"],
-            ("ftnav.eval.montecarlo", "run_scenario")),
-    "trajectory": ("out", lambda i, o: ["trajectory", i["profile"], "--out", o, "--imu", "x"],
-                   lambda i, o: ["trajectory", i["profile"], "--out", o],
-                   ("ftnav.sim.trajectory", "generate")),
-    "train-detector": ("out/det.npz",
-                       lambda i, o: ["train-detector", i["scenario"], "--out", o,
-                                     "--method", "nope", "--quiet"],
-                       lambda i, o: ["train-detector", i["scenario"], "--out", o, "--quiet"],
-                       ("ftnav.fdi.training", "train_detector")),
-    "train-fusion": ("out/fus.npz",
-                     lambda i, o: ["train-fusion", i["bad"], "--out", o, "--quiet"],
-                     lambda i, o: ["train-fusion", i["scenario"], "--out", o, "--quiet"],
-                     ("ftnav.fusion.neural_training", "train_fusion")),
-    "schema": ("out/schema.json", lambda i, o: ["schema", "--out", Path(o).parent],
-               lambda i, o: ["schema", "--out", o],
-               ("ftnav.io.scenario_file", "scenario_json_schema")),
+    "run": (
+        "out",
+        lambda i, o: ["run", i["bad"], "--out", o, "--quiet"],
+        lambda i, o: ["run", i["scenario"], "--runs", "2", "--out", o, "--quiet"],
+        ("ftnav.eval.montecarlo", "run_scenario"),
+    ),
+    "trajectory": (
+        "out",
+        lambda i, o: ["trajectory", i["profile"], "--out", o, "--imu", "x"],
+        lambda i, o: ["trajectory", i["profile"], "--out", o],
+        ("ftnav.sim.trajectory", "generate"),
+    ),
+    "train-detector": (
+        "out/det.npz",
+        lambda i, o: ["train-detector", i["scenario"], "--out", o, "--method", "nope", "--quiet"],
+        lambda i, o: ["train-detector", i["scenario"], "--out", o, "--quiet"],
+        ("ftnav.fdi.training", "train_detector"),
+    ),
+    "train-fusion": (
+        "out/fus.npz",
+        lambda i, o: ["train-fusion", i["bad"], "--out", o, "--quiet"],
+        lambda i, o: ["train-fusion", i["scenario"], "--out", o, "--quiet"],
+        ("ftnav.fusion.neural_training", "train_fusion"),
+    ),
+    "schema": (
+        "out/schema.json",
+        lambda i, o: ["schema", "--out", Path(o).parent],
+        lambda i, o: ["schema", "--out", o],
+        ("ftnav.io.scenario_file", "scenario_json_schema"),
+    ),
 }
 
 
@@ -111,15 +124,17 @@ def test_crashed_command_creates_nothing(name, inputs, tmp_path, capsys, monkeyp
     before = _snapshot(tmp_path)
     assert main(_argv(good(inputs, out))) == 1
     err = capsys.readouterr().err
-    assert err.splitlines()[-1].startswith("ftnav: internal error, please report: "
-                                          "RuntimeError: crashed on purpose")
+    assert err.splitlines()[-1].startswith(
+        "ftnav: internal error, please report: RuntimeError: crashed on purpose"
+    )
     assert _snapshot(tmp_path) == before
     assert not (tmp_path / "new").exists()
 
 
 @pytest.mark.parametrize("name", ["run", "trajectory"])
-def test_refused_or_crashed_run_leaves_the_earlier_results(name, inputs, tmp_path, capsys,
-                                                          monkeypatch):
+def test_refused_or_crashed_run_leaves_the_earlier_results(
+    name, inputs, tmp_path, capsys, monkeypatch
+):
     import importlib
 
     _, refused, good, (module, attr) = COMMANDS[name]
@@ -154,16 +169,22 @@ def test_crash_while_writing_keeps_the_earlier_results(inputs, tmp_path, monkeyp
 def test_rerun_with_fewer_outputs_leaves_no_stale_file(inputs, tmp_path, capsys):
     out = tmp_path / "results"
     scenario = str(inputs["scenario"])
-    assert main(["run", scenario, "--runs", "2", "--out", str(out), "--quiet",
-                 "--save-estimates"]) == 0
+    assert (
+        main(["run", scenario, "--runs", "2", "--out", str(out), "--quiet", "--save-estimates"])
+        == 0
+    )
     first = {p.name for p in out.iterdir()}
     assert {"estimates.nc", "sharing.png", MANIFEST} <= first
     (out / "notes.txt").write_text("my notes")
     (out / "mine.png").write_bytes(b"not ftnav's")
-    assert main(["run", scenario, "--runs", "2", "--out", str(out), "--quiet",
-                 "--no-figures"]) == 0
-    assert {p.name for p in out.iterdir()} == {"metrics.json", "report.md", MANIFEST,
-                                              "notes.txt", "mine.png"}
+    assert main(["run", scenario, "--runs", "2", "--out", str(out), "--quiet", "--no-figures"]) == 0
+    assert {p.name for p in out.iterdir()} == {
+        "metrics.json",
+        "report.md",
+        MANIFEST,
+        "notes.txt",
+        "mine.png",
+    }
     assert (out / "notes.txt").read_text() == "my notes"
     assert json.loads((out / MANIFEST).read_text())["files"] == ["metrics.json", "report.md"]
     assert "Results written to" in capsys.readouterr().out
@@ -184,10 +205,24 @@ def test_a_manifest_never_deletes_outside_its_folder_or_a_folder(inputs, tmp_pat
     (tmp_path / "outside.txt").write_text("keep")
     (out / "sub").mkdir()
     (out / "sub" / "f.txt").write_text("keep")
-    (out / MANIFEST).write_text(json.dumps(
-        {"files": ["../outside.txt", "sub", "sub/f.txt", "/etc/passwd", 3]}))
-    assert main(["run", str(inputs["scenario"]), "--runs", "2", "--out", str(out),
-                 "--quiet", "--no-figures"]) == 0
+    (out / MANIFEST).write_text(
+        json.dumps({"files": ["../outside.txt", "sub", "sub/f.txt", "/etc/passwd", 3]})
+    )
+    assert (
+        main(
+            [
+                "run",
+                str(inputs["scenario"]),
+                "--runs",
+                "2",
+                "--out",
+                str(out),
+                "--quiet",
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
     assert (tmp_path / "outside.txt").read_text() == "keep"
     assert (out / "sub" / "f.txt").read_text() == "keep"
     capsys.readouterr()

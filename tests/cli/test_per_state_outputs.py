@@ -35,8 +35,13 @@ def test_north_ramp_shows_in_the_north_column_of_the_ratio():
     result, metrics = north_ramp_run()
     assert fault_states(result.scenario) == {"gnss": "N"}
     tables = summary_tables(result, metrics)
-    assert [t.title.split(" ")[0] for t in tables] == ["RMSE", "RMSE", "RMSE", "Ratio",
-                                                       "Consistency"]
+    assert [t.title.split(" ")[0] for t in tables] == [
+        "RMSE",
+        "RMSE",
+        "RMSE",
+        "Ratio",
+        "Consistency",
+    ]
     for t in tables[:4]:
         assert [c.key for c in t.columns] == ["E", "N"]
         assert [name for name, _ in t.rows] == list(metrics)
@@ -98,8 +103,7 @@ def test_integrated_tables_have_every_navigation_state_with_units():
     text = results_table(ir.result, metrics)
     assert max(len(line) for line in text.splitlines()) <= 100
     md = markdown_report(ir.result, metrics, [], [])
-    for label in ("pos_E [m]", "vel_N [m/s]", "att_U [arcmin]", "pos_horizontal [m]",
-                  "pos_3d [m]"):
+    for label in ("pos_E [m]", "vel_N [m/s]", "att_U [arcmin]", "pos_horizontal [m]", "pos_3d [m]"):
         assert f"| {label} |" in md or f" {label} |" in md, label
 
 
@@ -112,11 +116,18 @@ def test_wide_tables_are_split_into_column_blocks():
     assert "att" not in first[0]
 
 
-@pytest.mark.parametrize(("name", "expected"), [
-    ("s", ("s", None)), ("pos_E_m", ("pos_E", "m")), ("vel_N_m_s", ("vel_N", "m/s")),
-    ("att_U_arcmin", ("att_U", "arcmin")), ("pos_horizontal_m", ("pos_horizontal", "m")),
-    ("m", ("m", None)), ("_m", ("_m", None)),
-])
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [
+        ("s", ("s", None)),
+        ("pos_E_m", ("pos_E", "m")),
+        ("vel_N_m_s", ("vel_N", "m/s")),
+        ("att_U_arcmin", ("att_U", "arcmin")),
+        ("pos_horizontal_m", ("pos_horizontal", "m")),
+        ("m", ("m", None)),
+        ("_m", ("_m", None)),
+    ],
+)
 def test_split_unit_reads_the_unit_suffix(name, expected):
     assert split_unit(name) == expected
 

@@ -35,8 +35,9 @@ def _copy(name: str, tmp_path: Path, steps: int) -> Path:
     else:
         data["steps"] = steps
         data["faults"] = [f for f in data["faults"] if f["start"] < steps * data["dt"]]
-    data["methods"] = [m for m in data["methods"] if m["architecture"] == "centralized"][:1] \
-        + [m for m in data["methods"] if m["architecture"] == "distributed"][:1]
+    data["methods"] = [m for m in data["methods"] if m["architecture"] == "centralized"][:1] + [
+        m for m in data["methods"] if m["architecture"] == "distributed"
+    ][:1]
     data.pop("figures", None)
     path = tmp_path / "my_model.toml"
     path.write_text(tomli_w.dumps(data))

@@ -81,9 +81,12 @@ def _refused(argv, capsys) -> str:
 def test_huge_runs_are_refused_before_anything_is_written(tmp_path, capsys):
     out = tmp_path / "out"
     err = _refused(["run", "seed000", "--runs", 10**12, "--out", out], capsys)
-    assert re.fullmatch(r"ftnav: error: --runs: 1000000000000 runs of seed000 need about "
-                        r"[\d.]+ TiB, more than the [\d.]+ [GMT]iB available "
-                        r"\(at most \d+ would fit\)", err), err
+    assert re.fullmatch(
+        r"ftnav: error: --runs: 1000000000000 runs of seed000 need about "
+        r"[\d.]+ TiB, more than the [\d.]+ [GMT]iB available "
+        r"\(at most \d+ would fit\)",
+        err,
+    ), err
     assert not out.exists()
 
 
@@ -91,35 +94,64 @@ def test_huge_steps_are_refused_naming_steps(tmp_path, capsys):
     path = _write(tmp_path, SMALL.format(steps=10**10))
     out = tmp_path / "out"
     err = _refused(["run", path, "--runs", 1, "--out", out], capsys)
-    assert re.fullmatch(r"ftnav: error: steps: one run of small \(10000000000 epochs of 1 s\) "
-                        r"needs about [\d.]+ TiB, more than the [\d.]+ [GMT]iB available", err)
+    assert re.fullmatch(
+        r"ftnav: error: steps: one run of small \(10000000000 epochs of 1 s\) "
+        r"needs about [\d.]+ TiB, more than the [\d.]+ [GMT]iB available",
+        err,
+    )
     assert not out.exists()
 
 
 def test_console_script_refuses_huge_runs_in_one_line(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "ftnav.cli", "run", "seed000", "--runs",
-                           "100000000", "--out", str(tmp_path / "o")],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "ftnav.cli",
+            "run",
+            "seed000",
+            "--runs",
+            "100000000",
+            "--out",
+            str(tmp_path / "o"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.startswith("ftnav: error: --runs: 100000000 runs of seed000 need about ")
     assert proc.stderr.count("\n") == 1 and not (tmp_path / "o").exists()
 
 
-def test_refusal_names_the_estimate_and_the_most_runs_that_fit(tmp_path, capsys,
-                                                               monkeypatch):
+def test_refusal_names_the_estimate_and_the_most_runs_that_fit(tmp_path, capsys, monkeypatch):
     path = _write(tmp_path, SMALL.format(steps=100))
     sc = load_scenario(path)
     available = 64 << 20
     monkeypatch.setattr(resources, "available_memory_bytes", lambda: available)
     fit = max_runs_within(sc, available)
     assert fit > 1
-    err = _refused(["run", path, "--runs", fit + 1, "--out", tmp_path / "o", "--quiet"],
-                   capsys)
+    err = _refused(["run", path, "--runs", fit + 1, "--out", tmp_path / "o", "--quiet"], capsys)
     need = format_bytes(run_memory_bytes(sc, fit + 1))
-    assert err == (f"ftnav: error: --runs: {fit + 1} runs of small need about {need}, more "
-                   f"than the 64.0 MiB available (at most {fit} would fit)")
-    assert main(["run", str(path), "--runs", str(fit), "--out", str(tmp_path / "o"),
-                 "--quiet", "--no-figures"]) == 0
+    assert err == (
+        f"ftnav: error: --runs: {fit + 1} runs of small need about {need}, more "
+        f"than the 64.0 MiB available (at most {fit} would fit)"
+    )
+    assert (
+        main(
+            [
+                "run",
+                str(path),
+                "--runs",
+                str(fit),
+                "--out",
+                str(tmp_path / "o"),
+                "--quiet",
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
 
 
@@ -130,17 +162,16 @@ def test_estimates_nc_counts_in_the_check(tmp_path, capsys, monkeypatch):
     plain, saved = run_memory_bytes(sc, runs), run_memory_bytes(sc, runs, save_estimates=True)
     assert saved > plain
     monkeypatch.setattr(resources, "available_memory_bytes", lambda: (plain + saved) // 2)
-    _refused(["run", path, "--runs", runs, "--out", tmp_path / "o", "--save-estimates"],
-             capsys)
+    _refused(["run", path, "--runs", runs, "--out", tmp_path / "o", "--save-estimates"], capsys)
 
 
-def test_integrated_flight_too_long_for_one_run_names_the_duration(tmp_path, capsys,
-                                                                   monkeypatch):
+def test_integrated_flight_too_long_for_one_run_names_the_duration(tmp_path, capsys, monkeypatch):
     path = _write(tmp_path, INTEGRATED)
     monkeypatch.setattr(resources, "available_memory_bytes", lambda: 1 << 20)
     err = _refused(["run", path, "--out", tmp_path / "o"], capsys)
-    assert err.startswith("ftnav: error: filter.duration_s: one run of short-ins (20 epochs "
-                          "of 1 s) needs about ")
+    assert err.startswith(
+        "ftnav: error: filter.duration_s: one run of short-ins (20 epochs of 1 s) needs about "
+    )
     assert not (tmp_path / "o").exists()
 
 
@@ -154,8 +185,21 @@ def test_trajectory_too_long_is_refused(tmp_path, capsys, monkeypatch):
 def test_unknown_available_memory_runs_unchecked(tmp_path, capsys, monkeypatch):
     path = _write(tmp_path, SMALL.format(steps=30))
     monkeypatch.setattr(resources, "available_memory_bytes", lambda: None)
-    assert main(["run", str(path), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet",
-                 "--no-figures"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(path),
+                "--runs",
+                "2",
+                "--out",
+                str(tmp_path / "o"),
+                "--quiet",
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
 
 

@@ -9,20 +9,50 @@ from ftnav.cli import main
 
 def test_seed000_story(tmp_path):
     out = tmp_path / "seed000"
-    assert main(["run", "seed000", "--runs", "100", "--seed", "1", "--out", str(out),
-                 "--no-figures", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                "seed000",
+                "--runs",
+                "100",
+                "--seed",
+                "1",
+                "--out",
+                str(out),
+                "--no-figures",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     doc = json.loads((out / "metrics.json").read_text())
     m = doc["methods"]
     paper = m["fkf-inverse-trace-chi2"]
     in_fault = paper["rmse_fault"]["s"]
     fault_free = paper["fault_free"]["rmse_fault_window"]["s"]
     assert in_fault <= 1.2 * fault_free
-    for name in ("ckf", "fkf-nr-equal", "fkf-fr-equal", "fkf-fr-trace", "fkf-fr-inverse-trace",
-                 "fkf-fr10-trace", "fkf-fr10-inverse-trace", "dkf"):
+    for name in (
+        "ckf",
+        "fkf-nr-equal",
+        "fkf-fr-equal",
+        "fkf-fr-trace",
+        "fkf-fr-inverse-trace",
+        "fkf-fr10-trace",
+        "fkf-fr10-inverse-trace",
+        "dkf",
+    ):
         assert m[name]["rmse_fault"]["s"] >= 2.0 * fault_free, name
     # no fault: fusion-reset federated (every rule) and distributed equal the centralized filter
-    for name in ("fkf-fr-equal", "fkf-fr-information", "fkf-fr-trace", "fkf-fr-eigen-trace",
-                 "fkf-fr-frobenius", "fkf-fr-inverse-trace", "dkf"):
+    for name in (
+        "fkf-fr-equal",
+        "fkf-fr-information",
+        "fkf-fr-trace",
+        "fkf-fr-eigen-trace",
+        "fkf-fr-frobenius",
+        "fkf-fr-inverse-trace",
+        "dkf",
+    ):
         assert m[name]["max_rel_diff_to_centralized"] <= 1e-9, name
     det = paper["detection"]["pos1"]
     assert det["rate"] >= 0.95 and det["mean_delay_s"] <= 1.0

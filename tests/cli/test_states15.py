@@ -41,8 +41,9 @@ def _copy(name: str, tmp_path, keep_neural: bool):
 def test_every_method_of_a_15_state_copy_runs(name, tmp_path, capsys):
     path, methods = _copy(name, tmp_path, keep_neural=False)
     out = tmp_path / "out"
-    assert main(["run", str(path), "--runs", "2", "--no-figures", "--quiet",
-                 "--out", str(out)]) == 0
+    assert (
+        main(["run", str(path), "--runs", "2", "--no-figures", "--quiet", "--out", str(out)]) == 0
+    )
     capsys.readouterr()
     doc = json.loads((out / "metrics.json").read_text())
     assert list(doc["methods"]) == methods
@@ -53,8 +54,9 @@ def test_every_method_of_a_15_state_copy_runs(name, tmp_path, capsys):
 
 def test_the_18_state_neuron_model_is_refused_by_a_15_state_copy(tmp_path, capsys):
     path, _ = _copy("seed001", tmp_path, keep_neural=True)
-    code = main(["run", str(path), "--runs", "1", "--no-figures", "--quiet",
-                 "--out", str(tmp_path / "out")])
+    code = main(
+        ["run", str(path), "--runs", "1", "--no-figures", "--quiet", "--out", str(tmp_path / "out")]
+    )
     lines = capsys.readouterr().err.splitlines()
     errors = [ln for ln in lines if ln.startswith("ftnav: error: ")]
     assert code == 2 and len(errors) == 1 and errors == lines[-1:]

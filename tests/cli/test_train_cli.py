@@ -102,10 +102,24 @@ def trained(tmp_path_factory):
     d = tmp_path_factory.mktemp("learned")
     toml = d / "small.toml"
     toml.write_text(SYSTEM.format(steps=200) + LEARNED)
-    det = _main(["train-detector", toml, "--out", d / "det.npz", "--runs", "1",
-                 "--holdout", "1", "--centres", "20", "--quiet"])
-    fus = _main(["train-fusion", toml, "--out", d / "fus.npz", "--runs", "1",
-                 "--holdout", "1", "--quiet"])
+    det = _main(
+        [
+            "train-detector",
+            toml,
+            "--out",
+            d / "det.npz",
+            "--runs",
+            "1",
+            "--holdout",
+            "1",
+            "--centres",
+            "20",
+            "--quiet",
+        ]
+    )
+    fus = _main(
+        ["train-fusion", toml, "--out", d / "fus.npz", "--runs", "1", "--holdout", "1", "--quiet"]
+    )
     return {"dir": d, "toml": toml, "det": det, "fus": fus}
 
 
@@ -156,8 +170,9 @@ def test_model_files_open_with_numpy_without_pickle(trained):
 
 def test_run_uses_the_trained_models(trained, tmp_path, capsys):
     out = tmp_path / "out"
-    code = main(["run", str(trained["toml"]), "--runs", "4", "--out", str(out),
-                 "--no-figures", "--quiet"])
+    code = main(
+        ["run", str(trained["toml"]), "--runs", "4", "--out", str(out), "--no-figures", "--quiet"]
+    )
     captured = capsys.readouterr()
     assert code == 0, captured.err
     doc = json.loads((out / "metrics.json").read_text())
@@ -173,18 +188,43 @@ def test_run_uses_the_trained_models(trained, tmp_path, capsys):
     assert "Detectors side by side" in captured.out
 
 
-def test_relative_model_path_follows_the_scenario_folder(trained, tmp_path, capsys,
-                                                        monkeypatch):
+def test_relative_model_path_follows_the_scenario_folder(trained, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)  # det.npz / fus.npz do not exist here
-    code = main(["run", str(trained["toml"]), "--runs", "1", "--out", str(tmp_path / "o"),
-                 "--no-figures", "--quiet"])
+    code = main(
+        [
+            "run",
+            str(trained["toml"]),
+            "--runs",
+            "1",
+            "--out",
+            str(tmp_path / "o"),
+            "--no-figures",
+            "--quiet",
+        ]
+    )
     assert code == 0, capsys.readouterr().err
 
 
 def _train_small_detector(folder: Path, toml: Path, name: str, seed: int):
     out = folder / name
-    code, _, err = _main(["train-detector", toml, "--out", out, "--runs", "1", "--holdout",
-                          "1", "--centres", "10", "--seed", seed, "--no-figure", "--quiet"])
+    code, _, err = _main(
+        [
+            "train-detector",
+            toml,
+            "--out",
+            out,
+            "--runs",
+            "1",
+            "--holdout",
+            "1",
+            "--centres",
+            "10",
+            "--seed",
+            seed,
+            "--no-figure",
+            "--quiet",
+        ]
+    )
     assert code == 0, err
     assert not out.with_suffix(".png").exists()  # --no-figure
     return load_model(out, "rbf-detector")

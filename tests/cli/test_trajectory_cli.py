@@ -7,7 +7,7 @@ import numpy as np
 from ftnav.cli import main
 from ftnav.io.trajectory_files import IMU_COLUMNS, TRUTH_COLUMNS, read_imu_csv
 
-PROFILE = '''
+PROFILE = """
 name = "short"
 imu_rate_hz = 100.0
 [start]
@@ -24,7 +24,7 @@ roll_rate_deg_s = 10.0
 [[segments]]
 duration_s = 4.0
 yaw_rate_deg_s = "coordinated"
-'''
+"""
 
 
 def _run(tmp_path, name, *extra):
@@ -54,12 +54,15 @@ def test_trajectory_writes_truth_imu_and_figure(tmp_path, capsys):
 
 def test_imu_preset_corrupts_deterministically(tmp_path):
     ideal = read_imu_csv(_run(tmp_path, "ideal", "--no-figure") / "imu.csv")
-    a = read_imu_csv(_run(tmp_path, "a", "--no-figure", "--imu", "seed001", "--seed", "3")
-                     / "imu.csv")
-    b = read_imu_csv(_run(tmp_path, "b", "--no-figure", "--imu", "seed001", "--seed", "3")
-                     / "imu.csv")
-    c = read_imu_csv(_run(tmp_path, "c", "--no-figure", "--imu", "seed001", "--seed", "4")
-                     / "imu.csv")
+    a = read_imu_csv(
+        _run(tmp_path, "a", "--no-figure", "--imu", "seed001", "--seed", "3") / "imu.csv"
+    )
+    b = read_imu_csv(
+        _run(tmp_path, "b", "--no-figure", "--imu", "seed001", "--seed", "3") / "imu.csv"
+    )
+    c = read_imu_csv(
+        _run(tmp_path, "c", "--no-figure", "--imu", "seed001", "--seed", "4") / "imu.csv"
+    )
     np.testing.assert_array_equal(a[1], b[1])
     assert not np.array_equal(a[1], c[1])
     d = a[1] - ideal[1]

@@ -24,21 +24,31 @@ from ftnav.nav.error_model import (
 
 DEG, HOUR = np.pi / 180.0, 3600.0
 VARIANTS = {
-    "18-body": ErrorModelParams(gyro_psd=1e-12, gyro_markov_sigma=(1e-6, 2e-6, 3e-6),
-                                gyro_markov_tau=(100.0, 200.0, 300.0),
-                                accel_markov_sigma=(1e-4, 2e-4, 3e-4),
-                                accel_markov_tau=(50.0, 60.0, 70.0), accel_psd=1e-9),
-    "18-nav": ErrorModelParams(gyro_psd=1e-12, gyro_markov_sigma=1e-6, accel_markov_sigma=1e-4,
-                               bias_frame="nav"),
+    "18-body": ErrorModelParams(
+        gyro_psd=1e-12,
+        gyro_markov_sigma=(1e-6, 2e-6, 3e-6),
+        gyro_markov_tau=(100.0, 200.0, 300.0),
+        accel_markov_sigma=(1e-4, 2e-4, 3e-4),
+        accel_markov_tau=(50.0, 60.0, 70.0),
+        accel_psd=1e-9,
+    ),
+    "18-nav": ErrorModelParams(
+        gyro_psd=1e-12, gyro_markov_sigma=1e-6, accel_markov_sigma=1e-4, bias_frame="nav"
+    ),
     "15-body": ErrorModelParams(states=15, gyro_bias_rw_psd=1e-14, accel_bias_rw_psd=1e-10),
 }
 
 
 def nav(B=7, seed=0):
     rng = np.random.default_rng(seed)
-    return (rng.uniform(-1.3, 1.3, B), rng.uniform(-3, 3, B), rng.uniform(-400, 12000, B),
-            rng.standard_normal((B, 3)) * 250.0, rng.standard_normal((B, 3)) * 3.0
-            + [0, 0, 9.8], quat_to_dcm(rng.standard_normal((B, 4))))
+    return (
+        rng.uniform(-1.3, 1.3, B),
+        rng.uniform(-3, 3, B),
+        rng.uniform(-400, 12000, B),
+        rng.standard_normal((B, 3)) * 250.0,
+        rng.standard_normal((B, 3)) * 3.0 + [0, 0, 9.8],
+        quat_to_dcm(rng.standard_normal((B, 4))),
+    )
 
 
 @pytest.mark.parametrize("variant", VARIANTS)

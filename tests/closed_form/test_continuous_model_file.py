@@ -20,12 +20,24 @@ from ftnav.io.scenario_file import parse_scenario
 
 def _scenario(F_c, Q_c, dt, **extra):
     n = len(F_c)
-    model = {"states": [f"x{i}" for i in range(n)], "F_c": F_c, "Q_c": Q_c,
-             "x0": [0.0] * n, "P0": np.eye(n).tolist(), **extra}
-    return parse_scenario({
-        "name": "continuous", "dt": dt, "steps": 10, "model": model,
-        "sensors": [{"name": "pos", "H": [[1.0] + [0.0] * (n - 1)], "R": [[1.0]]}],
-        "methods": [{"name": "ckf", "architecture": "centralized"}]})
+    model = {
+        "states": [f"x{i}" for i in range(n)],
+        "F_c": F_c,
+        "Q_c": Q_c,
+        "x0": [0.0] * n,
+        "P0": np.eye(n).tolist(),
+        **extra,
+    }
+    return parse_scenario(
+        {
+            "name": "continuous",
+            "dt": dt,
+            "steps": 10,
+            "model": model,
+            "sensors": [{"name": "pos", "H": [[1.0] + [0.0] * (n - 1)], "R": [[1.0]]}],
+            "methods": [{"name": "ckf", "architecture": "centralized"}],
+        }
+    )
 
 
 @pytest.mark.parametrize(("q", "dt"), [(2.0, 1.0), (0.3, 0.1), (5.0, 2.5)])
@@ -46,9 +58,13 @@ def test_triple_integrator_and_a_separate_true_density():
 
     sc = _scenario(F_c, density(q), dt, Q_c_true=density(q_true))
     F = [[1.0, dt, dt**2 / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]]
-    Q1 = np.array([[dt**5 / 20, dt**4 / 8, dt**3 / 6],
-                   [dt**4 / 8, dt**3 / 3, dt**2 / 2],
-                   [dt**3 / 6, dt**2 / 2, dt]])
+    Q1 = np.array(
+        [
+            [dt**5 / 20, dt**4 / 8, dt**3 / 6],
+            [dt**4 / 8, dt**3 / 3, dt**2 / 2],
+            [dt**3 / 6, dt**2 / 2, dt],
+        ]
+    )
     np.testing.assert_allclose(sc.model.F, F, rtol=0, atol=1e-14)
     np.testing.assert_allclose(sc.model.Q, q * Q1, rtol=1e-12, atol=0)
     np.testing.assert_allclose(sc.model.Q_true, q_true * Q1, rtol=1e-12, atol=0)

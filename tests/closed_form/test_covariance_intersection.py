@@ -35,19 +35,21 @@ def test_intersection_bounds_the_true_error_covariance_for_any_correlation(N, n)
     rng = np.random.default_rng(N * 10 + n)
     B = 300
     S = _random_joint(rng, B, N, n)
-    blocks = np.stack([S[:, i * n:(i + 1) * n, i * n:(i + 1) * n] for i in range(N)], 1)
+    blocks = np.stack([S[:, i * n : (i + 1) * n, i * n : (i + 1) * n] for i in range(N)], 1)
     omega = rng.dirichlet(np.ones(N), B)
     x = rng.standard_normal((B, N, n))
     ci = kf.intersect(x, blocks, omega)
-    K = np.concatenate([ci.P @ (omega[:, i, None, None] * np.linalg.inv(blocks[:, i]))
-                        for i in range(N)], 2)  # (B, n, N·n)
+    K = np.concatenate(
+        [ci.P @ (omega[:, i, None, None] * np.linalg.inv(blocks[:, i])) for i in range(N)], 2
+    )  # (B, n, N·n)
     true = K @ S @ np.swapaxes(K, 1, 2)
     gap = np.linalg.eigvalsh(ci.P - true)
     scale = np.linalg.eigvalsh(ci.P)[:, -1]
     assert (gap[:, 0] >= -1e-9 * scale).all(), gap[:, 0].min()
     # the estimate is that same combination of the inputs
-    np.testing.assert_allclose(ci.x, np.einsum("bij,bj->bi", K, x.reshape(B, N * n)),
-                               rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(
+        ci.x, np.einsum("bij,bj->bi", K, x.reshape(B, N * n)), rtol=1e-9, atol=1e-9
+    )
 
 
 def test_naive_information_fusion_fails_the_same_bound():
@@ -69,7 +71,7 @@ def test_naive_information_fusion_fails_the_same_bound():
 def test_intersection_in_closed_form():
     rng = np.random.default_rng(3)
     S = _random_joint(rng, 5, 3, 2)
-    P = np.stack([S[:, 2 * i:2 * i + 2, 2 * i:2 * i + 2] for i in range(3)], 1)
+    P = np.stack([S[:, 2 * i : 2 * i + 2, 2 * i : 2 * i + 2] for i in range(3)], 1)
     x = rng.standard_normal((5, 3, 2))
     ci = kf.intersect(x, P)  # equal weights
     Y = np.linalg.inv(P).sum(1) / 3.0
@@ -102,8 +104,11 @@ def test_with_common_replaces_the_common_block_and_zeroes_the_cross_terms():
 
 def test_prior_checks():
     check_prior(Method(name="f", prior="global"))
-    with pytest.raises(ValueError, match=r"^methods\[f\]\.prior: 'intersection' is not "
-                                         r"available with architecture 'federated'"):
+    with pytest.raises(
+        ValueError,
+        match=r"^methods\[f\]\.prior: 'intersection' is not "
+        r"available with architecture 'federated'",
+    ):
         check_prior(Method(name="f", prior="intersection"))
 
 
@@ -113,18 +118,29 @@ def test_single_local_filter_intersection_is_its_own_prior():
     sc = load_scenario(builtin_path("seed000"))
     sc = replace(sc, steps=40, sensors=sc.sensors[:1], faults=())
     system = LinearSystem.from_scenario(sc)
-    model = NeuronModel(("healthy", "pos1"), np.array([[False], [True]]), ("pos1",),
-                        tuple(system.model.states), np.ones((2, 3, 1)), np.ones((2, 3)),
-                        system.compatibility(), {})
+    model = NeuronModel(
+        ("healthy", "pos1"),
+        np.array([[False], [True]]),
+        ("pos1",),
+        tuple(system.model.states),
+        np.ones((2, 3, 1)),
+        np.ones((2, 3)),
+        system.compatibility(),
+        {},
+    )
     sim = simulate(sc, 4, seed=2)
     stats = {}
     for prior in ("local", "intersection"):
-        filt = NeuralFusion(system, Method(name="n", architecture="neural", prior=prior,
-                                           detector="residual-chi2"), model=model)
+        filt = NeuralFusion(
+            system,
+            Method(name="n", architecture="neural", prior=prior, detector="residual-chi2"),
+            model=model,
+        )
         state, rows = filt.init(4), []
         for k in range(1, sc.steps + 1):
-            state, out = filt.step(state, k, [z[:, k - 1] for z in sim.z],
-                                   sim.available[:, k - 1], np.zeros(1, bool))
+            state, out = filt.step(
+                state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], np.zeros(1, bool)
+            )
             rows.append(out.detection.statistic)
         stats[prior] = np.array(rows)
     assert stats["local"].max() > 0

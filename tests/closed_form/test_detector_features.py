@@ -22,8 +22,7 @@ def test_whitened_innovation_squared_norm_is_the_nis():
     z = rng.standard_normal((B, m))
     use = np.array([True, True, False, True, True])
     w = whitened_innovation(x, P, z, use, H, R)
-    np.testing.assert_allclose((w**2).sum(-1), residual_statistic(x, P, z, use, H, R),
-                               rtol=1e-12)
+    np.testing.assert_allclose((w**2).sum(-1), residual_statistic(x, P, z, use, H, R), rtol=1e-12)
     assert np.all(w[2] == 0.0)
     # whitening: L w = nu with L the Cholesky factor of H P Hᵀ + R
     L = np.linalg.cholesky(H @ P[0] @ H.T + R)

@@ -20,8 +20,10 @@ DEG, HOUR, G0 = np.pi / 180.0, 3600.0, 9.80665
 #: accelerometer Markov 1e-4 g, 1800 s
 TABLE1 = ErrorModelParams(
     gyro_psd=(0.01 * DEG / 60.0) ** 2,
-    gyro_markov_sigma=0.1 * DEG / HOUR, gyro_markov_tau=7200.0,
-    accel_markov_sigma=1e-4 * G0, accel_markov_tau=1800.0,
+    gyro_markov_sigma=0.1 * DEG / HOUR,
+    gyro_markov_tau=7200.0,
+    accel_markov_sigma=1e-4 * G0,
+    accel_markov_tau=1800.0,
 )
 
 
@@ -71,8 +73,10 @@ def test_series_against_van_loan_18_state():
     is essentially exact."""
     F, GQGt = cruise_model()
     Phi_vl, Q_vl = van_loan(F, GQGt, 1.0)
-    errs = {o: (rel(series(F, GQGt, 1.0, o)[0], Phi_vl), rel(series(F, GQGt, 1.0, o)[1], Q_vl))
-            for o in (2, 3, 5)}
+    errs = {
+        o: (rel(series(F, GQGt, 1.0, o)[0], Phi_vl), rel(series(F, GQGt, 1.0, o)[1], Q_vl))
+        for o in (2, 3, 5)
+    }
     assert errs[5][0] < 1e-10
     assert errs[5][1] < 1e-4
     assert errs[2][0] > 1e3 * errs[5][0] and errs[2][1] > 1e3 * errs[5][1]
@@ -91,8 +95,9 @@ def test_van_loan_phi_is_matrix_exponential():
     lam = np.array([-0.3, 0.1, -1.2, 0.5])
     F = V @ np.diag(lam) @ np.linalg.inv(V)
     Phi, Q = van_loan(F, np.eye(4), 0.7)
-    np.testing.assert_allclose(Phi, V @ np.diag(np.exp(0.7 * lam)) @ np.linalg.inv(V),
-                               rtol=1e-11, atol=1e-12)
+    np.testing.assert_allclose(
+        Phi, V @ np.diag(np.exp(0.7 * lam)) @ np.linalg.inv(V), rtol=1e-11, atol=1e-12
+    )
     np.testing.assert_array_equal(Q, Q.T)
     assert np.linalg.eigvalsh(Q).min() > 0.0
 

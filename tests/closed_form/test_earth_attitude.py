@@ -32,31 +32,35 @@ def test_normal_gravity_published_values():
 def test_gravity_gradient_matches_finite_differences(L, h):
     dgdL, dgdh = earth.gravity_gradient(L, h)
     e = 1e-6
-    assert dgdL == pytest.approx((earth.gravity(L + e, h) - earth.gravity(L - e, h)) / (2 * e),
-                                 rel=1e-6)
-    assert dgdh == pytest.approx((earth.gravity(L, h + 1) - earth.gravity(L, h - 1)) / 2,
-                                 rel=1e-6)
+    assert dgdL == pytest.approx(
+        (earth.gravity(L + e, h) - earth.gravity(L - e, h)) / (2 * e), rel=1e-6
+    )
+    assert dgdh == pytest.approx((earth.gravity(L, h + 1) - earth.gravity(L, h - 1)) / 2, rel=1e-6)
 
 
 def _R(axis, a):
     c, s = np.cos(a), np.sin(a)
-    return {"x": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
-            "y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
-            "z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])}[axis]
+    return {
+        "x": np.array([[1, 0, 0], [0, c, -s], [0, s, c]]),
+        "y": np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]]),
+        "z": np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]),
+    }[axis]
 
 
 def test_euler_dcm_quaternion_round_trips():
     rng = np.random.default_rng(0)
-    a = np.column_stack([rng.uniform(-1.5, 1.5, 40), rng.uniform(-3, 3, 40),
-                         rng.uniform(-3, 3, 40)])
+    a = np.column_stack(
+        [rng.uniform(-1.5, 1.5, 40), rng.uniform(-3, 3, 40), rng.uniform(-3, 3, 40)]
+    )
     C = at.euler_to_dcm(a)
     ref = np.stack([_R("z", x[2]) @ _R("x", x[0]) @ _R("y", x[1]) for x in a])
     np.testing.assert_allclose(C, ref, atol=1e-14)
     np.testing.assert_allclose(at.dcm_to_euler(C), a, atol=1e-12)
     q = at.dcm_to_quat(C)
     np.testing.assert_allclose(at.quat_to_dcm(q), C, atol=1e-14)
-    np.testing.assert_allclose(at.quat_to_dcm(at.quat_mul(q[:20], q[20:])), C[:20] @ C[20:],
-                               atol=1e-14)
+    np.testing.assert_allclose(
+        at.quat_to_dcm(at.quat_mul(q[:20], q[20:])), C[:20] @ C[20:], atol=1e-14
+    )
     r = rng.normal(size=(10, 3))
     small = 0.1 * r
     np.testing.assert_allclose(at.quat_to_rotvec(at.rotvec_to_quat(small)), small, atol=1e-14)

@@ -21,8 +21,9 @@ DEG = np.pi / 180.0
 
 def static_F(L, h=0.0):
     g = gravity(L, h)
-    F = continuous_model(L, 0.0, h, np.zeros(3), np.array([0.0, 0.0, g]), np.eye(3),
-                         ErrorModelParams()).F
+    F = continuous_model(
+        L, 0.0, h, np.zeros(3), np.array([0.0, 0.0, g]), np.eye(3), ErrorModelParams()
+    ).F
     return F[:9, :9]
 
 
@@ -57,8 +58,9 @@ def test_static_eigenvalues_match_closed_forms(lat_deg):
 def test_32N_values_quoted_in_spec():
     """Spec §8.6 (d) [V]: ±1.2031e-3 i, ±1.2804e-3 i, ±7.292e-5 i, 0, ±1.754e-3 (1/s)."""
     ev = np.linalg.eigvals(static_F(32.0 * DEG))
-    np.testing.assert_allclose(np.sort(ev.imag[ev.imag > 1e-9]), [7.292e-5, 1.2031e-3,
-                                                                   1.2804e-3], rtol=1e-4)
+    np.testing.assert_allclose(
+        np.sort(ev.imag[ev.imag > 1e-9]), [7.292e-5, 1.2031e-3, 1.2804e-3], rtol=1e-4
+    )
     np.testing.assert_allclose(ev.real.max(), 1.754e-3, rtol=1e-3)
     osc_ref, real_ref = closed_form(32.0 * DEG)
     freqs = np.sort(ev.imag[ev.imag > 1e-9])

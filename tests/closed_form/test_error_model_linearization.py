@@ -38,19 +38,33 @@ def test_initial_errors_propagate_like_phi(seed001):
     q_bad = at.dcm_to_quat((np.eye(3) - at.skew(phi0)) @ C0)
     st = mech.init_state(tr.p[k0] + dp0, tr.v[k0] + dv0, tr.euler[k0])._replace(q=q_bad[None])
     n = seconds * per_s
-    _, sol = mech.integrate(st, tr.dtheta[k0:k0 + n], tr.dv[k0:k0 + n], tr.dt,
-                            output_every=per_s // 2)
+    _, sol = mech.integrate(
+        st, tr.dtheta[k0 : k0 + n], tr.dv[k0 : k0 + n], tr.dt, output_every=per_s // 2
+    )
     idx = k0 + per_s * np.arange(1, seconds + 1)
     e_pos = earth.enu_metres(sol.p[0], tr.p[idx])
     e_vel = sol.v[0] - tr.v[idx]
     e_att = at.attitude_error(at.quat_to_dcm(sol.q[0]), at.euler_to_dcm(tr.euler[idx]))
 
-    params = ErrorModelParams(gyro_psd=0.0, gyro_markov_sigma=0.0, gyro_markov_tau=3600.0,
-                              accel_markov_sigma=0.0, accel_markov_tau=3600.0)
+    params = ErrorModelParams(
+        gyro_psd=0.0,
+        gyro_markov_sigma=0.0,
+        gyro_markov_tau=3600.0,
+        accel_markov_sigma=0.0,
+        accel_markov_tau=3600.0,
+    )
     starts = k0 + per_s * np.arange(seconds)
-    f_b = np.stack([tr.dv[s:s + per_s].sum(0) / (per_s * tr.dt) for s in starts])
-    Phi, _ = discrete_model(tr.p[starts, 0], tr.p[starts, 1], tr.p[starts, 2], tr.v[starts],
-                            f_b, at.euler_to_dcm(tr.euler[starts]), params, 1.0)
+    f_b = np.stack([tr.dv[s : s + per_s].sum(0) / (per_s * tr.dt) for s in starts])
+    Phi, _ = discrete_model(
+        tr.p[starts, 0],
+        tr.p[starts, 1],
+        tr.p[starts, 2],
+        tr.v[starts],
+        f_b,
+        at.euler_to_dcm(tr.euler[starts]),
+        params,
+        1.0,
+    )
     x = np.zeros(18)
     x[:3], x[3:6], x[6:9] = phi0, dv0, dp0
     lin = []

@@ -30,9 +30,14 @@ DEG, HOUR, G0 = np.pi / 180.0, 3600.0, 9.80665
 SIG_G = np.array([0.1, 0.2, 0.15]) * DEG / HOUR
 SIG_A = np.array([1e-4, 2e-4, 1.5e-4]) * G0
 TAU_G, TAU_A = np.array([7200.0, 3600.0, 5000.0]), np.array([1800.0, 900.0, 1200.0])
-PARAMS = ErrorModelParams(gyro_psd=(0.01 * DEG / 60.0) ** 2, gyro_markov_sigma=SIG_G,
-                          gyro_markov_tau=TAU_G, accel_markov_sigma=SIG_A,
-                          accel_markov_tau=TAU_A, accel_psd=1e-8)
+PARAMS = ErrorModelParams(
+    gyro_psd=(0.01 * DEG / 60.0) ** 2,
+    gyro_markov_sigma=SIG_G,
+    gyro_markov_tau=TAU_G,
+    accel_markov_sigma=SIG_A,
+    accel_markov_tau=TAU_A,
+    accel_psd=1e-8,
+)
 MARKOV = slice(12, 18)
 
 
@@ -40,9 +45,14 @@ def nav_batch(B=4, seed=0):
     rng = np.random.default_rng(seed)
     C = euler_to_dcm(rng.uniform(-1, 1, (B, 3)) * np.array([0.3, 0.5, 3.0]))
     f_n = np.column_stack([rng.uniform(-2, 2, (B, 2)), np.full(B, 9.8)])
-    return NavState(L=rng.uniform(-1, 1, B), lam=rng.uniform(-3, 3, B),
-                    h=rng.uniform(0, 9000, B), v_enu=rng.uniform(-250, 250, (B, 3)),
-                    f_b=np.einsum("bji,bj->bi", C, f_n), C_bn=C)
+    return NavState(
+        L=rng.uniform(-1, 1, B),
+        lam=rng.uniform(-3, 3, B),
+        h=rng.uniform(0, 9000, B),
+        v_enu=rng.uniform(-250, 250, (B, 3)),
+        f_b=np.einsum("bji,bj->bi", C, f_n),
+        C_bn=C,
+    )
 
 
 @pytest.mark.parametrize("method", ["van-loan", "series"])
@@ -66,8 +76,9 @@ def test_markov_states_continuous_lyapunov():
     """``F P + P Fᵀ + G q Gᵀ = 0`` on the Markov block gives σ² (q = 2σ²/T)."""
     m = continuous_model(*nav_batch(1), PARAMS)
     P = solve_continuous_lyapunov(m.F[0, MARKOV, MARKOV], -m.GQGt[0, MARKOV, MARKOV])
-    np.testing.assert_allclose(P, np.diag(np.concatenate([SIG_G, SIG_A]) ** 2), rtol=1e-12,
-                               atol=1e-30)
+    np.testing.assert_allclose(
+        P, np.diag(np.concatenate([SIG_G, SIG_A]) ** 2), rtol=1e-12, atol=1e-30
+    )
 
 
 def test_gyro_and_accel_white_noise_mapping():
@@ -76,20 +87,25 @@ def test_gyro_and_accel_white_noise_mapping():
     nav = nav_batch(3)
     GQGt = continuous_model(*nav, p).GQGt
     C = nav.C_bn
-    np.testing.assert_allclose(GQGt[:, :3, :3], C @ np.diag(p.gyro_psd) @ np.swapaxes(C, 1, 2),
-                               rtol=1e-12, atol=1e-25)
-    np.testing.assert_allclose(GQGt[:, 3:6, 3:6],
-                               C @ np.diag(p.accel_psd) @ np.swapaxes(C, 1, 2), rtol=1e-12,
-                               atol=1e-19)
+    np.testing.assert_allclose(
+        GQGt[:, :3, :3], C @ np.diag(p.gyro_psd) @ np.swapaxes(C, 1, 2), rtol=1e-12, atol=1e-25
+    )
+    np.testing.assert_allclose(
+        GQGt[:, 3:6, 3:6], C @ np.diag(p.accel_psd) @ np.swapaxes(C, 1, 2), rtol=1e-12, atol=1e-19
+    )
     assert np.all(GQGt[:, :3, 3:] == 0.0) and np.all(GQGt[:, 6:12] == 0.0)
 
 
 def test_15_state_is_the_18_state_without_markov_drift():
     """15 states (PSINS etm): ε takes ε_b's place (−C into φ), ∇ feeds δv with +C, and
     both are random walks: zero rows of F, ``Q_k = q T`` on their blocks."""
-    p15 = ErrorModelParams(gyro_psd=PARAMS.gyro_psd, accel_psd=PARAMS.accel_psd,
-                           gyro_bias_rw_psd=1e-18, accel_bias_rw_psd=[1e-12, 2e-12, 3e-12],
-                           states=15)
+    p15 = ErrorModelParams(
+        gyro_psd=PARAMS.gyro_psd,
+        accel_psd=PARAMS.accel_psd,
+        gyro_bias_rw_psd=1e-18,
+        accel_bias_rw_psd=[1e-12, 2e-12, 3e-12],
+        states=15,
+    )
     nav = nav_batch()
     F18 = continuous_model(*nav, PARAMS).F
     F15 = continuous_model(*nav, p15).F
@@ -100,17 +116,22 @@ def test_15_state_is_the_18_state_without_markov_drift():
     assert np.all(F15[:, 9:] == 0.0)
     T = 2.0
     Phi, Q = discrete_model(*nav, p15, T)
-    np.testing.assert_allclose(Q[:, 9:12, 9:12], np.broadcast_to(1e-18 * T * np.eye(3),
-                                                                  (4, 3, 3)), rtol=1e-10,
-                               atol=1e-30)
-    np.testing.assert_allclose(Q[:, 12:, 12:], np.broadcast_to(
-        np.diag([1e-12, 2e-12, 3e-12]) * T, (4, 3, 3)), rtol=1e-10, atol=1e-24)
+    np.testing.assert_allclose(
+        Q[:, 9:12, 9:12], np.broadcast_to(1e-18 * T * np.eye(3), (4, 3, 3)), rtol=1e-10, atol=1e-30
+    )
+    np.testing.assert_allclose(
+        Q[:, 12:, 12:],
+        np.broadcast_to(np.diag([1e-12, 2e-12, 3e-12]) * T, (4, 3, 3)),
+        rtol=1e-10,
+        atol=1e-24,
+    )
     np.testing.assert_array_equal(Phi[:, 9:, 9:], np.broadcast_to(np.eye(6), (4, 6, 6)))
 
 
 def test_nav_bias_frame_uses_identity():
-    p_nav = ErrorModelParams(gyro_psd=1e-12, gyro_markov_sigma=1e-7, accel_markov_sigma=1e-3,
-                             bias_frame="nav")
+    p_nav = ErrorModelParams(
+        gyro_psd=1e-12, gyro_markov_sigma=1e-7, accel_markov_sigma=1e-3, bias_frame="nav"
+    )
     nav = nav_batch(2)
     F, G, _ = continuous_model(*nav, p_nav)
     F_body = continuous_model(*nav, ErrorModelParams()).F

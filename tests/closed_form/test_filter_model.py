@@ -22,8 +22,9 @@ def test_table_1_gives_the_18_state_model_term_for_term():
     np.testing.assert_allclose(p.accel_markov_tau, 1800.0)
     np.testing.assert_allclose(p.accel_psd, 0.0)
     # P0 of ε_b, ε_r, ∇: the constant drift, the Markov σ of each
-    np.testing.assert_allclose(m.bias_sigma, np.repeat([deg_per_h(0.1), deg_per_h(0.1),
-                                                        standard_g(1e-4)], 3))
+    np.testing.assert_allclose(
+        m.bias_sigma, np.repeat([deg_per_h(0.1), deg_per_h(0.1), standard_g(1e-4)], 3)
+    )
     assert m.notes == ()
 
 
@@ -39,9 +40,14 @@ def test_15_states_random_constants_plus_random_walks_of_the_markov_terms():
 
 
 def test_accelerometer_constant_bias_and_scale_errors_are_represented():
-    imu = ImuErrors(accel_bias_sd=milli_g(1.0), accel_bias=milli_g(0.5),
-                    accel_scale_sd=300e-6, accel_misalignment_sd=0.5e-3,
-                    accel_markov_sd=0.0, accel_markov_tau=600.0)
+    imu = ImuErrors(
+        accel_bias_sd=milli_g(1.0),
+        accel_bias=milli_g(0.5),
+        accel_scale_sd=300e-6,
+        accel_misalignment_sd=0.5e-3,
+        accel_markov_sd=0.0,
+        accel_markov_tau=600.0,
+    )
     const = np.hypot(milli_g(1.0), milli_g(0.5))
     equiv = G * 0.5e-3  # g·max(σ_scale, σ_misalignment)
     m18 = filter_model(imu, 18)

@@ -151,8 +151,9 @@ def test_information_predict_of_no_information_is_zero():
     rng = np.random.default_rng(7)
     n = 3
     F = np.eye(n) + 0.2 * rng.standard_normal((n, n))
-    y_pr, Y_pr = kf.information_predict(np.zeros((2, n)), np.zeros((2, n, n)), F,
-                                        random_spd(rng, (), n))
+    y_pr, Y_pr = kf.information_predict(
+        np.zeros((2, n)), np.zeros((2, n, n)), F, random_spd(rng, (), n)
+    )
     assert np.isfinite(Y_pr).all()
     np.testing.assert_array_equal(Y_pr, 0.0)
     np.testing.assert_array_equal(y_pr, 0.0)
@@ -190,8 +191,9 @@ def test_spd_solve_matches_numpy(n, k):
     Bm = rng.standard_normal((3, 2, n, k))
     np.testing.assert_allclose(spd_solve(A, Bm), np.linalg.solve(A, Bm), rtol=1e-10, atol=1e-12)
     # broadcasting a single matrix against a batch of right-hand sides
-    np.testing.assert_allclose(spd_solve(A[0, 0], Bm), np.linalg.solve(A[0, 0], Bm),
-                               rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(
+        spd_solve(A[0, 0], Bm), np.linalg.solve(A[0, 0], Bm), rtol=1e-10, atol=1e-12
+    )
     inv = spd_inv(A)
     np.testing.assert_allclose(inv, np.linalg.inv(A), rtol=1e-10, atol=1e-12)
     np.testing.assert_array_equal(inv, np.swapaxes(inv, -1, -2))
@@ -246,8 +248,9 @@ def test_prior_nis_and_spd_inv_fall_back_where_cholesky_fails():
     np.testing.assert_allclose(spd_inv(A), np.linalg.inv(A), rtol=1e-12)
 
 
-@pytest.mark.parametrize("shapes", [((3, 2), (3, 2), ()), ((), ()), ((4,), (1,)),
-                                    ((2, 1), (5,)), ((3,), ())])
+@pytest.mark.parametrize(
+    "shapes", [((3, 2), (3, 2), ()), ((), ()), ((4,), (1,)), ((2, 1), (5,)), ((3,), ())]
+)
 def test_batch_shape_equals_numpy_broadcast_shapes(shapes):
     from ftnav.core.linalg import batch_shape
 

@@ -106,8 +106,9 @@ def test_project_simplex_idempotent_and_hand_examples():
     P[:10, 2] = 0.0  # points on faces too
     P[:10] /= P[:10].sum(axis=1, keepdims=True)
     np.testing.assert_allclose(project_simplex(P), P, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(project_simplex(project_simplex(P + 3.0)), project_simplex(P + 3.0),
-                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        project_simplex(project_simplex(P + 3.0)), project_simplex(P + 3.0), rtol=0, atol=1e-15
+    )
     # worked by hand: θ = (3 + 1 − 1)/2 = 1.5 -> (1.5, 0, 0); θ = (0.6+0.6−1)/2 = 0.1
     np.testing.assert_allclose(project_simplex([3.0, 1.0, -2.0]), [1.0, 0.0, 0.0], atol=1e-15)
     np.testing.assert_allclose(project_simplex([0.6, 0.6, 0.0]), [0.5, 0.5, 0.0], atol=1e-15)
@@ -128,18 +129,18 @@ def test_compiled_projection_matches_numpy():
 
 
 def test_clip_renormalize_hand_examples():
-    np.testing.assert_allclose(clip_renormalize([0.5, -0.2, 0.3]), [0.625, 0.0, 0.375],
-                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        clip_renormalize([0.5, -0.2, 0.3]), [0.625, 0.0, 0.375], rtol=0, atol=1e-15
+    )
     np.testing.assert_allclose(clip_renormalize([2.0, 2.0]), [0.5, 0.5], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(clip_renormalize([-1.0, -2.0, -3.0, -4.0]), [0.25] * 4,
-                               rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        clip_renormalize([-1.0, -2.0, -3.0, -4.0]), [0.25] * 4, rtol=0, atol=1e-15
+    )
     np.testing.assert_allclose(clip_renormalize([0.0, 0.0]), [0.5, 0.5], rtol=0, atol=1e-15)
     out = clip_renormalize([[1.0, 3.0, -5.0], [-1.0, -1.0, -1.0]])
-    np.testing.assert_allclose(out, [[0.25, 0.75, 0.0], [1 / 3, 1 / 3, 1 / 3]], rtol=0,
-                               atol=1e-15)
+    np.testing.assert_allclose(out, [[0.25, 0.75, 0.0], [1 / 3, 1 / 3, 1 / 3]], rtol=0, atol=1e-15)
     # unlike the Euclidean projection, the seed rule is not shift-invariant
-    assert not np.allclose(clip_renormalize([0.6, 0.3, 0.1]),
-                           clip_renormalize([1.6, 1.3, 1.1]))
+    assert not np.allclose(clip_renormalize([0.6, 0.3, 0.1]), clip_renormalize([1.6, 1.3, 1.1]))
 
 
 # --------------------------------------------------------------------------- training
@@ -171,8 +172,7 @@ def test_constraints_hold_after_every_update(projection, step):
     U1, t1 = correlated_data(2)
     U2, t2 = fusion_data(3, sigma=[1.0, 2.0, 3.0], M=5_000)
     U, t = np.concatenate([U1, U2]), np.concatenate([t1, t2])
-    r = lms_train(U, t, projection=projection, step=step, epochs=40,
-                  rng=np.random.default_rng(9))
+    r = lms_train(U, t, projection=projection, step=step, epochs=40, rng=np.random.default_rng(9))
     assert (r.min_weight >= 0.0).all()
     assert (r.max_sum_error < 1e-12).all()
     assert (r.min_weight <= r.weights.min(axis=1)).all()
@@ -217,8 +217,11 @@ def test_deterministic_for_a_seed():
 @pytest.mark.parametrize("step", ["lms", "nlms"])
 def test_batched_neurons_equal_single_neurons(step):
     """Neurons share the permutation but not the step: a batch equals its parts bit for bit."""
-    parts = [fusion_data(6, M=1_500), fusion_data(7, sigma=[3.0, 1.0, 2.0, 0.5], M=1_500),
-             fusion_data(8, bias={1: 15.0}, M=1_500)]
+    parts = [
+        fusion_data(6, M=1_500),
+        fusion_data(7, sigma=[3.0, 1.0, 2.0, 0.5], M=1_500),
+        fusion_data(8, bias={1: 15.0}, M=1_500),
+    ]
     U = np.concatenate([p[0] for p in parts])
     t = np.concatenate([p[1] for p in parts])
     kw = dict(step=step, epochs=25, tol=0.0)
@@ -271,28 +274,31 @@ def test_epochs_and_w0():
 _U, _t = np.zeros((2, 10, 3)) + np.arange(3.0), np.zeros((2, 10))
 
 
-@pytest.mark.parametrize("args, kwargs, field", [
-    ((np.zeros((10, 3)), _t), {}, "U"),
-    ((np.zeros((2, 3, 3)), np.zeros((2, 3))), {}, "U"),  # M <= N
-    ((np.zeros((2, 10, 3)), _t), {}, "U"),  # tr R = 0 for step "lms"
-    ((np.where(_U == 1.0, np.nan, _U), _t), {}, "U"),
-    ((_U, np.zeros((2, 9))), {}, "t"),
-    ((_U, np.full((2, 10), np.inf)), {}, "t"),
-    ((_U, _t), dict(projection="clip"), "projection"),
-    ((_U, _t), dict(step="rls"), "step"),
-    ((_U, _t), dict(mu=0.0), "mu"),
-    ((_U, _t), dict(mu=-0.1), "mu"),
-    ((_U, _t), dict(mu=2.0), "mu"),
-    ((_U, _t), dict(mu="fast"), "mu"),
-    ((_U, _t), dict(epochs=0), "epochs"),
-    ((_U, _t), dict(epochs=2.5), "epochs"),
-    ((_U, _t), dict(tol=-1e-6), "tol"),
-    ((_U, _t), dict(tol=np.nan), "tol"),
-    ((_U, _t), dict(decay="yes"), "decay"),
-    ((_U, _t), dict(w0=np.full(4, 0.25)), "w0"),
-    ((_U, _t), dict(w0=[0.5, 0.6, -0.1]), "w0"),
-    ((_U, _t), dict(w0=[0.5, 0.6, 0.1]), "w0"),
-])
+@pytest.mark.parametrize(
+    "args, kwargs, field",
+    [
+        ((np.zeros((10, 3)), _t), {}, "U"),
+        ((np.zeros((2, 3, 3)), np.zeros((2, 3))), {}, "U"),  # M <= N
+        ((np.zeros((2, 10, 3)), _t), {}, "U"),  # tr R = 0 for step "lms"
+        ((np.where(_U == 1.0, np.nan, _U), _t), {}, "U"),
+        ((_U, np.zeros((2, 9))), {}, "t"),
+        ((_U, np.full((2, 10), np.inf)), {}, "t"),
+        ((_U, _t), dict(projection="clip"), "projection"),
+        ((_U, _t), dict(step="rls"), "step"),
+        ((_U, _t), dict(mu=0.0), "mu"),
+        ((_U, _t), dict(mu=-0.1), "mu"),
+        ((_U, _t), dict(mu=2.0), "mu"),
+        ((_U, _t), dict(mu="fast"), "mu"),
+        ((_U, _t), dict(epochs=0), "epochs"),
+        ((_U, _t), dict(epochs=2.5), "epochs"),
+        ((_U, _t), dict(tol=-1e-6), "tol"),
+        ((_U, _t), dict(tol=np.nan), "tol"),
+        ((_U, _t), dict(decay="yes"), "decay"),
+        ((_U, _t), dict(w0=np.full(4, 0.25)), "w0"),
+        ((_U, _t), dict(w0=[0.5, 0.6, -0.1]), "w0"),
+        ((_U, _t), dict(w0=[0.5, 0.6, 0.1]), "w0"),
+    ],
+)
 def test_bad_arguments_raise(args, kwargs, field):
     with pytest.raises(ValueError, match=rf"^{field}:"):
         lms_train(*args, rng=np.random.default_rng(0), **kwargs)

@@ -26,8 +26,16 @@ def _model(system, weights, patterns=None, inputs=("pos1", "pos2", "pos3")):
     C = weights.shape[0]
     if patterns is None:
         patterns = np.vstack([np.zeros(3, bool), np.eye(3, dtype=bool)])[:C]
-    return NeuronModel(("healthy", "pos1", "pos2", "pos3")[:C], patterns, inputs,
-                       ("s", "v", "a"), weights, np.ones((C, 3)), system.compatibility(), {})
+    return NeuronModel(
+        ("healthy", "pos1", "pos2", "pos3")[:C],
+        patterns,
+        inputs,
+        ("s", "v", "a"),
+        weights,
+        np.ones((C, 3)),
+        system.compatibility(),
+        {},
+    )
 
 
 def _banks():
@@ -69,8 +77,9 @@ def test_fused_estimate_is_the_weighted_sum_of_independent_local_filters(scenari
     F, Q = system.transition(1)
     for k in range(1, scenario.steps + 1):
         oracle = np.zeros(3, bool) if k < 30 else np.array([False, True, False])
-        state, out = filt.step(state, k, [z[:, k - 1] for z in sim.z],
-                               sim.available[:, k - 1], oracle)
+        state, out = filt.step(
+            state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], oracle
+        )
         for i, s in enumerate(system.sensors):  # plain independent Kalman filters
             xp, Pp = kf.predict(x[i], P[i], F, Q)
             up = kf.update(xp, Pp, sim.z[i][:, k - 1], s.H, s.R)
@@ -79,8 +88,9 @@ def test_fused_estimate_is_the_weighted_sum_of_independent_local_filters(scenari
         u = np.stack(x, -1)  # (B, n, N)
         np.testing.assert_allclose(out.x, (w[None] * u).sum(-1), rtol=1e-12, atol=1e-12)
         sd = np.sqrt(np.stack([np.diagonal(p, axis1=1, axis2=2) for p in P], -1))
-        np.testing.assert_allclose(np.diagonal(out.P, axis1=1, axis2=2),
-                                   ((w[None] * sd).sum(-1)) ** 2, rtol=1e-12)
+        np.testing.assert_allclose(
+            np.diagonal(out.P, axis1=1, axis2=2), ((w[None] * sd).sum(-1)) ** 2, rtol=1e-12
+        )
         assert np.all(out.P[:, 0, 1:] == 0.0)
 
 
@@ -108,8 +118,6 @@ def test_model_validation(scenario):
         _model(system, W[:, :2])
     model = _model(system, W)
     with pytest.raises(ValueError, match=r"uncovered: expected 'renormalize' or one of"):
-        NeuralFusion(system, Method(name="n", architecture="neural", uncovered="sins"),
-                     model=model)
+        NeuralFusion(system, Method(name="n", architecture="neural", uncovered="sins"), model=model)
     with pytest.raises(ValueError, match=r"^methods\[n\]\.detector:"):
-        NeuralFusion(system, Method(name="n", architecture="neural", detector="rbf",
-                                    model="x.npz"))
+        NeuralFusion(system, Method(name="n", architecture="neural", detector="rbf", model="x.npz"))

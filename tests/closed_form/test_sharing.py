@@ -34,8 +34,9 @@ def test_rules_are_a_partition_of_unity(rule, master_share, scaled):
     P = random_spd_batch(rng, B, N, n)
     r = random_faults(rng, B, N)
     scale = rng.uniform(0.1, 3.0, n) if scaled else None
-    beta = sharing_coefficients(rule, P, r, master_share=master_share, scale=scale,
-                                **_kwargs(rule, N, rng))
+    beta = sharing_coefficients(
+        rule, P, r, master_share=master_share, scale=scale, **_kwargs(rule, N, rng)
+    )
     assert beta.shape == (B, N)
     assert (beta >= 0.0).all()
     assert (beta[r == 0] == 0.0).all()
@@ -48,8 +49,9 @@ def test_all_faulty_gives_all_zero(rule):
     """Spec §1.4/§2.6: no healthy filter -> no local is fused (the master propagates)."""
     rng = np.random.default_rng(1)
     P = random_spd_batch(rng, 3, 3, 2)
-    beta = sharing_coefficients(rule, P, np.zeros((3, 3)), master_share=0.1,
-                                **_kwargs(rule, 3, rng))
+    beta = sharing_coefficients(
+        rule, P, np.zeros((3, 3)), master_share=0.1, **_kwargs(rule, 3, rng)
+    )
     np.testing.assert_array_equal(beta, 0.0)
 
 
@@ -85,34 +87,48 @@ def test_inverse_trace_reference_cancels():
     rng = np.random.default_rng(3)
     P = random_spd_batch(rng, 4, 3, 3)
     r = np.ones((4, 3))
-    np.testing.assert_allclose(sharing_coefficients("inverse-trace", P * 1e6, r),
-                               sharing_coefficients("inverse-trace", P, r), rtol=1e-12)
+    np.testing.assert_allclose(
+        sharing_coefficients("inverse-trace", P * 1e6, r),
+        sharing_coefficients("inverse-trace", P, r),
+        rtol=1e-12,
+    )
 
 
 def test_frobenius_by_hand():
     """‖diag(3,4)‖_F = 5, ‖diag(5,12)‖_F = 13 -> β = (5, 13)/18, times 1 − β_m."""
     P = np.array([np.diag([3.0, 4.0]), np.diag([5.0, 12.0])])
-    np.testing.assert_allclose(sharing_coefficients("frobenius", P, np.ones(2)),
-                               [5 / 18, 13 / 18], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(sharing_coefficients("frobenius", P, np.ones(2), master_share=0.1),
-                               [0.25, 0.65], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        sharing_coefficients("frobenius", P, np.ones(2)), [5 / 18, 13 / 18], rtol=0, atol=1e-15
+    )
+    np.testing.assert_allclose(
+        sharing_coefficients("frobenius", P, np.ones(2), master_share=0.1),
+        [0.25, 0.65],
+        rtol=0,
+        atol=1e-15,
+    )
     # off-diagonal entries count: ‖[[1,2],[2,1]]‖_F = √10
     P2 = np.array([[[1.0, 2.0], [2.0, 1.0]], np.diag([3.0, 1.0])])
-    np.testing.assert_allclose(sharing_coefficients("frobenius", P2, np.ones(2)),
-                               [0.5, 0.5], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        sharing_coefficients("frobenius", P2, np.ones(2)), [0.5, 0.5], rtol=0, atol=1e-15
+    )
 
 
 def test_equal_fixed_and_information_rules():
     r = np.array([[1.0, 1.0, 0.0, 1.0]])
     P = np.broadcast_to(np.eye(2), (1, 4, 2, 2))
-    np.testing.assert_allclose(sharing_coefficients("equal", P, r, master_share=0.1),
-                               [[0.3, 0.3, 0.0, 0.3]], atol=1e-15)
+    np.testing.assert_allclose(
+        sharing_coefficients("equal", P, r, master_share=0.1), [[0.3, 0.3, 0.0, 0.3]], atol=1e-15
+    )
     np.testing.assert_allclose(
         sharing_coefficients("fixed", P, r, betas=np.array([0.1, 0.3, 0.2, 0.4])),
-        [[0.125, 0.375, 0.0, 0.5]], atol=1e-15)
+        [[0.125, 0.375, 0.0, 0.5]],
+        atol=1e-15,
+    )
     np.testing.assert_allclose(
         sharing_coefficients("information", P, r, info=np.array([1.0, 2.0, 5.0, 1.0])),
-        [[0.25, 0.5, 0.0, 0.25]], atol=1e-15)
+        [[0.25, 0.5, 0.0, 0.25]],
+        atol=1e-15,
+    )
 
 
 def test_scaled_trace_uses_weighting():

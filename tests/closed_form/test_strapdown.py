@@ -34,8 +34,9 @@ def _stationary(hours=1.0, heading_deg=30.0, rate=100.0):
 def test_stationary_hour_with_error_free_imu():
     """Spec §8.6 (a): horizontal |δp| < 1 mm, |δv| < 1e-6 m/s; vertical |δh| < 1 cm."""
     tr = generate(_stationary())
-    st, sol = mech.integrate(mech.init_state(tr.p[0], tr.v[0], tr.euler[0]), tr.dtheta, tr.dv,
-                             tr.dt)
+    st, sol = mech.integrate(
+        mech.init_state(tr.p[0], tr.v[0], tr.euler[0]), tr.dtheta, tr.dv, tr.dt
+    )
     e = earth.enu_metres(sol.p[0], tr.p[2::2])
     assert np.abs(e[:, :2]).max() < 1e-3
     assert np.abs(e[:, 2]).max() < 1e-2
@@ -49,11 +50,13 @@ def test_stationary_increments_are_earth_rate_and_gravity():
     tr = generate(_stationary(hours=0.01))
     T = tr.dt
     L, h = tr.p[0, 0], tr.p[0, 2]
-    np.testing.assert_allclose(np.linalg.norm(tr.dv / T, axis=1), earth.gravity(L, h),
-                               rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        np.linalg.norm(tr.dv / T, axis=1), earth.gravity(L, h), rtol=0, atol=1e-9
+    )
     C = at.euler_to_dcm(tr.euler[0])
-    np.testing.assert_allclose(tr.dtheta / T, np.broadcast_to(C.T @ earth.omega_ie_n(L),
-                                                              tr.dtheta.shape), atol=1e-17)
+    np.testing.assert_allclose(
+        tr.dtheta / T, np.broadcast_to(C.T @ earth.omega_ie_n(L), tr.dtheta.shape), atol=1e-17
+    )
 
 
 @pytest.mark.parametrize("algorithm", ["two-sample", "single-sample"])
@@ -64,8 +67,9 @@ def test_seed001_round_trip_with_error_free_imu(seed001, algorithm):
     """
     tr = seed001
     ns = 2 if algorithm == "two-sample" else 1
-    _, sol = mech.integrate(mech.init_state(tr.p[0], tr.v[0], tr.euler[0]), tr.dtheta, tr.dv,
-                            tr.dt, algorithm=algorithm)
+    _, sol = mech.integrate(
+        mech.init_state(tr.p[0], tr.v[0], tr.euler[0]), tr.dtheta, tr.dv, tr.dt, algorithm=algorithm
+    )
     e = earth.enu_metres(sol.p[0], tr.p[ns::ns])
     assert np.hypot(e[:, 0], e[:, 1]).max() < 0.05  # far inside the 1 m target
     assert np.hypot(*e[-1, :2]) < 1.0
@@ -84,20 +88,24 @@ def test_batched_chunked_and_biased_integration_are_exact(seed001):
         np.testing.assert_array_equal(np.broadcast_to(x1, x3.shape), x3)
     # two chunks carry the state exactly
     mid, a = mech.integrate(st0, tr.dtheta[: n // 2], tr.dv[: n // 2], tr.dt)
-    _, b = mech.integrate(mid, tr.dtheta[n // 2: n], tr.dv[n // 2: n], tr.dt)
+    _, b = mech.integrate(mid, tr.dtheta[n // 2 : n], tr.dv[n // 2 : n], tr.dt)
     np.testing.assert_array_equal(np.concatenate([a.p, b.p], 1), one.p)
     # a bias added to the increments and subtracted as an estimate cancels
     gb, ab = np.array([1e-5, -2e-5, 3e-5]), np.array([1e-3, 2e-3, -1e-3])
-    _, biased = mech.integrate(st0, tr.dtheta[:n] + gb * tr.dt, tr.dv[:n] + ab * tr.dt, tr.dt,
-                               gyro_bias=gb, accel_bias=ab)
+    _, biased = mech.integrate(
+        st0, tr.dtheta[:n] + gb * tr.dt, tr.dv[:n] + ab * tr.dt, tr.dt, gyro_bias=gb, accel_bias=ab
+    )
     np.testing.assert_allclose(biased.p, one.p, rtol=0, atol=1e-9)
 
 
 def test_feedback_removes_a_known_error(seed001):
     tr = seed001
     st = mech.init_state(tr.p[0], tr.v[0], tr.euler[0])
-    phi, dv, dp = np.array([1e-3, -2e-3, 5e-3]), np.array([0.3, -0.2, 0.1]), \
-        np.array([1e-5, -1e-5, 10.0])
+    phi, dv, dp = (
+        np.array([1e-3, -2e-3, 5e-3]),
+        np.array([0.3, -0.2, 0.1]),
+        np.array([1e-5, -1e-5, 10.0]),
+    )
     C = (np.eye(3) - at.skew(phi)) @ at.quat_to_dcm(st.q[0])  # spec §0 error definition
     bad = st._replace(q=at.dcm_to_quat(C)[None], v=st.v + dv, p=st.p + dp)
     fixed = mech.feedback(bad, phi, dv, dp)
@@ -126,8 +134,9 @@ def test_coordinated_turn_radius_and_lateral_force():
     tr = generate(Profile("turn", 100.0, start, (Segment(60.0, yaw_rate=None),)))
     import pymap3d
 
-    e, n, _ = pymap3d.geodetic2enu(np.degrees(tr.p[:, 0]), np.degrees(tr.p[:, 1]), tr.p[:, 2],
-                                   32.0, 118.0, 1000.0)
+    e, n, _ = pymap3d.geodetic2enu(
+        np.degrees(tr.p[:, 0]), np.degrees(tr.p[:, 1]), tr.p[:, 2], 32.0, 118.0, 1000.0
+    )
     # algebraic circle fit  x² + y² + a x + b y + c = 0
     A = np.column_stack([e, n, np.ones_like(e)])
     a, b, c = np.linalg.lstsq(A, -(e**2 + n**2), rcond=None)[0]

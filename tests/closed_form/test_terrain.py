@@ -24,8 +24,14 @@ from ftnav.sensors import AnalyticTerrain, GridDem, Tan
 
 DEG = np.pi / 180.0
 DEM_DIR = Path(__file__).resolve().parents[3] / "shared" / "data" / "dem_samples"
-TERRAIN = AnalyticTerrain.random(np.random.default_rng(21), 32.0, 118.0, n_waves=6,
-                                 h0_m=400.0, wavelength_range_m=(1000.0, 5000.0))
+TERRAIN = AnalyticTerrain.random(
+    np.random.default_rng(21),
+    32.0,
+    118.0,
+    n_waves=6,
+    h0_m=400.0,
+    wavelength_range_m=(1000.0, 5000.0),
+)
 
 
 def test_analytic_slopes_match_finite_differences():
@@ -34,10 +40,12 @@ def test_analytic_slopes_match_finite_differences():
     lam = (118.0 + rng.uniform(-0.05, 0.05, 50)) * DEG
     h, gL, glam = TERRAIN.height_and_gradient(L, lam)
     d = 1e-8
-    fd_L = (TERRAIN.height_and_gradient(L + d, lam)[0]
-            - TERRAIN.height_and_gradient(L - d, lam)[0]) / (2 * d)
-    fd_lam = (TERRAIN.height_and_gradient(L, lam + d)[0]
-              - TERRAIN.height_and_gradient(L, lam - d)[0]) / (2 * d)
+    fd_L = (
+        TERRAIN.height_and_gradient(L + d, lam)[0] - TERRAIN.height_and_gradient(L - d, lam)[0]
+    ) / (2 * d)
+    fd_lam = (
+        TERRAIN.height_and_gradient(L, lam + d)[0] - TERRAIN.height_and_gradient(L, lam - d)[0]
+    ) / (2 * d)
     scale = np.max(np.abs(np.concatenate([gL, glam])))
     np.testing.assert_allclose(gL, fd_L, atol=1e-6 * scale)
     np.testing.assert_allclose(glam, fd_lam, atol=1e-6 * scale)
@@ -102,8 +110,14 @@ def test_plane_fit_smooths_toward_the_analytic_slope():
     ``e_max Σ w|dN| / Σ w dN² ≤ e_max/δ`` with δ ≥ Δ/2 the pattern spacing, plus 1e-3 of
     the slope for the metric of the pattern (radii at the point, not at the origin)."""
     r = 90.0
-    dem = GridDem.sample(TERRAIN, (31.98, 32.02), (117.98, 118.02), spacing_m=30.0,
-                         slope="plane_fit", plane_fit_radius_m=r)
+    dem = GridDem.sample(
+        TERRAIN,
+        (31.98, 32.02),
+        (117.98, 118.02),
+        spacing_m=30.0,
+        slope="plane_fit",
+        plane_fit_radius_m=r,
+    )
     rng = np.random.default_rng(4)
     L = rng.uniform(31.99, 32.01, 100) * DEG
     lam = rng.uniform(117.99, 118.01, 100) * DEG
@@ -124,8 +138,9 @@ def test_plane_fit_smooths_toward_the_analytic_slope():
 
 def test_outside_the_grid_is_nan():
     dem = GridDem.sample(TERRAIN, (31.99, 32.01), (117.99, 118.01), spacing_m=30.0)
-    h, gL, glam = dem.height_and_gradient(np.array([31.0, 32.0]) * DEG,
-                                          np.array([118.0, 119.0]) * DEG)
+    h, gL, glam = dem.height_and_gradient(
+        np.array([31.0, 32.0]) * DEG, np.array([118.0, 119.0]) * DEG
+    )
     assert np.all(np.isnan(h)) and np.all(np.isnan(gL)) and np.all(np.isnan(glam))
     assert not dem.contains(31.0 * DEG, 118.0 * DEG)
     assert dem.contains(32.0 * DEG, 118.0 * DEG)
@@ -145,8 +160,9 @@ def _check_bilinear_cell(dem: GridDem) -> None:
     lon = dem.lon_deg[j] + tx * (dem.lon_deg[j + 1] - dem.lon_deg[j])
     z = dem.height_m
     corners = np.array([z[i, j], z[i, j + 1], z[i + 1, j], z[i + 1, j + 1]])
-    expected = ((1 - ty) * ((1 - tx) * corners[0] + tx * corners[1])
-                + ty * ((1 - tx) * corners[2] + tx * corners[3]))
+    expected = (1 - ty) * ((1 - tx) * corners[0] + tx * corners[1]) + ty * (
+        (1 - tx) * corners[2] + tx * corners[3]
+    )
     h = dem.height(lat * DEG, lon * DEG)
     np.testing.assert_allclose(h, expected, rtol=1e-9)
     assert corners.min() <= h <= corners.max()

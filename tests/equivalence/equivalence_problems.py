@@ -58,8 +58,13 @@ class Trajectory(NamedTuple):
     states: list
 
 
-def drive(filt, sim: Simulation, available: np.ndarray | None = None,
-          oracle: np.ndarray | None = None, keep_states: bool = False) -> Trajectory:
+def drive(
+    filt,
+    sim: Simulation,
+    available: np.ndarray | None = None,
+    oracle: np.ndarray | None = None,
+    keep_states: bool = False,
+) -> Trajectory:
     """Run ``filt`` epoch by epoch over ``sim`` (optionally with a replaced schedule/oracle)."""
     available = sim.available if available is None else available
     oracle = sim.oracle if oracle is None else oracle
@@ -67,8 +72,9 @@ def drive(filt, sim: Simulation, available: np.ndarray | None = None,
     state = filt.init(B)
     xs, Ps, outs, states = [], [], [], []
     for k in range(1, K + 1):
-        state, out = filt.step(state, k, [z[:, k - 1] for z in sim.z], available[:, k - 1],
-                               oracle[k - 1])
+        state, out = filt.step(
+            state, k, [z[:, k - 1] for z in sim.z], available[:, k - 1], oracle[k - 1]
+        )
         xs.append(out.x)
         Ps.append(out.P)
         outs.append(out)
@@ -77,11 +83,12 @@ def drive(filt, sim: Simulation, available: np.ndarray | None = None,
     return Trajectory(np.stack(xs, 1), np.stack(Ps, 1), outs, states)
 
 
-def centralized_skipping(system: LinearSystem, sim: Simulation, sensor: int, first: int,
-                         last: int) -> Trajectory:
+def centralized_skipping(
+    system: LinearSystem, sim: Simulation, sensor: int, first: int, last: int
+) -> Trajectory:
     """Plain centralized KF that ignores ``sensor`` on steps ``first..last`` (inclusive)."""
     available = sim.available.copy()
-    available[:, first - 1: last, sensor] = False
+    available[:, first - 1 : last, sensor] = False
     return drive(CentralizedFilter(system), sim, available, np.zeros_like(sim.oracle))
 
 

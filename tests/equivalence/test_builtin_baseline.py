@@ -42,8 +42,11 @@ def _compare(expected, actual, path: str, bad: list[str]) -> None:
         if actual != expected:
             bad.append(f"{path}: {actual!r} != {expected!r}")
     elif isinstance(expected, int | float):
-        if not isinstance(actual, int | float) or isinstance(actual, bool) or \
-                not math.isclose(actual, expected, rel_tol=RTOL, abs_tol=1e-300):
+        if (
+            not isinstance(actual, int | float)
+            or isinstance(actual, bool)
+            or not math.isclose(actual, expected, rel_tol=RTOL, abs_tol=1e-300)
+        ):
             bad.append(f"{path}: {actual!r} != {expected!r}")
 
 
@@ -51,13 +54,32 @@ def _compare(expected, actual, path: str, bad: list[str]) -> None:
 def test_builtin_metrics_are_unchanged(name, tmp_path, capsys):
     expected = BASELINE[name]
     out = tmp_path / name
-    assert main(["run", name, "--runs", str(expected["runs"]), "--seed", str(expected["seed"]),
-                 "--no-figures", "--quiet", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "run",
+                name,
+                "--runs",
+                str(expected["runs"]),
+                "--seed",
+                str(expected["seed"]),
+                "--no-figures",
+                "--quiet",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     actual = json.loads((out / "metrics.json").read_text())
     bad: list[str] = []
     _compare(expected["methods"], actual["methods"], "methods", bad)
     if "second_trajectory" in expected:
-        _compare(expected["second_trajectory"]["methods"],
-                 actual["second_trajectory"]["methods"], "second_trajectory.methods", bad)
+        _compare(
+            expected["second_trajectory"]["methods"],
+            actual["second_trajectory"]["methods"],
+            "second_trajectory.methods",
+            bad,
+        )
     assert not bad, f"{len(bad)} numbers changed, first: " + "; ".join(bad[:5])

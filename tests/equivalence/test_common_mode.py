@@ -31,8 +31,9 @@ def _problem(sensors):
 
 
 def _fkf(system, **kw):
-    return FederatedFilter(system, Method(name="f", architecture="federated",
-                                          mode="fusion-reset", **kw))
+    return FederatedFilter(
+        system, Method(name="f", architecture="federated", mode="fusion-reset", **kw)
+    )
 
 
 def test_all_flagged_keep_equals_no_detector():
@@ -56,8 +57,7 @@ def test_quorum_of_flags_keep_equals_no_detector():
     system, sim = _problem([0, 1])
     assert sim.oracle[100:199, :2].all() and not sim.oracle[:, 2].any()
     ref = drive(_fkf(system), sim)
-    quorum = drive(_fkf(system, detector="oracle", common_mode="keep", common_mode_quorum=2),
-                   sim)
+    quorum = drive(_fkf(system, detector="oracle", common_mode="keep", common_mode_quorum=2), sim)
     every = drive(_fkf(system, detector="oracle", common_mode="keep"), sim)
     isolate = drive(_fkf(system, detector="oracle"), sim)
     assert_same(quorum, ref)
@@ -67,8 +67,7 @@ def test_quorum_of_flags_keep_equals_no_detector():
 
 def test_single_flag_below_quorum_is_isolated():
     system, sim = _problem([1])
-    quorum = drive(_fkf(system, detector="oracle", common_mode="keep", common_mode_quorum=2),
-                   sim)
+    quorum = drive(_fkf(system, detector="oracle", common_mode="keep", common_mode_quorum=2), sim)
     isolate = drive(_fkf(system, detector="oracle"), sim)
     assert_same(quorum, isolate, rtol=0.0)
 
@@ -76,14 +75,18 @@ def test_single_flag_below_quorum_is_isolated():
 def test_quorum_of_every_sensor_is_the_default():
     system, sim = _problem([0, 1, 2])
     every = drive(_fkf(system, detector="oracle", common_mode="keep"), sim)
-    quorum = drive(_fkf(system, detector="oracle", common_mode="keep", common_mode_quorum=3),
-                   sim)
+    quorum = drive(_fkf(system, detector="oracle", common_mode="keep", common_mode_quorum=3), sim)
     assert_same(quorum, every, rtol=0.0)
 
 
-@pytest.mark.parametrize("kw", [{"common_mode_quorum": 2},
-                                {"common_mode": "keep", "common_mode_quorum": 1},
-                                {"common_mode": "keep", "common_mode_quorum": 4}])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"common_mode_quorum": 2},
+        {"common_mode": "keep", "common_mode_quorum": 1},
+        {"common_mode": "keep", "common_mode_quorum": 4},
+    ],
+)
 def test_quorum_out_of_range_is_refused(kw):
     system, _ = _problem([0])
     with pytest.raises(ValueError, match="common_mode_quorum"):

@@ -28,8 +28,7 @@ def test_navigation_errors_equal_the_numpy_form():
     v, p = rng.standard_normal((9, 3)), rng.standard_normal((9, 3))
     v_t, p_t = rng.standard_normal(3), rng.standard_normal(3)
     e = navigation_errors(q, v, p, q_true, v_t, p_t)
-    np.testing.assert_allclose(e[:, :3], at.quat_attitude_error(q, q_true), rtol=1e-12,
-                               atol=1e-16)
+    np.testing.assert_allclose(e[:, :3], at.quat_attitude_error(q, q_true), rtol=1e-12, atol=1e-16)
     np.testing.assert_allclose(e[:, :3], r, rtol=1e-9, atol=1e-15)
     np.testing.assert_array_equal(e[:, 3:6], v - v_t)
     np.testing.assert_array_equal(e[:, 6:9], p - p_t)
@@ -41,7 +40,8 @@ def test_compiled_correction_equals_the_broadcast_form():
     phi = rng.standard_normal((9, 3)) * np.geomspace(1e-12, 0.5, 9)[:, None]
     dv, dp = rng.standard_normal((9, 3)), rng.standard_normal((9, 3))
     got = apply_correction(q, v, p, phi, dv, dp)
-    ref = apply_correction(q[:, None], v[:, None], p[:, None], phi[:, None], dv[:, None],
-                           dp[:, None])  # (B, 1, ·): the NumPy branch
+    ref = apply_correction(
+        q[:, None], v[:, None], p[:, None], phi[:, None], dv[:, None], dp[:, None]
+    )  # (B, 1, ·): the NumPy branch
     for a, b in zip(got, ref, strict=True):
         np.testing.assert_allclose(a, b[:, 0], rtol=1e-13, atol=1e-15)

@@ -16,10 +16,14 @@ from ftnav.core import vb
 def _problem(B=6, n=8, m=3, seed=0, shared_H=False):
     rng = np.random.default_rng(seed)
     A = rng.standard_normal((B, n, n))
-    return (rng.standard_normal((B, n)), A @ np.swapaxes(A, -1, -2) + np.eye(n),
-            rng.standard_normal((B, m)) * 3.0,
-            rng.standard_normal((m, n) if shared_H else (B, m, n)),
-            rng.uniform(1.0, 3.0, (B, m)), rng.uniform(0.5, 3.0, (B, m)))
+    return (
+        rng.standard_normal((B, n)),
+        A @ np.swapaxes(A, -1, -2) + np.eye(n),
+        rng.standard_normal((B, m)) * 3.0,
+        rng.standard_normal((m, n) if shared_H else (B, m, n)),
+        rng.uniform(1.0, 3.0, (B, m)),
+        rng.uniform(0.5, 3.0, (B, m)),
+    )
 
 
 @pytest.mark.parametrize("iterations", [1, 3, 6])

@@ -43,8 +43,9 @@ def federated_methods(N: int) -> dict[str, Method]:
         "FR beta_m=0": Method("fr", sharing="equal"),
         "FR beta_m=1/(N+1)": Method("frm", sharing="equal", master_share=1.0 / (N + 1)),
         "FR fixed simplex": Method("fix", sharing="fixed", betas=_simplex(N, 1)),
-        "FR fixed simplex + master": Method("fixm", sharing="fixed", betas=_simplex(N, 2),
-                                            master_share=0.3),
+        "FR fixed simplex + master": Method(
+            "fixm", sharing="fixed", betas=_simplex(N, 2), master_share=0.3
+        ),
         "FR inverse-trace": Method("inv", sharing="inverse-trace"),
         "ZR": Method("zr", mode="zero-reset"),
     }
@@ -65,8 +66,12 @@ def test_distributed_equals_ckf(problem, increment, local_scale):
     system, sim, ref = problem
     N = system.n_sensors
     q, p = local_scale
-    filt = DistributedFilter(system, Method("d", architecture="distributed", increment=increment),
-                             local_Q_scale=[q] * N, local_P0_scale=[p] * N)
+    filt = DistributedFilter(
+        system,
+        Method("d", architecture="distributed", increment=increment),
+        local_Q_scale=[q] * N,
+        local_P0_scale=[p] * N,
+    )
     assert_same(drive(filt, sim), ref)
 
 
@@ -74,9 +79,12 @@ def test_distributed_unequal_local_settings_equals_ckf(problem):
     """Different Q/P0 factor per local filter (spec §6.2)."""
     system, sim, ref = problem
     N = system.n_sensors
-    filt = DistributedFilter(system, Method("d", architecture="distributed"),
-                             local_Q_scale=np.linspace(0.5, 20.0, N),
-                             local_P0_scale=np.linspace(3.0, 0.5, N))
+    filt = DistributedFilter(
+        system,
+        Method("d", architecture="distributed"),
+        local_Q_scale=np.linspace(0.5, 20.0, N),
+        local_P0_scale=np.linspace(3.0, 0.5, N),
+    )
     assert_same(drive(filt, sim), ref)
 
 
@@ -102,8 +110,11 @@ def test_no_reset_with_zero_process_noise_equals_ckf():
 
 @pytest.mark.parametrize(
     "method",
-    [Method("nr", mode="no-reset"), Method("fr5", reset_interval=5),
-     Method("fr5inv", reset_interval=5, sharing="inverse-trace")],
+    [
+        Method("nr", mode="no-reset"),
+        Method("fr5", reset_interval=5),
+        Method("fr5inv", reset_interval=5, sharing="inverse-trace"),
+    ],
     ids=["NR", "FR/5", "FR/5 inverse-trace"],
 )
 def test_conservative_modes_bound_ckf_covariance(problem, method):
@@ -144,8 +155,9 @@ def test_information_is_conserved_by_the_sharing(problem, rule, master_share):
         assert (err <= 1e-9 * np.linalg.norm(Yg, axis=(-2, -1))).all()
         # the reset copies hold P_g / β_j exactly (spec §1.2)
         for j, P in enumerate(st.P):
-            np.testing.assert_allclose(P * out.beta[:, j, None, None], st.Pg, rtol=1e-12,
-                                       atol=1e-12 * np.abs(st.Pg).max())
+            np.testing.assert_allclose(
+                P * out.beta[:, j, None, None], st.Pg, rtol=1e-12, atol=1e-12 * np.abs(st.Pg).max()
+            )
 
 
 # ---------------------------------------------------------------------------

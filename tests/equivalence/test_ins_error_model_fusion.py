@@ -35,15 +35,27 @@ def problem():
     tr = generate(resolve_profile("seed001"))
     per_s = int(round(1.0 / tr.dt))
     starts = 9000 + per_s * np.arange(SECONDS)  # t = 90 s .. 390 s
-    f_b = np.stack([tr.dv[s:s + per_s].sum(0) / (per_s * tr.dt) for s in starts])
-    nav = NavState(tr.p[starts, 0], tr.p[starts, 1], tr.p[starts, 2], tr.v[starts], f_b,
-                   at.euler_to_dcm(tr.euler[starts]))
+    f_b = np.stack([tr.dv[s : s + per_s].sum(0) / (per_s * tr.dt) for s in starts])
+    nav = NavState(
+        tr.p[starts, 0],
+        tr.p[starts, 1],
+        tr.p[starts, 2],
+        tr.v[starts],
+        f_b,
+        at.euler_to_dcm(tr.euler[starts]),
+    )
     params = ErrorModelParams(  # paper 001 Table 1
-        gyro_psd=(0.01 * np.radians(1.0) / 60.0) ** 2, gyro_markov_sigma=0.1 * DEG_H,
-        gyro_markov_tau=7200.0, accel_markov_sigma=1e-4 * 9.80665, accel_markov_tau=1800.0)
+        gyro_psd=(0.01 * np.radians(1.0) / 60.0) ** 2,
+        gyro_markov_sigma=0.1 * DEG_H,
+        gyro_markov_tau=7200.0,
+        accel_markov_sigma=1e-4 * 9.80665,
+        accel_markov_tau=1800.0,
+    )
     Phi, Qk = SinsErrorModel(params, 1.0).transition(nav)
-    sig0 = np.array([300, 300, 600] + [0.6] * 3 + [30, 30] + [5.0]) * np.r_[
-        [ARCSEC] * 3, [1.0] * 3, [ARCSEC] * 2, [1.0]]
+    sig0 = (
+        np.array([300, 300, 600] + [0.6] * 3 + [30, 30] + [5.0])
+        * np.r_[[ARCSEC] * 3, [1.0] * 3, [ARCSEC] * 2, [1.0]]
+    )
     sig0 = np.r_[sig0, [0.1 * DEG_H] * 6, [1e-4 * 9.80665] * 3]
     P0 = np.diag(sig0**2)
     model = LinearModel(STATES_18, Phi[0], Qk[0], np.zeros(18), P0, Qk[0])
@@ -62,8 +74,7 @@ def problem():
 def _assert_same_scaled(traj, ref, sig0, rtol=1e-9):
     d = 1.0 / sig0
     np.testing.assert_allclose(traj.x * d, ref.x * d, rtol=0, atol=rtol)
-    np.testing.assert_allclose(traj.P * d[:, None] * d, ref.P * d[:, None] * d, rtol=0,
-                               atol=rtol)
+    np.testing.assert_allclose(traj.P * d[:, None] * d, ref.P * d[:, None] * d, rtol=0, atol=rtol)
 
 
 METHODS = {
@@ -78,8 +89,11 @@ METHODS = {
 def test_fusion_on_the_sins_error_model_equals_ckf(problem, name):
     system, sim, sig0, ref = problem
     m = METHODS[name]
-    filt = DistributedFilter(system, m) if m.architecture == "distributed" else \
-        FederatedFilter(system, m)
+    filt = (
+        DistributedFilter(system, m)
+        if m.architecture == "distributed"
+        else FederatedFilter(system, m)
+    )
     _assert_same_scaled(drive(filt, sim), ref, sig0)
 
 

@@ -39,8 +39,14 @@ from ftnav.sim.scenario import Method
 TOL = 1e-6  # metric units: m, m/s, arcmin
 
 CKF = Method("ckf", architecture="centralized")
-FKF_FR = Method("fkf-fr", architecture="federated", mode="fusion-reset", reset_interval=1,
-                sharing="equal", detector="none")
+FKF_FR = Method(
+    "fkf-fr",
+    architecture="federated",
+    mode="fusion-reset",
+    reset_interval=1,
+    sharing="equal",
+    detector="none",
+)
 DKF = Method("dkf", architecture="distributed", adaptive_noise="none")
 
 PRIVATE = """
@@ -72,8 +78,9 @@ def _max_diff(result, name: str) -> float:
 @pytest.fixture(scope="module")
 def seed002_output():
     sc = load_scenario(builtin_path("seed002"))
-    sc = dataclasses.replace(sc, steps=200, faults=(), correction="output",
-                             methods=(CKF, FKF_FR, DKF))
+    sc = dataclasses.replace(
+        sc, steps=200, faults=(), correction="output", methods=(CKF, FKF_FR, DKF)
+    )
     return run_ins_scenario(sc, 2, seed=11).result
 
 
@@ -103,8 +110,10 @@ def test_methods_in_lock_step_equal_each_method_alone():
     named = {m.name: m for m in sc.methods}
     methods = (named["ckf"], named["fkf-chi2"], named["dkf-vb"])
     gnss_bias = np.array([15.0, 15.0, 0.0, 0.0, 0.0, 0.0])
-    faults = (InsFault("gnss", "noise-scale", 40.0, 100.0, np.array([5.0])),
-              InsFault("gnss", "bias", 110.0, 130.0, gnss_bias))
+    faults = (
+        InsFault("gnss", "noise-scale", 40.0, 100.0, np.array([5.0])),
+        InsFault("gnss", "bias", 110.0, 130.0, gnss_bias),
+    )
     sc = dataclasses.replace(sc, steps=150, faults=faults, methods=methods)
     assert sc.correction == "feedback"
     together = run_ins_scenario(sc, 2, seed=4, fault_free=False).result.results

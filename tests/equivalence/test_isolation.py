@@ -45,12 +45,13 @@ def test_federated_isolation_equals_ckf_skipping_one_extra_epoch(flagged):
     """Spec §1.9 item 6 / §1.8 timing rule: FR inverse-trace with r_2 = 0 on [300, 500)
     equals the CKF that skips sensor 2 on steps 300..500 inclusive, over 700 epochs."""
     system, sim = flagged
-    got = drive(FederatedFilter(system, Method("fr", sharing="inverse-trace",
-                                               detector="oracle")), sim)
+    got = drive(
+        FederatedFilter(system, Method("fr", sharing="inverse-trace", detector="oracle")), sim
+    )
     assert_same(got, centralized_skipping(system, sim, SENSOR, FIRST, END))
     beta = np.stack([o.beta for o in got.outputs], 1)  # (B, K, N)
-    assert (beta[:, FIRST - 1: END - 1, SENSOR] == 0.0).all()  # β_2 = 0 from the flag on
-    assert (beta[:, END - 1:, SENSOR] > 0.0).all()  # re-admitted at the sharing of step 500
+    assert (beta[:, FIRST - 1 : END - 1, SENSOR] == 0.0).all()  # β_2 = 0 from the flag on
+    assert (beta[:, END - 1 :, SENSOR] > 0.0).all()  # re-admitted at the sharing of step 500
 
 
 @pytest.mark.parametrize("master_share", [0.0, 0.25])
@@ -58,8 +59,12 @@ def test_federated_isolation_equals_ckf_skipping_one_extra_epoch(flagged):
 def test_federated_isolation_any_rule(flagged, rule, master_share):
     """The timing rule does not depend on the sharing rule or the master share."""
     system, sim = flagged
-    got = drive(FederatedFilter(system, Method("fr", sharing=rule, master_share=master_share,
-                                               detector="oracle")), sim)
+    got = drive(
+        FederatedFilter(
+            system, Method("fr", sharing=rule, master_share=master_share, detector="oracle")
+        ),
+        sim,
+    )
     assert_same(got, centralized_skipping(system, sim, SENSOR, FIRST, END))
 
 
@@ -69,9 +74,12 @@ def test_distributed_isolation_equals_ckf_without_extra_epoch(flagged, increment
     §6.5(d): from step 500 on it matches that CKF at once (no transient), although the
     isolated local filter's own prior drifted, and it differs from the FR timing."""
     system, sim = flagged
-    filt = DistributedFilter(system, Method("d", architecture="distributed", detector="oracle",
-                                            increment=increment),
-                             local_Q_scale=[1.0, 3.0, 1.0], local_P0_scale=[1.0, 2.0, 1.0])
+    filt = DistributedFilter(
+        system,
+        Method("d", architecture="distributed", detector="oracle", increment=increment),
+        local_Q_scale=[1.0, 3.0, 1.0],
+        local_P0_scale=[1.0, 2.0, 1.0],
+    )
     got = drive(filt, sim)
     ref = centralized_skipping(system, sim, SENSOR, FIRST, END - 1)
     assert_same(got, ref)
@@ -123,8 +131,11 @@ def multirate():
 def test_multirate_equals_centralized(multirate, method):
     """Sensors at 1, 1/2 and 1/3 Hz with a 1 Hz centre: every exact architecture = CKF."""
     system, sim, ref = multirate
-    filt = DistributedFilter(system, method) if method.architecture == "distributed" \
+    filt = (
+        DistributedFilter(system, method)
+        if method.architecture == "distributed"
         else FederatedFilter(system, method)
+    )
     assert_same(drive(filt, sim), ref)
 
 
@@ -145,8 +156,12 @@ def test_difference_equals_direct_increments(shape):
     N = len(dims)
     kw = dict(local_Q_scale=np.linspace(1.0, 10.0, N), local_P0_scale=np.linspace(1.0, 50.0, N))
     direct = drive(DistributedFilter(system, Method("a", architecture="distributed"), **kw), sim)
-    diff = drive(DistributedFilter(system, Method("b", architecture="distributed",
-                                                  increment="difference"), **kw), sim)
+    diff = drive(
+        DistributedFilter(
+            system, Method("b", architecture="distributed", increment="difference"), **kw
+        ),
+        sim,
+    )
     assert_same(diff, direct, rtol=1e-8)
 
 
@@ -158,13 +173,21 @@ def test_no_reset_time_update_isolation_equals_the_missing_measurement(flagged, 
     (steps 300..499); the default standalone isolation drops it from the fusion instead."""
     system, sim = flagged
     method = Method("nr", mode="no-reset", sharing=sharing)
-    got = drive(FederatedFilter(system, Method("nr", mode="no-reset", sharing=sharing,
-                                               detector="oracle", isolation="time-update")),
-                sim)
+    got = drive(
+        FederatedFilter(
+            system,
+            Method(
+                "nr", mode="no-reset", sharing=sharing, detector="oracle", isolation="time-update"
+            ),
+        ),
+        sim,
+    )
     available = sim.available.copy()
-    available[:, FIRST - 1: END - 1, SENSOR] = False
+    available[:, FIRST - 1 : END - 1, SENSOR] = False
     ref = drive(FederatedFilter(system, method), sim, available, np.zeros_like(sim.oracle))
     assert_same(got, ref)
-    dropped = drive(FederatedFilter(system, Method("nr", mode="no-reset", sharing=sharing,
-                                                   detector="oracle")), sim)
+    dropped = drive(
+        FederatedFilter(system, Method("nr", mode="no-reset", sharing=sharing, detector="oracle")),
+        sim,
+    )
     assert np.abs(dropped.x - ref.x).max() > 1e-6 * max(1.0, float(np.abs(ref.x).max()))

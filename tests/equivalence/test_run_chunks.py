@@ -35,8 +35,11 @@ def test_runs_in_batches_equal_one_batch(seed002):
                 if fa is None:
                     assert fb is None
                     continue
-                for xa, xb in zip(fa if isinstance(fa, tuple) else (fa,),
-                                  fb if isinstance(fb, tuple) else (fb,), strict=True):
+                for xa, xb in zip(
+                    fa if isinstance(fa, tuple) else (fa,),
+                    fb if isinstance(fb, tuple) else (fb,),
+                    strict=True,
+                ):
                     assert xa.shape == xb.shape and xa.shape[0] == 3
                     np.testing.assert_allclose(xb, xa, rtol=1e-9, atol=1e-12)
 

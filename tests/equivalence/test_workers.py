@@ -34,8 +34,7 @@ def _assert_same_results(one, two):
 def test_linear_method_groups_in_two_processes_equal_one(monkeypatch):
     sc = load_scenario(builtin_path("seed000"))
     keep = ("ckf", "fkf-fr-inverse-trace", "fkf-inverse-trace-chi2", "dkf-chi2")
-    sc = dataclasses.replace(sc, steps=300, methods=tuple(m for m in sc.methods
-                                                          if m.name in keep))
+    sc = dataclasses.replace(sc, steps=300, methods=tuple(m for m in sc.methods if m.name in keep))
     monkeypatch.setattr(montecarlo, "PARALLEL_MIN_WORK", 1)
     ticks: list[int] = []
     one = run_scenario(sc, 3, 5)

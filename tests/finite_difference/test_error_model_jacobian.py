@@ -37,8 +37,9 @@ from ftnav.nav.earth import OMEGA_IE, gravity, radii
 from ftnav.nav.error_model import ErrorModelParams, continuous_model
 
 DEG = np.pi / 180.0
-PARAMS = ErrorModelParams(gyro_markov_sigma=1e-6, gyro_markov_tau=7200.0,
-                          accel_markov_sigma=1e-3, accel_markov_tau=1800.0)
+PARAMS = ErrorModelParams(
+    gyro_markov_sigma=1e-6, gyro_markov_tau=7200.0, accel_markov_sigma=1e-3, accel_markov_tau=1800.0
+)
 #: perturbation per state: φ 1e-5 rad, δv 1e-3 m/s, δL/δλ 1e-7 rad, δh 1 m (spec §8.6 c),
 #: ε 1e-6 rad/s, ∇ 1e-3 m/s² (the model is linear in the biases)
 STEP = np.array([1e-5] * 3 + [1e-3] * 3 + [1e-7, 1e-7, 1.0] + [1e-6] * 6 + [1e-3] * 3)
@@ -83,13 +84,19 @@ def error_rate(truth, x, frozen):
     eps_b, eps_r, nabla = x[9:12], x[12:15], x[15:18]
     C_t = Rotation.from_rotvec(-phi).as_matrix() @ C  # C̃ = exp(−[φ×]) C
     Cd, vd, pd = mechanization_rates(L, h, v, C, f_b, w_b, radii_fn)
-    Cd_t, vd_t, pd_t = mechanization_rates(L + dp[0], h + dp[2], v + dv, C_t, f_b + nabla,
-                                           w_b + eps_b + eps_r, radii_fn)
+    Cd_t, vd_t, pd_t = mechanization_rates(
+        L + dp[0], h + dp[2], v + dv, C_t, f_b + nabla, w_b + eps_b + eps_r, radii_fn
+    )
     D = C_t @ C.T
     D_dot = Cd_t @ C.T + C_t @ Cd.T
     phi_dot = -left_jacobian_inv(-phi) @ vee(D_dot @ D.T)
-    bias_dot = np.concatenate([np.zeros(3), -eps_r / np.array(PARAMS.gyro_markov_tau),
-                               -nabla / np.array(PARAMS.accel_markov_tau)])
+    bias_dot = np.concatenate(
+        [
+            np.zeros(3),
+            -eps_r / np.array(PARAMS.gyro_markov_tau),
+            -nabla / np.array(PARAMS.accel_markov_tau),
+        ]
+    )
     return np.concatenate([phi_dot, vd_t - vd, pd_t - pd, bias_dot])
 
 
@@ -107,8 +114,9 @@ def random_truth(rng):
     lam = rng.uniform(-180.0, 180.0) * DEG
     h = rng.uniform(0.0, 12000.0)
     v = np.array([rng.uniform(-300, 300), rng.uniform(-300, 300), rng.uniform(-20, 20)])
-    C = euler_to_dcm(np.array([rng.uniform(-30, 30), rng.uniform(-60, 60),
-                               rng.uniform(-180, 180)]) * DEG)
+    C = euler_to_dcm(
+        np.array([rng.uniform(-30, 30), rng.uniform(-60, 60), rng.uniform(-180, 180)]) * DEG
+    )
     f_n = np.array([rng.uniform(-5, 5), rng.uniform(-5, 5), 9.8 + rng.uniform(-3, 3)])
     w_b = rng.uniform(-0.1, 0.1, 3)
     return L, lam, h, v, C, C.T @ f_n, w_b
@@ -147,15 +155,17 @@ def test_F_matches_finite_differences(points, frozen, bound):
         worst = np.maximum(worst, block_errors(F_ana, fd_jacobian(truth, frozen)))
     i, j = np.unravel_index(np.argmax(worst), worst.shape)
     assert worst.max() < bound, (
-        f"worst block ({BLOCKS[i]}, {BLOCKS[j]}) relative error {worst.max():.3g}")
+        f"worst block ({BLOCKS[i]}, {BLOCKS[j]}) relative error {worst.max():.3g}"
+    )
 
 
 def test_frozen_radii_agree_to_finite_difference_accuracy(points):
     """Sharper than the spec: with the radii frozen the analytic F is exact, so only the
     O(d²) truncation and rounding of the central differences remain (measured 6e-9)."""
     truths, F = points
-    worst = max(block_errors(F_ana, fd_jacobian(t, True)).max()
-                for t, F_ana in zip(truths, F, strict=True))
+    worst = max(
+        block_errors(F_ana, fd_jacobian(t, True)).max() for t, F_ana in zip(truths, F, strict=True)
+    )
     assert worst < 1e-6
 
 
@@ -163,8 +173,9 @@ def test_unfrozen_radii_show_the_neglected_terms(points):
     """The check can fail: the Earth-curvature terms ∂R/∂L that F neglects are visible
     (well above the frozen-radii level) in the position block."""
     truths, F = points
-    worst = max(block_errors(F_ana, fd_jacobian(t, False))[2, 2]
-                for t, F_ana in zip(truths, F, strict=True))
+    worst = max(
+        block_errors(F_ana, fd_jacobian(t, False))[2, 2] for t, F_ana in zip(truths, F, strict=True)
+    )
     assert worst > 1e-3
 
 

@@ -43,8 +43,9 @@ DEG = np.pi / 180.0
 N_POINTS = 12
 STEP = {"phi": 1e-5, "dv": 1e-3, "dp": np.array([1e-7, 1e-7, 1.0])}
 GROUPS = {"phi": slice(0, 3), "dv": slice(3, 6), "dp": slice(6, 9)}
-TERRAIN = AnalyticTerrain.random(np.random.default_rng(7), 40.0, 10.0, n_waves=6,
-                                 h0_m=300.0, wavelength_range_m=(1000.0, 5000.0))
+TERRAIN = AnalyticTerrain.random(
+    np.random.default_rng(7), 40.0, 10.0, n_waves=6, h0_m=300.0, wavelength_range_m=(1000.0, 5000.0)
+)
 
 SENSORS = {
     "gnss-white": Gnss(),
@@ -85,8 +86,10 @@ def flight_states(seed: int, sensor) -> AidTruth:
     speed = rng.uniform(50.0, 250.0, n)
     course = rng.uniform(-np.pi, np.pi, n)
     v = np.stack([speed * np.sin(course), speed * np.cos(course), rng.uniform(-20, 20, n)], -1)
-    a = np.stack([rng.uniform(-30, 30, n), rng.uniform(-60, 60, n),
-                  rng.uniform(-180, 180, n)], -1) * DEG
+    a = (
+        np.stack([rng.uniform(-30, 30, n), rng.uniform(-60, 60, n), rng.uniform(-180, 180, n)], -1)
+        * DEG
+    )
     return AidTruth(np.arange(n) * sensor.dt, np.stack([L, lam, h], -1), v, euler_to_quat(a))
 
 
@@ -130,8 +133,9 @@ def test_zero_error_gives_zero_innovation(key):
     assert lin.valid.all()
 
 
-@pytest.mark.parametrize("groups", [("phi",), ("dv",), ("dp",), ("phi", "dv", "dp")],
-                         ids=["phi", "dv", "dp", "all"])
+@pytest.mark.parametrize(
+    "groups", [("phi",), ("dv",), ("dp",), ("phi", "dv", "dp")], ids=["phi", "dv", "dp", "all"]
+)
 @pytest.mark.parametrize("key", list(SENSORS))
 def test_jacobian_matches_central_differences(key, groups):
     """(b) Central difference of the nonlinear z against H δx at N_POINTS flight states."""
@@ -163,8 +167,10 @@ def test_jacobian_columns_match_central_differences(key):
     for j in range(9):
         dx = np.zeros((N_POINTS, 9))
         dx[:, j] = steps[j]
-        dz = 0.5 * (sensor.measure(*perturbed(truth, dx), raw).z
-                    - sensor.measure(*perturbed(truth, -dx), raw).z)
+        dz = 0.5 * (
+            sensor.measure(*perturbed(truth, dx), raw).z
+            - sensor.measure(*perturbed(truth, -dx), raw).z
+        )
         Hdx = H[:, :, j] * steps[j]
         err = np.linalg.norm(dz - Hdx, axis=-1)
         bound = 1e-3 * np.linalg.norm(Hdx, axis=-1) + atol(sensor)
@@ -181,8 +187,10 @@ def test_uncoupled_doppler_drops_only_the_attitude_term():
     np.testing.assert_array_equal(H0[:, :, 3:], H1[:, :, 3:])
     assert np.all(np.abs(H1[:, :, 0:3]).sum(axis=(1, 2)) > 0.0)
     dx = random_dx(np.random.default_rng(5), ("phi",))
-    dz = 0.5 * (UNCOUPLED_DNS.measure(*perturbed(truth, dx), raw).z
-                - UNCOUPLED_DNS.measure(*perturbed(truth, -dx), raw).z)
+    dz = 0.5 * (
+        UNCOUPLED_DNS.measure(*perturbed(truth, dx), raw).z
+        - UNCOUPLED_DNS.measure(*perturbed(truth, -dx), raw).z
+    )
     Hdx = np.einsum("bij,bj->bi", H1[:, :, :3], dx[:, :3])
     np.testing.assert_allclose(dz, Hdx, rtol=1e-3, atol=1e-8)
 
@@ -244,15 +252,20 @@ def test_cns_dcm_and_euler_forms_agree(position):
 def test_euler_rows_against_numeric_euler_derivative():
     """(c) ``∂a/∂φ`` of spec §9.4 (all three rows, ψ counter-clockwise) by central differences."""
     rng = np.random.default_rng(11)
-    a = np.stack([rng.uniform(-30, 30, 20), rng.uniform(-60, 60, 20),
-                  rng.uniform(-180, 180, 20)], -1) * DEG
+    a = (
+        np.stack(
+            [rng.uniform(-30, 30, 20), rng.uniform(-60, 60, 20), rng.uniform(-180, 180, 20)], -1
+        )
+        * DEG
+    )
     q = euler_to_quat(a)
     J = np.empty((20, 3, 3))
     for j in range(3):
         d = np.zeros(3)
         d[j] = 1e-6  # C̃ = exp(−[φ×]) C  ⇔  q̃ = q(−φ) ⊗ q
-        diff = (dcm_to_euler(quat_to_dcm(quat_mul(rotvec_to_quat(-d), q)))
-                - dcm_to_euler(quat_to_dcm(quat_mul(rotvec_to_quat(d), q))))
+        diff = dcm_to_euler(quat_to_dcm(quat_mul(rotvec_to_quat(-d), q))) - dcm_to_euler(
+            quat_to_dcm(quat_mul(rotvec_to_quat(d), q))
+        )
         diff[:, 1:] = (diff[:, 1:] + np.pi) % (2 * np.pi) - np.pi
         J[:, :, j] = diff / 2e-6
     np.testing.assert_allclose(J, euler_jacobian(a), atol=1e-8)
@@ -275,8 +288,9 @@ def test_position_coupling_columns_match_frame_rotation():
     np.testing.assert_allclose(dtheta, formula, rtol=1e-6, atol=1e-15)
     # the sensor's columns: z = φ − δθ, so H on (δL, δλ) is −∂δθ/∂(δL, δλ)
     H = sensor.measure(truth.q, truth.v, truth.p, noise_free_raw(sensor, truth)).H
-    np.testing.assert_allclose(np.einsum("bij,bj->bi", H[:, :, 6:8], dp[:, :2]), -dtheta,
-                               rtol=1e-6, atol=1e-15)
+    np.testing.assert_allclose(
+        np.einsum("bij,bj->bi", H[:, :, 6:8], dp[:, :2]), -dtheta, rtol=1e-6, atol=1e-15
+    )
     np.testing.assert_array_equal(H[:, 0, 6], 1.0)
     np.testing.assert_allclose(H[:, 1, 7], -np.cos(L))
     np.testing.assert_allclose(H[:, 2, 7], -np.sin(L))

@@ -26,12 +26,23 @@ def pyins_integrate(t, p0, v0, euler0, dtheta, dv):
     th = dtheta @ RFU_TO_FRD.T
     dvf = dv @ RFU_TO_FRD.T
     # increment sensors need a "before" sample (pyins convention): repeat the first one
-    imu = pd.DataFrame(np.hstack([np.vstack([th[:1], th]), np.vstack([dvf[:1], dvf])]),
-                       index=np.asarray(t, dtype=float), columns=GYRO_COLS + ACCEL_COLS)
+    imu = pd.DataFrame(
+        np.hstack([np.vstack([th[:1], th]), np.vstack([dvf[:1], dvf])]),
+        index=np.asarray(t, dtype=float),
+        columns=GYRO_COLS + ACCEL_COLS,
+    )
     inc = strapdown.compute_increments_from_imu(imu, "increment")
-    pva = pd.Series(np.hstack([np.degrees(p0[:2]), p0[2], [v0[1], v0[0], -v0[2]],
-                               np.degrees([euler0[1], euler0[0], -euler0[2]])]),
-                    index=LLA_COLS + VEL_COLS + RPH_COLS)
+    pva = pd.Series(
+        np.hstack(
+            [
+                np.degrees(p0[:2]),
+                p0[2],
+                [v0[1], v0[0], -v0[2]],
+                np.degrees([euler0[1], euler0[0], -euler0[2]]),
+            ]
+        ),
+        index=LLA_COLS + VEL_COLS + RPH_COLS,
+    )
     integ = strapdown.Integrator(pva)
     traj = integ.integrate(inc)
     lla = traj[LLA_COLS].to_numpy()

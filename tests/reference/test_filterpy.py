@@ -34,13 +34,15 @@ def scenario():
     ortho, _ = np.linalg.qr(rng.standard_normal((n, n)))
     F = 0.99 * ortho + 0.02 * rng.standard_normal((n, n))
     Q = random_spd(rng, n, 0.05)
-    model = LinearModel(tuple(f"s{j}" for j in range(n)), F, Q, rng.standard_normal(n),
-                        random_spd(rng, n, 20.0), Q)
+    model = LinearModel(
+        tuple(f"s{j}" for j in range(n)), F, Q, rng.standard_normal(n), random_spd(rng, n, 20.0), Q
+    )
     sensors = []
     for i, m in enumerate(dims):
         R = random_spd(rng, m, 0.5)
-        sensors.append(Sensor(f"z{i}", rng.standard_normal((m, n)), R, R,
-                              every=1 + (i == 2)))  # sensor 3 at half rate
+        sensors.append(
+            Sensor(f"z{i}", rng.standard_normal((m, n)), R, R, every=1 + (i == 2))
+        )  # sensor 3 at half rate
     return Scenario("filterpy", 1.0, STEPS, model, tuple(sensors))
 
 
@@ -67,8 +69,9 @@ def ftnav_run(sc: Scenario, sim):
     state = filt.init(sim.truth.shape[0])
     xs, Ps = [], []
     for k in range(1, STEPS + 1):
-        state, out = filt.step(state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1],
-                               sim.oracle[k - 1])
+        state, out = filt.step(
+            state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], sim.oracle[k - 1]
+        )
         xs.append(out.x)
         Ps.append(out.P)
     return np.stack(xs, 1), np.stack(Ps, 1)

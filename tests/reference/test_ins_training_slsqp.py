@@ -27,8 +27,9 @@ from ftnav.scenarios import builtin_path
 def trained():
     """The built-in seed001's neuron centre, trained as the shipped model was."""
     samples = {}
-    model = train_ins_fusion(load_scenario(builtin_path("seed001")), runs=4, seed=1,
-                             samples=samples)
+    model = train_ins_fusion(
+        load_scenario(builtin_path("seed001")), runs=4, seed=1, samples=samples
+    )
     return model, samples
 
 

@@ -36,8 +36,7 @@ def constrained_least_squares(U: np.ndarray, t: np.ndarray, q: np.ndarray | None
         jac=lambda w: 2.0 * (G @ w - b),
         method="SLSQP",
         bounds=[(0.0, None)] * N,
-        constraints=[dict(type="eq", fun=lambda w: np.sum(w) - 1.0,
-                          jac=lambda w: np.ones_like(w))],
+        constraints=[dict(type="eq", fun=lambda w: np.sum(w) - 1.0, jac=lambda w: np.ones_like(w))],
         options=dict(ftol=1e-15, maxiter=1000),
     )
     assert res.success, res.message
@@ -93,8 +92,9 @@ def test_lms_matches_slsqp_oracle(case, request):
     """Spec §5.5: projection "simplex", step "lms", decay on -> within 1e-3 of SLSQP."""
     U, t = request.getfixturevalue(case)
     w_ref = constrained_least_squares(U[0], t[0])
-    r = lms_train(U, t, projection="simplex", step="lms", mu=MU, decay=True,
-                  rng=np.random.default_rng(8))
+    r = lms_train(
+        U, t, projection="simplex", step="lms", mu=MU, decay=True, rng=np.random.default_rng(8)
+    )
     err = np.abs(r.weights[0] - w_ref).max()
     assert err < 1e-3, (r.weights[0], w_ref, err)
     if case == "correlated":
@@ -114,8 +114,7 @@ def test_nlms_matches_the_weighted_oracle(case, request):
     U, t = request.getfixturevalue(case)
     q = 1.0 / (1e-12 + np.sum(U[0] ** 2, axis=1))
     w_weighted = constrained_least_squares(U[0], t[0], q)
-    r = lms_train(U, t, projection="simplex", step="nlms", mu=MU,
-                  rng=np.random.default_rng(8))
+    r = lms_train(U, t, projection="simplex", step="nlms", mu=MU, rng=np.random.default_rng(8))
     assert np.abs(r.weights[0] - w_weighted).max() < 1e-3
     if case == "correlated":
         w_plain = constrained_least_squares(U[0], t[0])

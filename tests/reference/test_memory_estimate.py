@@ -124,10 +124,13 @@ isolation = "time-update"
 
 
 def _measure(path, runs, extra=(), chunk=None) -> int:
-    args = {"path": str(path), "runs": runs, "extra": list(extra),
-            "chunk": chunk}
-    proc = subprocess.run([sys.executable, "-c", MEASURE, json.dumps(args)],
-                          capture_output=True, text=True, timeout=600)
+    args = {"path": str(path), "runs": runs, "extra": list(extra), "chunk": chunk}
+    proc = subprocess.run(
+        [sys.executable, "-c", MEASURE, json.dumps(args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])["measured"]
 
@@ -137,8 +140,10 @@ def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("memory")
     out = {}
     ins = INTEGRATED.format
-    for name, text in (("linear", LINEAR.format(steps=4000)),
-                       ("integrated", ins(duration=300.0, start=100.0, end=200.0))):
+    for name, text in (
+        ("linear", LINEAR.format(steps=4000)),
+        ("integrated", ins(duration=300.0, start=100.0, end=200.0)),
+    ):
         out[name] = d / f"{name}.toml"
         out[name].write_text(text)
     return out
@@ -147,8 +152,7 @@ def files(tmp_path_factory):
 @pytest.mark.parametrize(("runs", "extra"), [(40, ()), (40, ("--save-estimates",))])
 def test_linear_run_estimate_is_within_the_factor_of_the_measured_peak(files, runs, extra):
     measured = _measure(files["linear"], runs, extra)
-    estimate = run_memory_bytes(load_scenario(files["linear"]), runs,
-                                save_estimates=bool(extra))
+    estimate = run_memory_bytes(load_scenario(files["linear"]), runs, save_estimates=bool(extra))
     assert measured > 50 << 20  # the run's arrays dominate the allocator's noise
     assert LOW <= estimate / measured <= HIGH, (estimate, measured)
 

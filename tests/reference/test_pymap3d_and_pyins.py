@@ -25,8 +25,9 @@ def test_metre_errors_match_pymap3d_enu(lat_deg, h):
     L, lam = np.radians(lat_deg), np.radians(118.0)
     d = np.array([2e-6, -3e-6, 4.0])  # about 13 m N, 19 m E, 4 m U
     e = earth.enu_metres(np.array([L, lam, h]) + d, np.array([L, lam, h]))
-    ref = pymap3d.geodetic2enu(np.degrees(L + d[0]), np.degrees(lam + d[1]), h + d[2],
-                               lat_deg, 118.0, h)
+    ref = pymap3d.geodetic2enu(
+        np.degrees(L + d[0]), np.degrees(lam + d[1]), h + d[2], lat_deg, 118.0, h
+    )
     # first order in the displacement: agreement to ~1e-5 relative at 20 m
     np.testing.assert_allclose(e, ref, rtol=2e-5, atol=2e-4)
 
@@ -42,8 +43,13 @@ def test_pyins_integrates_seed001_to_truth_and_to_ftnav(seed001):
 
     tr = seed001
     p_peer = pyins_integrate(tr.t, tr.p[0], tr.v[0], tr.euler[0], tr.dtheta, tr.dv)
-    _, sol = mech.integrate(mech.init_state(tr.p[0], tr.v[0], tr.euler[0]), tr.dtheta, tr.dv,
-                            tr.dt, algorithm="two-sample")
+    _, sol = mech.integrate(
+        mech.init_state(tr.p[0], tr.v[0], tr.euler[0]),
+        tr.dtheta,
+        tr.dv,
+        tr.dt,
+        algorithm="two-sample",
+    )
     to_truth = earth.enu_metres(p_peer[-1], tr.p[-1])
     to_ftnav = earth.enu_metres(p_peer[-1], sol.p[0, -1])
     assert np.hypot(*to_truth[:2]) < 1.0

@@ -33,8 +33,9 @@ def data():
 @pytest.mark.parametrize("transform", ["none", "signed-log"])
 def test_pieces_match_sklearn(data, transform):
     X, Y = data
-    net = RBFNetwork(n_centres=12, n_init=3, transform=transform, kmeans_samples=1000,
-                     random_state=3).fit(X, Y)
+    net = RBFNetwork(
+        n_centres=12, n_init=3, transform=transform, kmeans_samples=1000, random_state=3
+    ).fit(X, Y)
     Xt = np.sign(X) * np.log1p(np.abs(X)) if transform == "signed-log" else X
     Xn = (Xt - Xt.mean(0)) / Xt.std(0)
     np.testing.assert_allclose(net.mean_, Xt.mean(0), rtol=1e-12)
@@ -82,11 +83,18 @@ def test_shifted_clusters_rank_first(data):
     assert min(roc_auc_score(Y[:, j], y[:, j]) for j in range(2)) >= 0.98
 
 
-@pytest.mark.parametrize("kw, field", [
-    ({"n_centres": 1}, "n_centres"), ({"width": "wide"}, "width"), ({"ridge": 0.0}, "ridge"),
-    ({"n_init": 0}, "n_init"), ({"class_weight": "x"}, "class_weight"),
-    ({"transform": "log"}, "transform"), ({"kmeans_samples": 5}, "kmeans_samples"),
-])
+@pytest.mark.parametrize(
+    "kw, field",
+    [
+        ({"n_centres": 1}, "n_centres"),
+        ({"width": "wide"}, "width"),
+        ({"ridge": 0.0}, "ridge"),
+        ({"n_init": 0}, "n_init"),
+        ({"class_weight": "x"}, "class_weight"),
+        ({"transform": "log"}, "transform"),
+        ({"kmeans_samples": 5}, "kmeans_samples"),
+    ],
+)
 def test_bad_hyper_parameters(data, kw, field):
     X, Y = data
     with pytest.raises(ValueError, match=f"^{field}:"):

@@ -58,13 +58,18 @@ def check_markov(x: np.ndarray, sigma: float, tau: float, dt: float) -> None:
 
 def test_gnss_markov_and_white_statistics():
     """GNSS position/velocity Gauss-Markov σ and τ (per axis σ), white σ; 16 runs × 100τ."""
-    g = Gnss(pos_markov_sigma_m=(25.0, 10.0, 40.0), vel_markov_sigma_m_s=0.05,
-             pos_markov_tau_s=100.0, vel_markov_tau_s=100.0, pos_white_sigma_m=1.0,
-             vel_white_sigma_m_s=0.02)
+    g = Gnss(
+        pos_markov_sigma_m=(25.0, 10.0, 40.0),
+        vel_markov_sigma_m_s=0.05,
+        pos_markov_tau_s=100.0,
+        vel_markov_tau_s=100.0,
+        pos_white_sigma_m=1.0,
+        vel_white_sigma_m_s=0.02,
+    )
     err = g.simulate_errors(straight_truth(10_000), SEED, range(16), stream=0)
     assert err.coloured.shape == (16, 10_000, 6) and err.constants.shape == (16, 0)
     for axis, sigma in enumerate(g.pos_markov_sigma_m + g.vel_markov_sigma_m_s):
-        x = err.coloured[:, :, axis:axis + 1]
+        x = err.coloured[:, :, axis : axis + 1]
         rho = np.exp(-1.0 / 100.0)
         assert abs(np.sqrt(np.mean(x**2)) - sigma) < 5.0 * sigma_se(sigma, rho, x.size)
     # τ pooled over the 6 axes after normalizing by σ (96 series)
@@ -99,9 +104,15 @@ def test_baro_bias_statistics():
 
 
 TERRAIN = AnalyticTerrain.random(np.random.default_rng(0), 32.0, 118.0)
-SENSORS = {"gnss": Gnss(), "gnss-augment": Gnss(markov="augment"), "tan": Tan(TERRAIN),
-           "dns": Doppler(), "cns": StarTracker(), "cns-euler": StarTracker(form="euler"),
-           "ads": Barometer(bias_sigma_m=10.0)}
+SENSORS = {
+    "gnss": Gnss(),
+    "gnss-augment": Gnss(markov="augment"),
+    "tan": Tan(TERRAIN),
+    "dns": Doppler(),
+    "cns": StarTracker(),
+    "cns-euler": StarTracker(form="euler"),
+    "ads": Barometer(bias_sigma_m=10.0),
+}
 
 
 @pytest.mark.parametrize("key", list(SENSORS))

@@ -45,8 +45,9 @@ def constant_acceleration(steps: int) -> Scenario:
     Q = np.diag([5.0, 2.0, 3.0]) * 1e-3
     model = LinearModel(("s", "v", "a"), F, Q, np.zeros(3), np.diag([100.0, 10.0, 1.0]), Q)
     R = np.array([[30.0]])
-    sensors = tuple(Sensor(f"z{i}", np.array([[h, 0.0, 0.0]]), R, R)
-                    for i, h in enumerate((1.0, 2.5, 0.5)))
+    sensors = tuple(
+        Sensor(f"z{i}", np.array([[h, 0.0, 0.0]]), R, R) for i, h in enumerate((1.0, 2.5, 0.5))
+    )
     return Scenario("ca", T, steps, model, sensors)
 
 
@@ -56,8 +57,10 @@ def mixing_model(steps: int) -> Scenario:
     F = np.array([[0.8, 0.3], [-0.3, 0.7]])
     Q = np.eye(2)
     model = LinearModel(("a", "b"), F, Q, np.zeros(2), 2.0 * np.eye(2), Q)
-    sensors = (Sensor("z0", np.array([[1.0, 0.0]]), np.eye(1), np.eye(1)),
-               Sensor("z1", np.array([[0.0, 1.0]]), np.eye(1), np.eye(1)))
+    sensors = (
+        Sensor("z0", np.array([[1.0, 0.0]]), np.eye(1), np.eye(1)),
+        Sensor("z1", np.array([[0.0, 1.0]]), np.eye(1), np.eye(1)),
+    )
     return Scenario("mix", 1.0, steps, model, sensors)
 
 
@@ -75,8 +78,18 @@ def ca():
 def test_residual_test_false_alarm_rate_and_mean(ca, architecture):
     """§3.1: raw FA within ±20% of P_FA and mean NIS within ±2% of m = 1 over 1e5 epochs
     (centralized: common prior; distributed: each local filter's own prior)."""
-    res = run(ca, Method("r", architecture=architecture, detector="residual-chi2",
-                         false_alarm_probability=P_FA, n_on=10**9), RUNS, seed=101)
+    res = run(
+        ca,
+        Method(
+            "r",
+            architecture=architecture,
+            detector="residual-chi2",
+            false_alarm_probability=P_FA,
+            n_on=10**9,
+        ),
+        RUNS,
+        seed=101,
+    )
     assert res.flag is not None and not res.flag.any()  # never isolated
     np.testing.assert_allclose(res.threshold, 6.634896601021214, rtol=1e-12)
     mean_nis = res.statistic.mean()
@@ -90,8 +103,19 @@ def test_residual_test_false_alarm_rate_and_mean(ca, architecture):
 def test_windowed_residual_test_false_alarm_rate(ca):
     """§3.1 windowed: Λ = Σ of the last W = 5 NIS ~ χ²(5); FA within ±20% of P_FA."""
     W = 5
-    res = run(ca, Method("w", architecture="centralized", detector="residual-chi2",
-                         false_alarm_probability=P_FA, window=W, n_on=10**9), RUNS, seed=202)
+    res = run(
+        ca,
+        Method(
+            "w",
+            architecture="centralized",
+            detector="residual-chi2",
+            false_alarm_probability=P_FA,
+            window=W,
+            n_on=10**9,
+        ),
+        RUNS,
+        seed=202,
+    )
     steady = slice(W - 1, None)  # first W−1 epochs test shorter windows (fewer dof)
     np.testing.assert_allclose(res.threshold[:, steady], 15.08627246938899, rtol=1e-12)
     fa = res.raw_flag[:, steady].mean()
@@ -111,9 +135,19 @@ def test_state_test_under_h0(scenario):
     """
     sc = mixing_model(STEPS) if scenario == "mixing" else constant_acceleration(STEPS)
     reset = 100
-    res = run(sc, Method("s", architecture="distributed", detector="state-chi2",
-                         false_alarm_probability=P_FA, n_on=10**9, state_test_reset=reset),
-              RUNS, seed=303)
+    res = run(
+        sc,
+        Method(
+            "s",
+            architecture="distributed",
+            detector="state-chi2",
+            false_alarm_probability=P_FA,
+            n_on=10**9,
+            state_test_reset=reset,
+        ),
+        RUNS,
+        seed=303,
+    )
     age = (np.arange(STEPS) % reset) + 1
     tested = age > 3
     lam = res.statistic[:, tested]  # (B, K_tested, N)
@@ -153,8 +187,9 @@ def test_brumback_srinath_covariance_is_conservative():
     F, Q = system.model.F, system.model.Q
     exact, bs = [], []
     for k in range(1, steps + 1):
-        state, out = filt.step(state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1],
-                               sim.oracle[k - 1])
+        state, out = filt.step(
+            state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], sim.oracle[k - 1]
+        )
         xs, Ps = xs @ F.T, F @ Ps @ F.T + Q
         if k >= 10:
             exact.append(state_statistic(out.x, out.P, xs, Ps)[0])

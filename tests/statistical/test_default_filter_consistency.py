@@ -28,19 +28,27 @@ from ftnav.scenarios import builtin_path
 from ftnav.sim.imu import IMU_PRESETS
 
 #: a plain datasheet IMU: constant gyro and accelerometer biases, white noise
-DATASHEET = {"gyro_bias_sd": "1 deg/h", "accel_bias_sd": "1 mg",
-             "gyro_arw": "0.05 deg/sqrt(h)", "accel_vrw": "0.05 m/s/sqrt(h)"}
+DATASHEET = {
+    "gyro_bias_sd": "1 deg/h",
+    "accel_bias_sd": "1 mg",
+    "gyro_arw": "0.05 deg/sqrt(h)",
+    "accel_vrw": "0.05 m/s/sqrt(h)",
+}
 
-CASES = [(name, states) for name in IMU_PRESETS for states in (18, 15)] + \
-    [("datasheet", 18), ("datasheet", 15), ("default-gnss", 18)]
+CASES = [(name, states) for name in IMU_PRESETS for states in (18, 15)] + [
+    ("datasheet", 18),
+    ("datasheet", 15),
+    ("default-gnss", 18),
+]
 
 
 def _scenario(imu, states: int, default_gnss: bool = False):
     data = tomllib.loads(builtin_path("seed002").read_text())
     if default_gnss:  # a GNSS aid with every default: the 25 m, 100 s Markov error
         data["aids"][0] = {"type": "gnss", "name": "gnss"}
-    data.update(imu=imu, faults=[], methods=[{"name": "ckf", "architecture": "centralized"}],
-                figures=[])
+    data.update(
+        imu=imu, faults=[], methods=[{"name": "ckf", "architecture": "centralized"}], figures=[]
+    )
     data["filter"].update(states=states, duration_s=600.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -50,9 +58,11 @@ def _scenario(imu, states: int, default_gnss: bool = False):
 
 @pytest.mark.parametrize(("imu", "states"), CASES, ids=[f"{i}-{s}" for i, s in CASES])
 def test_centralized_anees_inside_the_band_with_the_default_filter(imu, states):
-    sc, _ = _scenario(DATASHEET if imu == "datasheet" else
-                      "seed001" if imu == "default-gnss" else imu, states,
-                      default_gnss=imu == "default-gnss")
+    sc, _ = _scenario(
+        DATASHEET if imu == "datasheet" else "seed001" if imu == "default-gnss" else imu,
+        states,
+        default_gnss=imu == "default-gnss",
+    )
     res = run_ins_scenario(sc, 10, seed=1).result.results["ckf"]
     stats = nees_stats(res.nees, 9, sc.times >= sc.evaluation.skip_initial)
     lo, hi = chi2_band(90, 10)

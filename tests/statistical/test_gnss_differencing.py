@@ -55,13 +55,14 @@ architecture = "centralized"
 
 
 def _run(markov: str, correction: str = "feedback"):
-    sc = parse_ins_scenario(tomllib.loads(TEMPLATE.format(markov=markov,
-                                                          correction=correction)))
+    sc = parse_ins_scenario(tomllib.loads(TEMPLATE.format(markov=markov, correction=correction)))
     res = run_ins_scenario(sc, RUNS, seed=2).result
     x = res.results["ckf"].x[:, 100:]
-    return {"horizontal": float(np.sqrt(np.mean(x[..., 0] ** 2 + x[..., 1] ** 2))),
-            "up": float(np.sqrt(np.mean(x[..., 2] ** 2))),
-            "anees": evaluate(res)["ckf"].anees}
+    return {
+        "horizontal": float(np.sqrt(np.mean(x[..., 0] ** 2 + x[..., 1] ** 2))),
+        "up": float(np.sqrt(np.mean(x[..., 2] ** 2))),
+        "anees": evaluate(res)["ckf"].anees,
+    }
 
 
 @pytest.fixture(scope="module")

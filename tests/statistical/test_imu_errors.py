@@ -40,8 +40,12 @@ def chi2_std_bounds(n: int, p: float = 1e-6) -> tuple[float, float]:
 
 @pytest.fixture(scope="module")
 def markov_truth():
-    errors = ImuErrors(gyro_markov_sd=GYRO_SD, gyro_markov_tau=GYRO_TAU,
-                       accel_markov_sd=ACCEL_SD, accel_markov_tau=ACCEL_TAU)
+    errors = ImuErrors(
+        gyro_markov_sd=GYRO_SD,
+        gyro_markov_tau=GYRO_TAU,
+        accel_markov_sd=ACCEL_SD,
+        accel_markov_tau=ACCEL_TAU,
+    )
     zero = np.zeros((K, 3))
     return simulate_imu_errors(zero, zero, DT, errors, seed=11, runs=B).truth
 
@@ -110,8 +114,9 @@ def test_white_noise_increments_have_std_rw_sqrt_dt():
     runs, steps, dt = 20, 10000, 0.01
     arw, vrw = np.array([1e-5, 2e-5, 4e-5]), np.array([1e-3, 5e-4, 2e-3])
     ideal = np.random.default_rng(0).standard_normal((steps, 3)) * 1e-3
-    sim = simulate_imu_errors(ideal, ideal, dt, ImuErrors(gyro_arw=arw, accel_vrw=vrw),
-                              seed=2, runs=runs)
+    sim = simulate_imu_errors(
+        ideal, ideal, dt, ImuErrors(gyro_arw=arw, accel_vrw=vrw), seed=2, runs=runs
+    )
     n = runs * steps
     lo, hi = chi2_std_bounds(n)
     for out, rw in ((sim.dtheta, arw), (sim.dv, vrw)):
@@ -120,32 +125,42 @@ def test_white_noise_increments_have_std_rw_sqrt_dt():
         assert np.all((lo < ratio) & (ratio < hi)), ratio
         r1 = np.sum(noise[:, 1:] * noise[:, :-1], axis=(0, 1)) / np.sum(noise**2, axis=(0, 1))
         assert np.all(np.abs(r1) < 5 / math.sqrt(n)), r1
-        np.testing.assert_allclose(np.mean(noise, axis=(0, 1)), 0.0,
-                                   atol=5 * np.max(rw) * math.sqrt(dt / n))
+        np.testing.assert_allclose(
+            np.mean(noise, axis=(0, 1)), 0.0, atol=5 * np.max(rw) * math.sqrt(dt / n)
+        )
 
 
 def test_constant_biases_scale_and_misalignment_spread():
     runs = 4000
     e = ImuErrors(
-        gyro_bias=[1e-5, -2e-5, 0.0], gyro_bias_sd=[1e-6, 2e-6, 3e-6],
-        gyro_scale_sd=[1e-4, 2e-4, 3e-4], gyro_misalignment_sd=[1e-3, 2e-3, 3e-3],
-        accel_bias=0.01, accel_bias_sd=[1e-3, 2e-3, 3e-3],
-        accel_scale_sd=3e-4, accel_misalignment_sd=[3e-4, 2e-4, 1e-4],
+        gyro_bias=[1e-5, -2e-5, 0.0],
+        gyro_bias_sd=[1e-6, 2e-6, 3e-6],
+        gyro_scale_sd=[1e-4, 2e-4, 3e-4],
+        gyro_misalignment_sd=[1e-3, 2e-3, 3e-3],
+        accel_bias=0.01,
+        accel_bias_sd=[1e-3, 2e-3, 3e-3],
+        accel_scale_sd=3e-4,
+        accel_misalignment_sd=[3e-4, 2e-4, 1e-4],
     )
     zero = np.zeros((1, 3))
     t = simulate_imu_errors(zero, zero, 0.01, e, seed=9, runs=runs).truth
     lo, hi = chi2_std_bounds(runs)
-    cases = [(t.gyro_bias, e.gyro_bias, e.gyro_bias_sd), (t.gyro_scale, 0.0, e.gyro_scale_sd),
-             (t.accel_bias, e.accel_bias, e.accel_bias_sd),
-             (t.accel_scale, 0.0, e.accel_scale_sd)]
+    cases = [
+        (t.gyro_bias, e.gyro_bias, e.gyro_bias_sd),
+        (t.gyro_scale, 0.0, e.gyro_scale_sd),
+        (t.accel_bias, e.accel_bias, e.accel_bias_sd),
+        (t.accel_scale, 0.0, e.accel_scale_sd),
+    ]
     for draws, mean, sd in cases:
         assert draws.shape == (runs, 3)
         assert np.all(np.abs(draws.mean(axis=0) - mean) < 5 * sd / math.sqrt(runs))
         ratio = np.sqrt(np.mean((draws - mean) ** 2, axis=0)) / sd
         assert np.all((lo < ratio) & (ratio < hi)), ratio
     lo2, hi2 = chi2_std_bounds(2 * runs)
-    for M, sd in ((t.gyro_misalignment, e.gyro_misalignment_sd),
-                  (t.accel_misalignment, e.accel_misalignment_sd)):
+    for M, sd in (
+        (t.gyro_misalignment, e.gyro_misalignment_sd),
+        (t.accel_misalignment, e.accel_misalignment_sd),
+    ):
         assert M.shape == (runs, 3, 3)
         np.testing.assert_array_equal(np.diagonal(M, axis1=1, axis2=2), 0.0)
         ratio = np.sqrt(np.sum(M**2, axis=(0, 2)) / (2 * runs)) / sd  # row i: axis i
@@ -187,8 +202,13 @@ def test_run_alone_equals_run_in_batch_bit_for_bit():
     np.testing.assert_array_equal(part.truth.accel_markov, batch.truth.accel_markov[2:5])
     # one trajectory corrupted B times equals the same trajectory repeated
     shared = simulate_imu_errors(dtheta[0], dv[0], 0.01, e, seed=21, runs=6)
-    repeated = simulate_imu_errors(np.broadcast_to(dtheta[0], (6, 300, 3)),
-                                   np.broadcast_to(dv[0], (6, 300, 3)), 0.01, e, seed=21)
+    repeated = simulate_imu_errors(
+        np.broadcast_to(dtheta[0], (6, 300, 3)),
+        np.broadcast_to(dv[0], (6, 300, 3)),
+        0.01,
+        e,
+        seed=21,
+    )
     np.testing.assert_array_equal(shared.dtheta, repeated.dtheta)
     np.testing.assert_array_equal(shared.dv, repeated.dv)
 

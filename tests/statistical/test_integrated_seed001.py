@@ -139,18 +139,24 @@ def test_every_aid_fault_is_detected(metrics, method, aid):
     assert det["rate"] >= 0.95, f"{method}, {aid}: Pd = {det['rate']:.4f}"
 
 
-@pytest.mark.parametrize("method, aid", [(FKF, a) for a in AIDS] + [(NEURAL, a) for a in AIDS]
-                         + [(LITERAL, "gps"), (LITERAL, "dns")])
+@pytest.mark.parametrize(
+    "method, aid",
+    [(FKF, a) for a in AIDS] + [(NEURAL, a) for a in AIDS] + [(LITERAL, "gps"), (LITERAL, "dns")],
+)
 def test_a_recovered_aid_is_readmitted_within_15_s_in_every_run(result, method, aid):
     """After the window ends the flag clears within 15 s, in each run."""
     recovery = _recovery(result, aid, method)
     assert (recovery <= 15.0).all(), f"{method}, {aid}: recovery per run {recovery} s"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "paper 001's own-residual test: the coasting SINS/TAN local filter absorbs the +40 m "
-    "bias after a premature release inside the window and is never re-admitted in run 3 "
-    "of 8 (module doc); the built-in prior = 'intersection' has no such lock-out"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "paper 001's own-residual test: the coasting SINS/TAN local filter absorbs the +40 m "
+        "bias after a premature release inside the window and is never re-admitted in run 3 "
+        "of 8 (module doc); the built-in prior = 'intersection' has no such lock-out"
+    ),
+)
 def test_own_residual_test_readmits_tan(result):
     recovery = _recovery(result, "tan", LITERAL)
     assert (recovery <= 15.0).all(), f"tan: recovery per run {recovery} s"

@@ -54,8 +54,9 @@ def test_vb_tracks_the_gnss_position_noise_step(seed002):
     for t_check, truth in ((550.0, sigma0), (900.0, 5.0 * sigma0)):
         k = int(np.flatnonzero(t == t_check)[0])
         sigma_hat = np.sqrt(R_hat[:, k, :3]).mean(0)
-        np.testing.assert_array_less(np.abs(sigma_hat / truth - 1.0), 0.25,
-                                     err_msg=f"t = {t_check} s: σ̂ = {sigma_hat}")
+        np.testing.assert_array_less(
+            np.abs(sigma_hat / truth - 1.0), 0.25, err_msg=f"t = {t_check} s: σ̂ = {sigma_hat}"
+        )
 
 
 def test_centralized_nees_is_consistent(seed002):

@@ -33,8 +33,7 @@ def s0_example(Q, P0, steps, faults=()) -> Scenario:
     """Spec §12.1 constant-acceleration example (dt = 1 s per step for the fault window)."""
     model = LinearModel(("s", "v", "a"), F_CA, Q, np.zeros(3), P0, Q)
     R = np.array([[30.0]])
-    sensors = tuple(Sensor(f"z{i}", np.array([[h, 0.0, 0.0]]), R, R)
-                    for i, h in enumerate(H_GAINS))
+    sensors = tuple(Sensor(f"z{i}", np.array([[h, 0.0, 0.0]]), R, R) for i, h in enumerate(H_GAINS))
     return Scenario("s0", 1.0, steps, model, sensors, faults)
 
 
@@ -56,8 +55,9 @@ def _last_100(system, sim, method) -> np.ndarray:
     return run_filter(build_filter(system, method), sim, 3).nees[:, -100:].mean(0)
 
 
-@pytest.mark.parametrize("method", [Method("nr", mode="no-reset"),
-                                    Method("fr5", reset_interval=5)], ids=["NR", "FR/5"])
+@pytest.mark.parametrize(
+    "method", [Method("nr", mode="no-reset"), Method("fr5", reset_interval=5)], ids=["NR", "FR/5"]
+)
 def test_conservative_modes_nees_bound(nees_problem, method):
     """§1.9 item 3: NR (and FR/5) ANEES ≤ n + 3√(2n/200) = 3.52 (measured: NR 2.89, FR/5 3.09;
     spec: NR 2.80, FR/5 2.99)."""
@@ -115,10 +115,12 @@ def test_inverse_trace_beats_trace_with_reset_interval_10(faulty_s0):
     inverse-trace rule's displacement RMSE over the fault window is ≥ 5% lower than the
     trace rule's over 20 Monte Carlo runs (measured 8.95 vs 10.65; spec 8.7 vs 10.4)."""
     system, sim, window = faulty_s0
-    inverse = _displacement_rmse(system, sim, window,
-                                 Method("inv", sharing="inverse-trace", reset_interval=10))
-    trace = _displacement_rmse(system, sim, window,
-                               Method("tr", sharing="trace", reset_interval=10))
+    inverse = _displacement_rmse(
+        system, sim, window, Method("inv", sharing="inverse-trace", reset_interval=10)
+    )
+    trace = _displacement_rmse(
+        system, sim, window, Method("tr", sharing="trace", reset_interval=10)
+    )
     assert inverse <= 0.95 * trace, (inverse, trace)
 
 
@@ -129,8 +131,10 @@ def test_sharing_rule_does_not_matter_with_reset_every_epoch(faulty_s0):
     """§2 (d), §1.6 consequence: with FR every epoch the fused estimate is β-invariant,
     fault or not: every rule gives the same x̂_g within 1e-9 (relative to its scale)."""
     system, sim, _ = faulty_s0
-    xs = {rule: run_filter(build_filter(system, Method(rule, sharing=rule)), sim, 3).x
-          for rule in RULES}
+    xs = {
+        rule: run_filter(build_filter(system, Method(rule, sharing=rule)), sim, 3).x
+        for rule in RULES
+    }
     ref = xs["equal"]
     scale = max(1.0, float(np.abs(ref).max()))
     for rule, x in xs.items():

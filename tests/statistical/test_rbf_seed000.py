@@ -28,8 +28,11 @@ def trained():
 
 
 def _rows(report, sensor, kind="bias", min_size=5.0):
-    return [r for r in report.rows if r["sensor"] == sensor and r["kind"] == kind
-            and r["size"] >= min_size]
+    return [
+        r
+        for r in report.rows
+        if r["sensor"] == sensor and r["kind"] == kind and r["size"] >= min_size
+    ]
 
 
 @pytest.mark.parametrize("sensor", ["pos1", "pos3"])
@@ -62,7 +65,12 @@ def test_shipped_model_is_what_the_defaults_train(trained):
     model, _ = trained
     shipped = RBFModel.load(builtin_path("seed000").parent / "models" / "seed000-rbf.npz")
     for name, a in model.network.to_arrays().items():
-        np.testing.assert_allclose(shipped.network.to_arrays()[name], a, rtol=1e-9, atol=1e-8,
-                                   err_msg=f"{name}: retrain the shipped model")
+        np.testing.assert_allclose(
+            shipped.network.to_arrays()[name],
+            a,
+            rtol=1e-9,
+            atol=1e-8,
+            err_msg=f"{name}: retrain the shipped model",
+        )
     np.testing.assert_allclose(shipped.threshold, model.threshold)
     assert shipped.compatibility == model.compatibility

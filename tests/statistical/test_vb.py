@@ -35,8 +35,7 @@ Q_WALK = 0.05
 RHO = 0.99
 
 
-def random_walk_vb(*, variant="sarkka", iterations=3, steps=1000, runs=20, step_at=None,
-                   seed=0):
+def random_walk_vb(*, variant="sarkka", iterations=3, steps=1000, runs=20, step_at=None, seed=0):
     """VB-KF on the 2-state random walk; returns R̂ = β/α of every epoch, (runs, steps, 2).
 
     ``step_at``: the noise variance is multiplied by 9 from that epoch on (0-based).
@@ -54,8 +53,9 @@ def random_walk_vb(*, variant="sarkka", iterations=3, steps=1000, runs=20, step_
         z = truth + np.sqrt(var) * rng.standard_normal((runs, n))
         x, P = kf.predict(x, P, F, Q)
         alpha, beta = vb.vb_predict(alpha, beta, RHO)
-        up, alpha, beta, _ = vb.vb_update(x, P, z, H, alpha, beta, iterations=iterations,
-                                          variant=variant)
+        up, alpha, beta, _ = vb.vb_update(
+            x, P, z, H, alpha, beta, iterations=iterations, variant=variant
+        )
         x, P = up.x, up.P
         R_hat[:, k] = beta / alpha
     return R_hat
@@ -98,8 +98,7 @@ def test_large_prior_count_and_no_forgetting_is_the_standard_kf():
         np.testing.assert_allclose(x_v, x_k, rtol=1e-9, atol=1e-9 * np.abs(x_k).max())
         np.testing.assert_allclose(P_v, P_k, rtol=1e-9, atol=1e-9 * np.abs(P_k).max())
         np.testing.assert_allclose(up_v.nis, up_k.nis, rtol=1e-9, atol=1e-12)
-        np.testing.assert_allclose(R_used, np.broadcast_to(R, R_used.shape), rtol=1e-9,
-                                   atol=1e-12)
+        np.testing.assert_allclose(R_used, np.broadcast_to(R, R_used.shape), rtol=1e-9, atol=1e-12)
 
 
 def test_stationary_noise_is_estimated_within_ten_percent(stationary):
@@ -119,7 +118,7 @@ def test_variance_step_is_tracked_within_three_memory_lengths():
     target = 0.8 * 9.0 * R_TRUE
     assert (R_hat[step - 1] < target).all()
     horizon = int(round(3.0 / (1.0 - RHO)))
-    reached = (R_hat[step: step + horizon] >= target).any(0)
+    reached = (R_hat[step : step + horizon] >= target).any(0)
     assert reached.all(), R_hat[step + horizon - 1]
 
 
@@ -155,12 +154,14 @@ def _scenario(steps):
     F = np.array([[1.0, 1.0, 0.5], [0.0, 1.0, 1.0], [0.0, 0.0, 0.9]])
     Q = np.diag([0.05, 0.02, 0.01])
     model = LinearModel(("p", "v", "a"), F, Q, np.zeros(n), np.diag([10.0, 4.0, 1.0]), Q)
-    specs = [(np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), np.diag([2.0, 0.5]),
-              np.diag([8.0, 0.3])),
-             (np.array([[1.0, 0.0, 0.0]]), np.eye(1), np.eye(1) * 3.0),
-             (rng.standard_normal((2, n)), np.diag([1.0, 1.0]), np.diag([1.0, 1.0]))]
-    sensors = tuple(Sensor(f"z{i}", H, R, R_true, every=1 + (i == 2))
-                    for i, (H, R, R_true) in enumerate(specs))
+    specs = [
+        (np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), np.diag([2.0, 0.5]), np.diag([8.0, 0.3])),
+        (np.array([[1.0, 0.0, 0.0]]), np.eye(1), np.eye(1) * 3.0),
+        (rng.standard_normal((2, n)), np.diag([1.0, 1.0]), np.diag([1.0, 1.0])),
+    ]
+    sensors = tuple(
+        Sensor(f"z{i}", H, R, R_true, every=1 + (i == 2)) for i, (H, R, R_true) in enumerate(specs)
+    )
     return Scenario("vb", 1.0, steps, model, sensors)
 
 
@@ -193,14 +194,21 @@ def test_distributed_vb_equals_ckf_with_logged_noise(increment, local_scale):
     sim = simulate(sc, 3, seed=8)
     system = LinearSystem.from_scenario(sc)
     q, p = local_scale
-    filt = DistributedFilter(system, Method("vb", architecture="distributed", adaptive_noise="vb",
-                                            increment=increment),
-                             local_Q_scale=[q] * 3, local_P0_scale=[p] * 3)
+    filt = DistributedFilter(
+        system,
+        Method("vb", architecture="distributed", adaptive_noise="vb", increment=increment),
+        local_Q_scale=[q] * 3,
+        local_P0_scale=[p] * 3,
+    )
     res = run_filter(filt, sim, system.n_common)
     # the noise really adapted (otherwise the test would not need the logged R̂)
     assert np.abs(res.R_hat[0][:, -1] / np.diag(sc.sensors[0].R) - 1.0).max() > 0.2
     x_ref, P_ref = _ckf_with_logged_noise(sc, sim, res.R_hat)
     scale = max(1.0, float(np.abs(x_ref).max()))
     np.testing.assert_allclose(res.x, x_ref, rtol=1e-9, atol=1e-9 * scale)
-    np.testing.assert_allclose(res.P_diag, np.diagonal(P_ref, axis1=-2, axis2=-1), rtol=1e-9,
-                               atol=1e-9 * max(1.0, float(np.abs(P_ref).max())))
+    np.testing.assert_allclose(
+        res.P_diag,
+        np.diagonal(P_ref, axis1=-2, axis2=-1),
+        rtol=1e-9,
+        atol=1e-9 * max(1.0, float(np.abs(P_ref).max())),
+    )

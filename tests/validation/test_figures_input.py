@@ -36,10 +36,18 @@ def _integrated(*figures: dict):
 
 
 def test_a_figure_entry_becomes_a_frozen_spec():
-    sc = _linear({"name": "north", "title": "North", "methods": ["ckf", "fkf-oracle"],
-                  "states": ["N"], "condition": "fault-free"})
-    assert sc.figures == (FigureSpec("north", "North", ("ckf", "fkf-oracle"), ("N",),
-                                     "errors", "fault-free", ""),)
+    sc = _linear(
+        {
+            "name": "north",
+            "title": "North",
+            "methods": ["ckf", "fkf-oracle"],
+            "states": ["N"],
+            "condition": "fault-free",
+        }
+    )
+    assert sc.figures == (
+        FigureSpec("north", "North", ("ckf", "fkf-oracle"), ("N",), "errors", "fault-free", ""),
+    )
     assert sc.without_faults().figures == sc.figures
     with pytest.raises(AttributeError):
         sc.figures[0].name = "x"
@@ -49,27 +57,42 @@ def test_a_figure_entry_becomes_a_frozen_spec():
 
 def test_defaults_of_a_figure_entry():
     (spec,) = _linear({"name": "f", "methods": ["ckf"]}).figures
-    assert (spec.title, spec.states, spec.kind, spec.condition, spec.sensor) == \
-        ("", (), "errors", "faults", "")
+    assert (spec.title, spec.states, spec.kind, spec.condition, spec.sensor) == (
+        "",
+        (),
+        "errors",
+        "faults",
+        "",
+    )
 
 
 BAD_LINEAR = [
     ({"name": "f", "methods": ["ckf", "nope"]}, r"figures\[0\]\.methods\[1\]: unknown method"),
-    ({"name": "f", "methods": ["ckf", "fkf-equal", "fkf-trace", "fkf-inverse-trace", "dkf"]},
-     rf"figures\[0\]\.methods: at most {MAX_FIGURE_METHODS} methods per figure"),
+    (
+        {"name": "f", "methods": ["ckf", "fkf-equal", "fkf-trace", "fkf-inverse-trace", "dkf"]},
+        rf"figures\[0\]\.methods: at most {MAX_FIGURE_METHODS} methods per figure",
+    ),
     ({"name": "f", "methods": ["ckf", "ckf"]}, r"figures\[0\]\.methods\[1\]: duplicate method"),
     ({"name": "f", "methods": []}, r"figures\[0\]\.methods: must have at least 1"),
-    ({"name": "f", "methods": ["ckf"], "states": ["U"]},
-     r"figures\[0\]\.states\[0\]: unknown state 'U' \(known: E, N\)"),
-    ({"name": "f", "methods": ["ckf"], "kind": "local-fused"},
-     r"figures\[0\]\.kind: kind 'local-fused' needs an integrated scenario"),
+    (
+        {"name": "f", "methods": ["ckf"], "states": ["U"]},
+        r"figures\[0\]\.states\[0\]: unknown state 'U' \(known: E, N\)",
+    ),
+    (
+        {"name": "f", "methods": ["ckf"], "kind": "local-fused"},
+        r"figures\[0\]\.kind: kind 'local-fused' needs an integrated scenario",
+    ),
     ({"name": "f", "methods": ["ckf"], "kind": "pie"}, r"figures\[0\]\.kind: unknown value"),
-    ({"name": "f", "methods": ["ckf"], "condition": "later"},
-     r"figures\[0\]\.condition: unknown value"),
+    (
+        {"name": "f", "methods": ["ckf"], "condition": "later"},
+        r"figures\[0\]\.condition: unknown value",
+    ),
     ({"name": "a/b", "methods": ["ckf"]}, r"figures\[0\]\.name: must be a file name"),
     ({"name": "sharing", "methods": ["ckf"]}, r"figures\[0\]\.name: 'sharing' is reserved"),
-    ({"name": "f", "methods": ["ckf"], "sensor": "gnss"},
-     r"figures\[0\]\.sensor: only used with kind = 'vb-noise'"),
+    (
+        {"name": "f", "methods": ["ckf"], "sensor": "gnss"},
+        r"figures\[0\]\.sensor: only used with kind = 'vb-noise'",
+    ),
     ({"name": "f", "methods": ["ckf"], "colour": "red"}, r"figures\[0\]\.colour: unknown key"),
     ({"methods": ["ckf"]}, r"figures\[0\]\.name: missing required key"),
 ]
@@ -90,26 +113,47 @@ def test_integrated_figure_kinds():
     sc = _integrated(
         {"name": "pos", "methods": ["ckf", "dkf-vb"], "states": ["pos_N_m", "pos_horizontal_m"]},
         {"name": "loc", "kind": "local-fused", "methods": ["fkf-chi2"], "states": ["pos_E_m"]},
-        {"name": "vb", "kind": "vb-noise", "methods": ["dkf-vb"], "sensor": "gnss"})
+        {"name": "vb", "kind": "vb-noise", "methods": ["dkf-vb"], "sensor": "gnss"},
+    )
     assert [f.kind for f in sc.figures] == ["errors", "local-fused", "vb-noise"]
     assert sc.figures[0].states == ("pos_N_m", "pos_horizontal_m")
 
 
 BAD_INTEGRATED = [
-    ({"name": "f", "kind": "local-fused", "methods": ["fkf-chi2"], "states": ["vel_E_m_s"]},
-     r"figures\[0\]\.states\[0\]: unknown state 'vel_E_m_s' \(known: pos_E_m, pos_N_m"),
-    ({"name": "f", "kind": "vb-noise", "methods": ["dkf-vb"]},
-     r"figures\[0\]\.sensor: required with kind 'vb-noise'"),
-    ({"name": "f", "kind": "vb-noise", "methods": ["dkf-vb"], "sensor": "tan"},
-     r"figures\[0\]\.sensor: unknown sensor 'tan'"),
-    ({"name": "f", "kind": "vb-noise", "methods": ["dkf-vb", "ckf"], "sensor": "gnss"},
-     r"figures\[0\]\.methods\[1\]: method 'ckf' does not estimate the noise of 'gnss'"),
-    ({"name": "f", "kind": "vb-noise", "methods": ["dkf-vb"], "sensor": "ads"},
-     r"figures\[0\]\.methods\[0\]: method 'dkf-vb' does not estimate the noise of 'ads'"),
-    ({"name": "f", "kind": "vb-noise", "methods": ["dkf-vb"], "sensor": "gnss",
-      "states": ["pos_E_m"]}, r"figures\[0\]\.states\[0\]: not used with kind 'vb-noise'"),
-    ({"name": "f", "methods": ["ckf"], "states": ["s"]},
-     r"figures\[0\]\.states\[0\]: unknown state 's'"),
+    (
+        {"name": "f", "kind": "local-fused", "methods": ["fkf-chi2"], "states": ["vel_E_m_s"]},
+        r"figures\[0\]\.states\[0\]: unknown state 'vel_E_m_s' \(known: pos_E_m, pos_N_m",
+    ),
+    (
+        {"name": "f", "kind": "vb-noise", "methods": ["dkf-vb"]},
+        r"figures\[0\]\.sensor: required with kind 'vb-noise'",
+    ),
+    (
+        {"name": "f", "kind": "vb-noise", "methods": ["dkf-vb"], "sensor": "tan"},
+        r"figures\[0\]\.sensor: unknown sensor 'tan'",
+    ),
+    (
+        {"name": "f", "kind": "vb-noise", "methods": ["dkf-vb", "ckf"], "sensor": "gnss"},
+        r"figures\[0\]\.methods\[1\]: method 'ckf' does not estimate the noise of 'gnss'",
+    ),
+    (
+        {"name": "f", "kind": "vb-noise", "methods": ["dkf-vb"], "sensor": "ads"},
+        r"figures\[0\]\.methods\[0\]: method 'dkf-vb' does not estimate the noise of 'ads'",
+    ),
+    (
+        {
+            "name": "f",
+            "kind": "vb-noise",
+            "methods": ["dkf-vb"],
+            "sensor": "gnss",
+            "states": ["pos_E_m"],
+        },
+        r"figures\[0\]\.states\[0\]: not used with kind 'vb-noise'",
+    ),
+    (
+        {"name": "f", "methods": ["ckf"], "states": ["s"]},
+        r"figures\[0\]\.states\[0\]: unknown state 's'",
+    ),
 ]
 
 

@@ -49,39 +49,87 @@ architecture = "centralized"
 
 #: (id, old line, new line, field path the message must name)
 BAD = [
-    ("unknown aid parameter", "pos_white_sigma_m = 1.4",
-     "pos_white_sigma_m = 1.4\nbogus_m = 3.0", "aids[0].bogus_m"),
-    ("negative sigma", "pos_white_sigma_m = 1.4", "pos_white_sigma_m = -1.4",
-     "aids[0].pos_white_sigma_m"),
+    (
+        "unknown aid parameter",
+        "pos_white_sigma_m = 1.4",
+        "pos_white_sigma_m = 1.4\nbogus_m = 3.0",
+        "aids[0].bogus_m",
+    ),
+    (
+        "negative sigma",
+        "pos_white_sigma_m = 1.4",
+        "pos_white_sigma_m = -1.4",
+        "aids[0].pos_white_sigma_m",
+    ),
     ("fault on unknown sensor", 'sensor = "gnss"', 'sensor = "radar"', "faults[0].sensor"),
-    ("bias of the wrong length", "magnitude = [30.0, 30.0, 0.0, 0.0, 0.0, 0.0]",
-     "magnitude = [30.0, 30.0]", "faults[0].magnitude"),
+    (
+        "bias of the wrong length",
+        "magnitude = [30.0, 30.0, 0.0, 0.0, 0.0, 0.0]",
+        "magnitude = [30.0, 30.0]",
+        "faults[0].magnitude",
+    ),
     ("gyro-bias on an aid", 'kind = "bias"', 'kind = "gyro-bias"', "faults[0].kind"),
     ("dt not a whole number of IMU periods", "dt = 1.0", "dt = 0.015", "filter.dt"),
     ("dt an odd number of IMU periods", "dt = 1.0", "dt = 0.01", "filter.dt"),
-    ("duration longer than the profile", "duration_s = 120.0", "duration_s = 5000.0",
-     "filter.duration_s"),
+    (
+        "duration longer than the profile",
+        "duration_s = 120.0",
+        "duration_s = 5000.0",
+        "filter.duration_s",
+    ),
     ("grid terrain without path", 'kind = "analytic"', 'kind = "grid"', "terrain.path"),
     ("unknown profile", 'profile = "seed002"', 'profile = "seed999"', "profile"),
-    ("unknown GNSS Markov handling", "pos_white_sigma_m = 1.4",
-     'pos_white_sigma_m = 1.4\nmarkov = "ignore"', "aids[0].markov"),
-    ("differencing an aid that skips epochs", "pos_white_sigma_m = 1.4",
-     'pos_white_sigma_m = 1.4\nmarkov = "difference"\nevery = 2', "aids[0].every"),
-    ("intersection prior outside the neuron centre", 'architecture = "centralized"',
-     'architecture = "centralized"\nprior = "intersection"', "methods[0].prior"),
-    ("quorum without the common-mode rule", 'architecture = "centralized"',
-     'architecture = "federated"\ncommon_mode_quorum = 2', "methods[0].common_mode_quorum"),
+    (
+        "unknown GNSS Markov handling",
+        "pos_white_sigma_m = 1.4",
+        'pos_white_sigma_m = 1.4\nmarkov = "ignore"',
+        "aids[0].markov",
+    ),
+    (
+        "differencing an aid that skips epochs",
+        "pos_white_sigma_m = 1.4",
+        'pos_white_sigma_m = 1.4\nmarkov = "difference"\nevery = 2',
+        "aids[0].every",
+    ),
+    (
+        "intersection prior outside the neuron centre",
+        'architecture = "centralized"',
+        'architecture = "centralized"\nprior = "intersection"',
+        "methods[0].prior",
+    ),
+    (
+        "quorum without the common-mode rule",
+        'architecture = "centralized"',
+        'architecture = "federated"\ncommon_mode_quorum = 2',
+        "methods[0].common_mode_quorum",
+    ),
     ("TAN aid without a terrain", '[terrain]\nkind = "analytic"', "", "terrain"),
-    ("fault after the end of the flight", "start = 60.0\nend = 90.0",
-     "start = 500.0\nend = 600.0", "faults[0].start"),
+    (
+        "fault after the end of the flight",
+        "start = 60.0\nend = 90.0",
+        "start = 500.0\nend = 600.0",
+        "faults[0].start",
+    ),
     ("unknown IMU preset", 'imu = "seed001"', 'imu = "navigation-grade"', "imu"),
-    ("datasheet key of the wrong unit family", 'imu = "seed001"',
-     '[imu]\ngyro_arw = "0.1 deg/h"', "imu.gyro_arw"),
-    ("unknown datasheet key", 'imu = "seed001"', '[imu]\ngyro_drift = "0.1 deg/h"',
-     "imu.gyro_drift"),
+    (
+        "datasheet key of the wrong unit family",
+        'imu = "seed001"',
+        '[imu]\ngyro_arw = "0.1 deg/h"',
+        "imu.gyro_arw",
+    ),
+    (
+        "unknown datasheet key",
+        'imu = "seed001"',
+        '[imu]\ngyro_drift = "0.1 deg/h"',
+        "imu.gyro_drift",
+    ),
     ("unknown datasheet base", 'imu = "seed001"', '[imu]\nbase = "strategic"', "imu.base"),
-    ("assumed IMU of the wrong unit family", "duration_s = 120.0",
-     'duration_s = 120.0\n[filter.imu]\naccel_bias_sd = "1 deg/h"', "filter.imu.accel_bias_sd"),
+    (
+        "assumed IMU of the wrong unit family",
+        "duration_s = 120.0",
+        'duration_s = 120.0\n[filter.imu]\naccel_bias_sd = "1 deg/h"',
+        "filter.imu.accel_bias_sd",
+    ),
 ]
 
 
@@ -121,8 +169,12 @@ def test_cli_exits_2_with_one_line_on_stderr(tmp_path, capsys, old, new, field):
 def test_console_script_reports_a_bad_file_without_traceback(tmp_path):
     path = tmp_path / "bad.toml"
     path.write_text(_bad("pos_white_sigma_m = 1.4", "pos_white_sigma_m = -1.4"))
-    proc = subprocess.run([sys.executable, "-m", "ftnav.cli", "run", str(path), "--quiet"],
-                          capture_output=True, text=True, cwd=tmp_path)
+    proc = subprocess.run(
+        [sys.executable, "-m", "ftnav.cli", "run", str(path), "--quiet"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
     assert "aids[0].pos_white_sigma_m" in proc.stderr
@@ -132,22 +184,27 @@ def test_imu_datasheet_table_and_base_preset_give_the_documented_errors():
     from ftnav.nav.units import deg_per_h, milli_g
     from ftnav.sim.imu import imu_preset
 
-    text = GOOD.replace('imu = "seed001"', '[imu]\nbase = "tactical"\ngyro_bias_sd = "0.5 deg/h"\n'
-                        'accel_bias_sd = ["1 mg", "1 mg", "2 mg"]')
+    text = GOOD.replace(
+        'imu = "seed001"',
+        '[imu]\nbase = "tactical"\ngyro_bias_sd = "0.5 deg/h"\n'
+        'accel_bias_sd = ["1 mg", "1 mg", "2 mg"]',
+    )
     sc = parse_ins_scenario(tomllib.loads(text))
     tactical = imu_preset("tactical")
     assert sc.imu.gyro_bias_sd == pytest.approx([deg_per_h(0.5)] * 3)
     assert sc.imu.accel_bias_sd == pytest.approx([milli_g(1.0), milli_g(1.0), milli_g(2.0)])
     assert sc.imu.gyro_arw == pytest.approx(tactical.gyro_arw)  # from the base
-    plain = parse_ins_scenario(tomllib.loads(GOOD.replace(
-        'imu = "seed001"', '[imu]\ngyro_arw = "0.1 deg/sqrt(h)"')))
+    plain = parse_ins_scenario(
+        tomllib.loads(GOOD.replace('imu = "seed001"', '[imu]\ngyro_arw = "0.1 deg/sqrt(h)"'))
+    )
     assert plain.imu.gyro_bias_sd == pytest.approx([0.0] * 3)  # no base: zero elsewhere
 
 
 def test_filter_imu_sets_what_the_filters_assume_and_not_the_truth():
-    text = GOOD.replace("duration_s = 120.0",
-                        'duration_s = 120.0\n[filter.imu]\nbase = "seed001"\n'
-                        'gyro_bias_sd = "1 deg/h"')
+    text = GOOD.replace(
+        "duration_s = 120.0",
+        'duration_s = 120.0\n[filter.imu]\nbase = "seed001"\ngyro_bias_sd = "1 deg/h"',
+    )
     sc = parse_ins_scenario(tomllib.loads(text))
     truth = parse_ins_scenario(tomllib.loads(GOOD))
     assert sc.imu == truth.imu  # the simulator's IMU is unchanged

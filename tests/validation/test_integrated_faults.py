@@ -92,8 +92,13 @@ vb_sensors = ["gnss"]
 """
 
 #: bias / final ramp offset per aid, in its metric measurement space (m, m/s, rad)
-OFFSET = {"gnss": [20.0, 20.0, 10.0, 1.0, 1.0, 0.5], "tan": [40.0], "dns": [1.0, 1.0],
-          "cns": [3e-4, 3e-4, 3e-4], "ads": [30.0]}
+OFFSET = {
+    "gnss": [20.0, 20.0, 10.0, 1.0, 1.0, 0.5],
+    "tan": [40.0],
+    "dns": [1.0, 1.0],
+    "cns": [3e-4, 3e-4, 3e-4],
+    "ads": [30.0],
+}
 AID_KINDS = ("bias", "ramp", "noise-scale", "noise-ramp", "outage", "stuck")
 SINS_FAULT = (3200.0, 3500.0)
 BOUND_M = 500.0
@@ -104,16 +109,20 @@ def _fault_tables() -> str:
     for kind in AID_KINDS:
         for aid, offset in OFFSET.items():
             start = 100.0 + 100.0 * j
-            text += (f'\n[[faults]]\nsensor = "{aid}"\nkind = "{kind}"\n'
-                     f"start = {start}\nend = {start + 90.0}\n")
+            text += (
+                f'\n[[faults]]\nsensor = "{aid}"\nkind = "{kind}"\n'
+                f"start = {start}\nend = {start + 90.0}\n"
+            )
             if kind in ("bias", "ramp"):
                 text += f"magnitude = {offset}\n"
             elif kind in ("noise-scale", "noise-ramp"):
                 text += "magnitude = [5.0]\n"
             j += 1
-    return text + (f'\n[[faults]]\nsensor = "{SINS}"\nkind = "gyro-bias"\n'
-                   f"start = {SINS_FAULT[0]}\nend = {SINS_FAULT[1]}\n"
-                   "magnitude_deg_h = [10.0, 10.0, 10.0]\n")
+    return text + (
+        f'\n[[faults]]\nsensor = "{SINS}"\nkind = "gyro-bias"\n'
+        f"start = {SINS_FAULT[0]}\nend = {SINS_FAULT[1]}\n"
+        "magnitude_deg_h = [10.0, 10.0, 10.0]\n"
+    )
 
 
 @pytest.fixture(scope="module")
@@ -146,8 +155,9 @@ def test_every_fault_runs_finite_with_spd_covariances_and_bounded_error(scenario
     """
     outage = scenario.fault_mask("cns") & ~scenario.fault_mask("cns", detectable_only=True)
     assert outage.sum() == 90  # the CNS outage really removed its data
-    assert not results.simulation.data.available[:, outage, scenario.sensor_names.index(
-        "cns")].any()
+    assert not results.simulation.data.available[
+        :, outage, scenario.sensor_names.index("cns")
+    ].any()
     for name, res in results.results.items():
         assert res.x.shape == (1, 3600, 9), name
         for a in (res.x, res.P_diag, res.nees, *res.R_hat):
@@ -160,10 +170,14 @@ def test_every_fault_runs_finite_with_spd_covariances_and_bounded_error(scenario
     assert h.max() < BOUND_M, f"fkf-chi2: max horizontal error {h.max():.1f} m before 3200 s"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "a SINS gyro-bias step is common to every local filter: the residual chi-square test "
-    "flags GNSS, DNS, CNS and TAN within ~100 s, only the ADS (height) stays in the "
-    "fusion, and the horizontal error grows to ~6.7 km by 3600 s (never re-admitted)"))
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "a SINS gyro-bias step is common to every local filter: the residual chi-square test "
+        "flags GNSS, DNS, CNS and TAN within ~100 s, only the ADS (height) stays in the "
+        "fusion, and the horizontal error grows to ~6.7 km by 3600 s (never re-admitted)"
+    ),
+)
 def test_federated_chi2_error_stays_bounded_through_the_sins_fault(results):
     h = _horizontal(results.results["fkf-chi2"])
     assert h.max() < BOUND_M, f"max horizontal error {h.max():.1f} m"

@@ -78,8 +78,15 @@ prior = "global"
 """
 
 
-def _scenario(path: Path, *, rbf=None, neural=None, sensors=("pos1", "pos2", "pos3"),
-              r2=30.0, states=("s", "v", "a")) -> Path:
+def _scenario(
+    path: Path,
+    *,
+    rbf=None,
+    neural=None,
+    sensors=("pos1", "pos2", "pos3"),
+    r2=30.0,
+    states=("s", "v", "a"),
+) -> Path:
     """seed000's system (pos2's R and the names adjustable) with learned methods using
     the model files ``rbf`` / ``neural``."""
     text = HEAD.format(name=path.stem, states=json.dumps(list(states)))
@@ -108,10 +115,14 @@ def models(tmp_path_factory):
     """Tiny detector and fusion models trained once on the default system."""
     d = tmp_path_factory.mktemp("models")
     toml = _scenario(d / "base.toml")
-    for argv in (["train-detector", str(toml), "--out", str(d / "det.npz"), "--centres", "10"],
-                 ["train-fusion", str(toml), "--out", str(d / "fus.npz")]):
-        with contextlib.redirect_stdout(io.StringIO()), \
-                contextlib.redirect_stderr(io.StringIO()) as err:
+    for argv in (
+        ["train-detector", str(toml), "--out", str(d / "det.npz"), "--centres", "10"],
+        ["train-fusion", str(toml), "--out", str(d / "fus.npz")],
+    ):
+        with (
+            contextlib.redirect_stdout(io.StringIO()),
+            contextlib.redirect_stderr(io.StringIO()) as err,
+        ):
             code = main([*argv, "--runs", "1", "--holdout", "1", "--no-figure", "--quiet"])
         assert code == 0, err.getvalue()
     return {"det": d / "det.npz", "fus": d / "fus.npz"}
@@ -129,8 +140,11 @@ def _refused(argv, capsys, start: str) -> str:
 
 
 def _run_refused(scenario, tmp_path, capsys, method: str) -> str:
-    return _refused(["run", scenario, "--runs", "1", "--out", tmp_path / "out",
-                     "--no-figures", "--quiet"], capsys, f"methods[{method}].model: ")
+    return _refused(
+        ["run", scenario, "--runs", "1", "--out", tmp_path / "out", "--no-figures", "--quiet"],
+        capsys,
+        f"methods[{method}].model: ",
+    )
 
 
 # --- the model file itself ------------------------------------------------------------
@@ -138,8 +152,9 @@ def _run_refused(scenario, tmp_path, capsys, method: str) -> str:
 
 def test_the_models_work(models, tmp_path, capsys):
     sc = _scenario(tmp_path / "ok.toml", rbf=models["det"], neural=models["fus"])
-    code = main(["run", str(sc), "--runs", "1", "--out", str(tmp_path / "out"),
-                 "--no-figures", "--quiet"])
+    code = main(
+        ["run", str(sc), "--runs", "1", "--out", str(tmp_path / "out"), "--no-figures", "--quiet"]
+    )
     assert code == 0, capsys.readouterr().err
 
 
@@ -238,14 +253,17 @@ def test_detector_model_given_as_fusion_centre(models, tmp_path, capsys):
 
 @pytest.mark.parametrize("method,model", [("rbf", "det"), ("neural", "fus")])
 def test_other_sensor_names(models, method, model, tmp_path, capsys):
-    sc = _scenario(tmp_path / "names.toml", sensors=("gnss", "pos2", "pos3"),
-                   **{method: models[model]})
+    sc = _scenario(
+        tmp_path / "names.toml", sensors=("gnss", "pos2", "pos3"), **{method: models[model]}
+    )
     name = {"rbf": "fkf-rbf", "neural": "neural"}[method]
     # the first differing compatibility key (states, sensors, measurement_dims,
     # system_hash) is reported
     err = _run_refused(sc, tmp_path, capsys, name)
-    assert ("was trained for sensors = ['pos1', 'pos2', 'pos3'], "
-            "this scenario has ['gnss', 'pos2', 'pos3']") in err, err
+    assert (
+        "was trained for sensors = ['pos1', 'pos2', 'pos3'], "
+        "this scenario has ['gnss', 'pos2', 'pos3']"
+    ) in err, err
 
 
 def test_other_state_names(models, tmp_path, capsys):
@@ -264,8 +282,9 @@ def base(tmp_path) -> Path:
 
 def test_train_detector_unknown_method(base, tmp_path, capsys):
     out = tmp_path / "det.npz"
-    err = _refused(["train-detector", base, "--out", out, "--method", "nosuch"], capsys,
-                   "--method: ")
+    err = _refused(
+        ["train-detector", base, "--out", out, "--method", "nosuch"], capsys, "--method: "
+    )
     assert "'nosuch' is not a method" in err, err
     assert "fkf-chi2" in err  # lists the scenario's methods
     assert not out.exists()
@@ -278,13 +297,16 @@ def test_train_out_is_a_folder(command, base, tmp_path, capsys):
     assert "is a folder" in err, err
 
 
-@pytest.mark.parametrize("command,option,value", [
-    ("train-fusion", "--runs", "0"),
-    ("train-fusion", "--holdout", "-1"),
-    ("train-detector", "--runs", "many"),
-    ("train-detector", "--centres", "0"),
-    ("train-detector", "--seed", "-3"),
-])
+@pytest.mark.parametrize(
+    "command,option,value",
+    [
+        ("train-fusion", "--runs", "0"),
+        ("train-fusion", "--holdout", "-1"),
+        ("train-detector", "--runs", "many"),
+        ("train-detector", "--centres", "0"),
+        ("train-detector", "--seed", "-3"),
+    ],
+)
 def test_train_bad_numbers(command, option, value, base, tmp_path, capsys):
     out = tmp_path / "m.npz"
     err = _refused([command, base, "--out", out, option, value], capsys, "")
@@ -294,12 +316,12 @@ def test_train_bad_numbers(command, option, value, base, tmp_path, capsys):
 
 
 def test_train_unknown_scenario(tmp_path, capsys):
-    err = _refused(["train-detector", "nosuch-scenario", "--out", tmp_path / "m.npz"], capsys,
-                   "scenario: ")
+    err = _refused(
+        ["train-detector", "nosuch-scenario", "--out", tmp_path / "m.npz"], capsys, "scenario: "
+    )
     assert "neither a built-in scenario" in err, err
 
 
 def test_train_detector_needs_out(base, capsys):
     err = _refused(["train-detector", base], capsys, "")
     assert "--out" in err, err
-

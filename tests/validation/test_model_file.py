@@ -39,7 +39,9 @@ def _arrays():
 
 def _save(path, kind=KIND, arrays=None, **settings):
     return save_model(
-        path, kind, _arrays() if arrays is None else arrays,
+        path,
+        kind,
+        _arrays() if arrays is None else arrays,
         compatibility={"sensors": SENSORS, "states": 15, "system_hash": HASH},
         settings={"hidden": 12, "sigma": 0.75, "features": ("dz", "dz2"), **settings},
     )
@@ -100,8 +102,9 @@ def _error(path, **kwargs) -> str:
 
 def test_round_trip_bit_identical(tmp_path):
     path = _save(tmp_path / "det.npz")
-    model = load_model(path, KIND, compatibility={"sensors": ("gnss", "baro"), "states": 15,
-                                                  "system_hash": HASH})
+    model = load_model(
+        path, KIND, compatibility={"sensors": ("gnss", "baro"), "states": 15, "system_hash": HASH}
+    )
     assert isinstance(model, ModelFile)
     assert model.kind == KIND and model.path == path
     want = _arrays()
@@ -116,16 +119,27 @@ def test_round_trip_bit_identical(tmp_path):
     with pytest.raises(ValueError):
         model.arrays["centres"][0, 0] = 1.0
     meta = model.metadata
-    for key in ("format", "format_version", "kind", "ftnav_version", "created",
-                "compatibility", "settings", "arrays", "checksum"):
+    for key in (
+        "format",
+        "format_version",
+        "kind",
+        "ftnav_version",
+        "created",
+        "compatibility",
+        "settings",
+        "arrays",
+        "checksum",
+    ):
         assert key in meta
     assert meta["format"] == "ftnav-model" and meta["format_version"] == 1
     assert meta["created"].endswith("+00:00")
     assert model.settings == {"hidden": 12, "sigma": 0.75, "features": ["dz", "dz2"]}
     assert model.compatibility["system_hash"] == HASH
     assert meta["arrays"]["widths"] == {
-        "dtype": "<f4", "shape": [12],
-        "sha256": hashlib.sha256(want["widths"].tobytes()).hexdigest()}
+        "dtype": "<f4",
+        "shape": [12],
+        "sha256": hashlib.sha256(want["widths"].tobytes()).hexdigest(),
+    }
     # plain numpy opens it, without pickle
     with np.load(path, allow_pickle=False) as npz:
         assert set(want) <= set(npz.files)
@@ -136,8 +150,13 @@ def test_round_trip_bit_identical(tmp_path):
 
 
 def test_settings_numpy_values_become_plain_json(tmp_path):
-    path = _save(tmp_path / "m.npz", mean=np.array([1.5, 2.0]), n=np.int32(4),
-                 flag=np.bool_(True), eps=np.float32(0.5))
+    path = _save(
+        tmp_path / "m.npz",
+        mean=np.array([1.5, 2.0]),
+        n=np.int32(4),
+        flag=np.bool_(True),
+        eps=np.float32(0.5),
+    )
     settings = load_model(path).settings
     assert settings["mean"] == [1.5, 2.0] and settings["n"] == 4
     assert settings["flag"] is True and settings["eps"] == 0.5
@@ -157,8 +176,13 @@ def test_save_is_atomic_and_overwrites(tmp_path):
 def test_truncated_file(tmp_path, cut):
     path = _save(tmp_path / "m.npz")
     data = path.read_bytes()
-    keep = {"empty": 0, "first100": 100, "half": len(data) // 2,
-            "minus10": len(data) - 10, "minus1": len(data) - 1}[cut]
+    keep = {
+        "empty": 0,
+        "first100": 100,
+        "half": len(data) // 2,
+        "minus10": len(data) - 10,
+        "minus1": len(data) - 1,
+    }[cut]
     path.write_bytes(data[:keep])
     assert "truncated or not a ZIP archive" in _error(path)
 
@@ -185,8 +209,11 @@ def test_metadata_edited_keeps_old_checksum(tmp_path):
 def test_metadata_resealed_but_array_hash_still_checked(tmp_path):
     path = _save(tmp_path / "m.npz")
     weights = _arrays()["weights"] * 2.0
-    _rewrite(path, meta_change=lambda m: m["settings"].update(sigma=0.8),
-             members_change={"weights.npy": _npy(weights)})
+    _rewrite(
+        path,
+        meta_change=lambda m: m["settings"].update(sigma=0.8),
+        members_change={"weights.npy": _npy(weights)},
+    )
     assert "array 'weights' was edited or corrupted (sha256 mismatch)" in _error(path)
 
 
@@ -204,8 +231,8 @@ def _member_data_span(path, member):
     with zipfile.ZipFile(path) as zf:
         info = zf.getinfo(member)
     start = info.header_offset
-    name_len = int.from_bytes(data[start + 26:start + 28], "little")
-    extra_len = int.from_bytes(data[start + 28:start + 30], "little")
+    name_len = int.from_bytes(data[start + 26 : start + 28], "little")
+    extra_len = int.from_bytes(data[start + 28 : start + 30], "little")
     begin = start + 30 + name_len + extra_len
     return data, begin, begin + info.compress_size
 
@@ -277,13 +304,16 @@ def test_missing_metadata(tmp_path):
     assert "has no metadata.json" in _error(path)
 
 
-@pytest.mark.parametrize("text, reason", [
-    (b"{not json", "metadata.json is not valid JSON"),
-    (b'{"format": NaN}', "metadata.json is not valid JSON"),
-    (b'{"a": 1, "a": 2}', "duplicate key 'a'"),
-    (b"[1, 2]", "metadata.json is not a JSON object"),
-    (b"\xff\xfe", "metadata.json is not UTF-8"),
-])
+@pytest.mark.parametrize(
+    "text, reason",
+    [
+        (b"{not json", "metadata.json is not valid JSON"),
+        (b'{"format": NaN}', "metadata.json is not valid JSON"),
+        (b'{"a": 1, "a": 2}', "duplicate key 'a'"),
+        (b"[1, 2]", "metadata.json is not a JSON object"),
+        (b"\xff\xfe", "metadata.json is not UTF-8"),
+    ],
+)
 def test_metadata_not_json_object(tmp_path, text, reason):
     path = _save(tmp_path / "m.npz")
     members = _members(path)
@@ -322,8 +352,10 @@ def test_compatibility_mismatch(tmp_path):
     assert "was trained for sensors = ['gnss', 'baro'], this scenario has ['gnss', 'odo']" in msg
     other = system_hash({"q": np.eye(3) * 2e-4, "sensors": SENSORS})
     msg = _error(path, compatibility={"states": 15, "system_hash": other})
-    assert f"was trained for another scenario (system hash {HASH[:12]}… differs from " \
-           f"{other[:12]}…)" in msg
+    assert (
+        f"was trained for another scenario (system hash {HASH[:12]}… differs from "
+        f"{other[:12]}…)" in msg
+    )
     assert "was trained without a recorded dt" in _error(path, compatibility={"dt": 0.01})
     # tuples equal lists, numpy ints equal ints, extra keys in the file are fine
     load_model(path, compatibility={"sensors": ("gnss", "baro"), "states": np.int64(15)})
@@ -335,8 +367,11 @@ def test_pickled_object_array_is_refused_without_unpickling(tmp_path, monkeypatc
     blob = _npy(evil, allow_pickle=True)
 
     def change(meta):
-        meta["arrays"]["payload"] = {"dtype": "|O", "shape": [2],
-                                     "sha256": hashlib.sha256(b"").hexdigest()}
+        meta["arrays"]["payload"] = {
+            "dtype": "|O",
+            "shape": [2],
+            "sha256": hashlib.sha256(b"").hexdigest(),
+        }
 
     _rewrite(path, meta_change=change, members_change={"payload.npy": blob})
 
@@ -352,11 +387,14 @@ def test_pickled_object_array_is_refused_without_unpickling(tmp_path, monkeypatc
 # --------------------------------------------------------------------------- saving
 
 
-@pytest.mark.parametrize("bad, dtype", [
-    (np.array([1, "a"], dtype=object), "object"),
-    (np.array(["a", "b"]), "<U1"),
-    (np.zeros(2, dtype=[("a", "f8"), ("b", "i4")]), "[('a', '<f8'), ('b', '<i4')]"),
-])
+@pytest.mark.parametrize(
+    "bad, dtype",
+    [
+        (np.array([1, "a"], dtype=object), "object"),
+        (np.array(["a", "b"]), "<U1"),
+        (np.zeros(2, dtype=[("a", "f8"), ("b", "i4")]), "[('a', '<f8'), ('b', '<i4')]"),
+    ],
+)
 def test_save_refuses_non_numeric_arrays(tmp_path, bad, dtype):
     with pytest.raises(ValueError, match=r"^arrays\.odd: dtype .* is not allowed"):
         _save(tmp_path / "m.npz", arrays={"ok": np.zeros(2), "odd": bad})

@@ -29,23 +29,47 @@ def _bad(change):
 
 
 CASES = [
-    ("negative duration", lambda d: d["segments"][0].update(duration_s=-5.0),
-     r"^segments\[0\]\.duration_s: must be > 0"),
-    ("bank that cannot be flown", lambda d: d["segments"][1].update(roll_rate_deg_s=18.0),
-     r"^segments\[1\]\.roll_rate_deg_s: bank angle would reach 90\.0°"),
-    ("latitude beyond 90", lambda d: d["start"].update(lat_deg=91.0),
-     r"^start\.lat_deg: must be <= 90"),
-    ("speed would go negative", lambda d: d["segments"][0].update(accel_m_s2=-20.0),
-     r"^segments\[0\]\.accel_m_s2: speed would become negative"),
-    ("not a whole number of IMU periods", lambda d: d["segments"][0].update(duration_s=1.005),
-     r"^segments\[0\]\.duration_s: must be a whole number of IMU periods"),
-    ("coordinated while rolling", lambda d: d["segments"][2].update(roll_rate_deg_s=1.0),
-     r"^segments\[2\]\.yaw_rate_deg_s: a coordinated turn needs roll_rate_deg_s = 0"),
-    ("unknown key", lambda d: d["segments"][0].update(yaw_rate=1.0),
-     r"^segments\[0\]\.yaw_rate: unknown key"),
+    (
+        "negative duration",
+        lambda d: d["segments"][0].update(duration_s=-5.0),
+        r"^segments\[0\]\.duration_s: must be > 0",
+    ),
+    (
+        "bank that cannot be flown",
+        lambda d: d["segments"][1].update(roll_rate_deg_s=18.0),
+        r"^segments\[1\]\.roll_rate_deg_s: bank angle would reach 90\.0°",
+    ),
+    (
+        "latitude beyond 90",
+        lambda d: d["start"].update(lat_deg=91.0),
+        r"^start\.lat_deg: must be <= 90",
+    ),
+    (
+        "speed would go negative",
+        lambda d: d["segments"][0].update(accel_m_s2=-20.0),
+        r"^segments\[0\]\.accel_m_s2: speed would become negative",
+    ),
+    (
+        "not a whole number of IMU periods",
+        lambda d: d["segments"][0].update(duration_s=1.005),
+        r"^segments\[0\]\.duration_s: must be a whole number of IMU periods",
+    ),
+    (
+        "coordinated while rolling",
+        lambda d: d["segments"][2].update(roll_rate_deg_s=1.0),
+        r"^segments\[2\]\.yaw_rate_deg_s: a coordinated turn needs roll_rate_deg_s = 0",
+    ),
+    (
+        "unknown key",
+        lambda d: d["segments"][0].update(yaw_rate=1.0),
+        r"^segments\[0\]\.yaw_rate: unknown key",
+    ),
     ("NaN", lambda d: d["start"].update(h_m=float("nan")), r"^start\.h_m: is NaN or inf"),
-    ("wrong yaw keyword", lambda d: d["segments"][2].update(yaw_rate_deg_s="coordinate"),
-     r"^segments\[2\]\.yaw_rate_deg_s"),
+    (
+        "wrong yaw keyword",
+        lambda d: d["segments"][2].update(yaw_rate_deg_s="coordinate"),
+        r"^segments\[2\]\.yaw_rate_deg_s",
+    ),
 ]
 
 
@@ -63,8 +87,10 @@ def test_good_profile_parses():
 
 def test_cli_rejects_bad_profile_with_status_2(tmp_path, capsys):
     f = tmp_path / "bad.toml"
-    f.write_text('name = "p"\n[start]\nlat_deg = 95.0\nlon_deg = 0.0\nh_m = 0.0\n'
-                 '[[segments]]\nduration_s = 1.0\n')
+    f.write_text(
+        'name = "p"\n[start]\nlat_deg = 95.0\nlon_deg = 0.0\nh_m = 0.0\n'
+        "[[segments]]\nduration_s = 1.0\n"
+    )
     assert main(["trajectory", str(f), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("ftnav: error: start.lat_deg:") and "\n" not in err

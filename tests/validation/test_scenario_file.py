@@ -45,12 +45,17 @@ def base() -> dict[str, Any]:
             {"name": "pos3", "H": [[0.5, 0.0, 0.0]], "R": [[30.0]], "every": 1},
         ],
         "faults": [
-            {"sensor": "pos1", "kind": "bias", "start": 300.0, "end": 500.0,
-             "magnitude": [60.0]},
+            {"sensor": "pos1", "kind": "bias", "start": 300.0, "end": 500.0, "magnitude": [60.0]},
         ],
         "methods": [
-            {"name": "fkf-fault-factor", "architecture": "federated", "mode": "fusion-reset",
-             "reset_interval": 1, "sharing": "inverse-trace", "detector": "residual-chi2"},
+            {
+                "name": "fkf-fault-factor",
+                "architecture": "federated",
+                "mode": "fusion-reset",
+                "reset_interval": 1,
+                "sharing": "inverse-trace",
+                "detector": "residual-chi2",
+            },
             {"name": "ckf", "architecture": "centralized"},
         ],
     }
@@ -59,7 +64,11 @@ def base() -> dict[str, Any]:
 def with_private() -> dict[str, Any]:
     d = base()
     d["sensors"][0]["private"] = {
-        "states": ["b1"], "F": [[0.99]], "Q": [[0.01]], "x0": [0.0], "P0": [[1.0]],
+        "states": ["b1"],
+        "F": [[0.99]],
+        "Q": [[0.01]],
+        "x0": [0.0],
+        "P0": [[1.0]],
         "H": [[1.0]],
     }
     return d
@@ -105,8 +114,9 @@ def _add_method(**kw: Any) -> Callable[[], dict]:
 def _add_fault(**kw: Any) -> Callable[[], dict]:
     def mutate() -> dict:
         d = base()
-        d["faults"].append({"sensor": "pos2", "kind": "bias", "start": 10.0, "end": 20.0,
-                            "magnitude": [1.0], **kw})
+        d["faults"].append(
+            {"sensor": "pos2", "kind": "bias", "start": 10.0, "end": 20.0, "magnitude": [1.0], **kw}
+        )
         return d
 
     return mutate
@@ -154,174 +164,346 @@ BAD: list[tuple[str, Callable[[], dict], str]] = [
     ("missing-methods", _del("methods"), r"^methods: missing required key"),
     ("sensors-not-array", _set("sensors", {"name": "x"}), r"^sensors: expected an array"),
     # --- model
-    ("F-2x3", _set("model.F", [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
-     r"^model\.F: expected a 3x3 matrix \(from model\.states\), got 2x3$"),
-    ("F-ragged", _set("model.F", [[1.0, 0.0, 0.0], [0.0, 1.0], [0.0, 0.0, 1.0]]),
-     r"^model\.F: rows have different lengths"),
+    (
+        "F-2x3",
+        _set("model.F", [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+        r"^model\.F: expected a 3x3 matrix \(from model\.states\), got 2x3$",
+    ),
+    (
+        "F-ragged",
+        _set("model.F", [[1.0, 0.0, 0.0], [0.0, 1.0], [0.0, 0.0, 1.0]]),
+        r"^model\.F: rows have different lengths",
+    ),
     ("F-nan", _set("model.F.1.1", NAN), r"^model\.F: contains NaN or inf$"),
     ("F-inf", _set("model.F.0.2", -INF), r"^model\.F: contains NaN or inf$"),
     ("F-string-entry", _set("model.F.0.1", "x"), r"^model\.F\[0\]\[1\]: expected a number"),
     ("F-bool-entry", _set("model.F.0.1", True), r"^model\.F\[0\]\[1\]: expected a number"),
     ("F-vector", _set("model.F", [1.0, 2.0, 3.0]), r"^model\.F\[0\]: expected an array"),
-    ("x0-length", _set("model.x0", [0.0, 0.0]),
-     r"^model\.x0: expected 3 values \(from model\.states\), got 2$"),
+    (
+        "x0-length",
+        _set("model.x0", [0.0, 0.0]),
+        r"^model\.x0: expected 3 values \(from model\.states\), got 2$",
+    ),
     ("x0-nan", _set("model.x0.0", NAN), r"^model\.x0: contains NaN or inf$"),
     ("Q-not-symmetric", _set("model.Q.0.1", 1.0), r"^model\.Q: not symmetric$"),
-    ("Q-not-pd", _set("model.Q", [[1.0, 0, 0], [0, 0.0, 0], [0, 0, 1.0]]),
-     r"^model\.Q: not positive definite$"),
+    (
+        "Q-not-pd",
+        _set("model.Q", [[1.0, 0, 0], [0, 0.0, 0], [0, 0, 1.0]]),
+        r"^model\.Q: not positive definite$",
+    ),
     ("Q-negative", _set("model.Q.2.2", -3.0), r"^model\.Q: not positive definite$"),
-    ("Q-wrong-size", _set("model.Q", [[1.0, 0.0], [0.0, 1.0]]),
-     r"^model\.Q: expected a 3x3 matrix"),
+    (
+        "Q-wrong-size",
+        _set("model.Q", [[1.0, 0.0], [0.0, 1.0]]),
+        r"^model\.Q: expected a 3x3 matrix",
+    ),
     ("Q-inf", _set("model.Q.0.0", INF), r"^model\.Q: contains NaN or inf$"),
-    ("P0-not-pd", _set("model.P0", [[1.0, 2.0, 0], [2.0, 1.0, 0], [0, 0, 1.0]]),
-     r"^model\.P0: not positive definite$"),
+    (
+        "P0-not-pd",
+        _set("model.P0", [[1.0, 2.0, 0], [2.0, 1.0, 0], [0, 0, 1.0]]),
+        r"^model\.P0: not positive definite$",
+    ),
     ("P0-nan", _set("model.P0.2.2", NAN), r"^model\.P0: contains NaN or inf$"),
-    ("Q_true-not-psd", _set("model.Q_true", [[1.0, 0, 0], [0, -1.0, 0], [0, 0, 1.0]]),
-     r"^model\.Q_true: not positive semi-definite"),
-    ("Q_true-not-symmetric", _set("model.Q_true", [[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]]),
-     r"^model\.Q_true: not symmetric$"),
-    ("states-duplicate", _set("model.states", ["s", "v", "s"]),
-     r"^model\.states\[2\]: duplicate state name 's'$"),
+    (
+        "Q_true-not-psd",
+        _set("model.Q_true", [[1.0, 0, 0], [0, -1.0, 0], [0, 0, 1.0]]),
+        r"^model\.Q_true: not positive semi-definite",
+    ),
+    (
+        "Q_true-not-symmetric",
+        _set("model.Q_true", [[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]]),
+        r"^model\.Q_true: not symmetric$",
+    ),
+    (
+        "states-duplicate",
+        _set("model.states", ["s", "v", "s"]),
+        r"^model\.states\[2\]: duplicate state name 's'$",
+    ),
     ("states-empty-name", _set("model.states", ["s", "", "a"]), r"^model\.states\[1\]: "),
     ("states-empty", _set("model.states", []), r"^model\.states: must have at least 1"),
     ("model-unknown-key", _set("model.G", [[1.0]]), r"^model\.G: unknown key$"),
     # --- sensors
-    ("H-columns", _set("sensors.1.H", [[1.0, 0.0]]),
-     r"^sensors\[1\]\.H: expected 3 columns \(from model\.states\), got 1x2$"),
+    (
+        "H-columns",
+        _set("sensors.1.H", [[1.0, 0.0]]),
+        r"^sensors\[1\]\.H: expected 3 columns \(from model\.states\), got 1x2$",
+    ),
     ("H-no-rows", _set("sensors.0.H", []), r"^sensors\[0\]\.H: expected at least one row$"),
     ("H-nan", _set("sensors.2.H", [[NAN, 0.0, 0.0]]), r"^sensors\[2\]\.H: contains NaN or inf$"),
-    ("R-size", _set("sensors.0.R", [[30.0, 0.0], [0.0, 30.0]]),
-     r"^sensors\[0\]\.R: expected a 1x1 matrix \(from sensors\[0\]\.H rows\), got 2x2$"),
+    (
+        "R-size",
+        _set("sensors.0.R", [[30.0, 0.0], [0.0, 30.0]]),
+        r"^sensors\[0\]\.R: expected a 1x1 matrix \(from sensors\[0\]\.H rows\), got 2x2$",
+    ),
     ("R-not-pd", _set("sensors.1.R", [[0.0]]), r"^sensors\[1\]\.R: not positive definite$"),
     ("R-negative", _set("sensors.1.R", [[-30.0]]), r"^sensors\[1\]\.R: not positive definite$"),
     ("R-inf", _set("sensors.1.R", [[INF]]), r"^sensors\[1\]\.R: contains NaN or inf$"),
-    ("R_true-not-pd", _set("sensors.2.R_true", [[-1.0]]),
-     r"^sensors\[2\]\.R_true: not positive definite$"),
-    ("R_true-size", _set("sensors.2.R_true", [[1.0, 0.0]]),
-     r"^sensors\[2\]\.R_true: expected a 1x1 matrix"),
+    (
+        "R_true-not-pd",
+        _set("sensors.2.R_true", [[-1.0]]),
+        r"^sensors\[2\]\.R_true: not positive definite$",
+    ),
+    (
+        "R_true-size",
+        _set("sensors.2.R_true", [[1.0, 0.0]]),
+        r"^sensors\[2\]\.R_true: expected a 1x1 matrix",
+    ),
     ("every-zero", _set("sensors.0.every", 0), r"^sensors\[0\]\.every: must be >= 1"),
     ("offset-negative", _set("sensors.0.offset", -1), r"^sensors\[0\]\.offset: must be >= 0"),
     ("sensor-unknown-key", _set("sensors.1.bogus", 1), r"^sensors\[1\]\.bogus: unknown key$"),
     ("sensor-missing-R", _del("sensors.1.R"), r"^sensors\[1\]\.R: missing required key$"),
     ("sensor-duplicate", _dup_sensor, r"^sensors\[2\]\.name: duplicate sensor name 'pos1'$"),
     # --- private states
-    ("private-F-shape", _set("sensors.0.private.F", [[0.99, 0.0]], with_private),
-     r"^sensors\[0\]\.private\.F: expected a 1x1 matrix \(from sensors\[0\]\.private\.states\)"),
-    ("private-x0-length", _set("sensors.0.private.x0", [0.0, 1.0], with_private),
-     r"^sensors\[0\]\.private\.x0: expected 1 value \(from sensors\[0\]\.private\.states\)"),
-    ("private-H-shape", _set("sensors.0.private.H", [[1.0], [1.0]], with_private),
-     r"^sensors\[0\]\.private\.H: expected a 1x1 matrix \(from sensors\[0\]\.H rows"),
-    ("private-P0-not-pd", _set("sensors.0.private.P0", [[0.0]], with_private),
-     r"^sensors\[0\]\.private\.P0: not positive definite$"),
-    ("private-Q-not-psd", _set("sensors.0.private.Q", [[-0.01]], with_private),
-     r"^sensors\[0\]\.private\.Q: not positive semi-definite"),
-    ("private-state-clash", _set("sensors.0.private.states", ["v"], with_private),
-     r"^sensors\[0\]\.private\.states\[0\]: 'v' is already a state of model\.states$"),
-    ("private-unknown-key", _set("sensors.0.private.G", [[1.0]], with_private),
-     r"^sensors\[0\]\.private\.G: unknown key$"),
-    ("private-missing-H", _del("sensors.0.private.H", with_private),
-     r"^sensors\[0\]\.private\.H: missing required key$"),
+    (
+        "private-F-shape",
+        _set("sensors.0.private.F", [[0.99, 0.0]], with_private),
+        r"^sensors\[0\]\.private\.F: expected a 1x1 matrix \(from sensors\[0\]\.private\.states\)",
+    ),
+    (
+        "private-x0-length",
+        _set("sensors.0.private.x0", [0.0, 1.0], with_private),
+        r"^sensors\[0\]\.private\.x0: expected 1 value \(from sensors\[0\]\.private\.states\)",
+    ),
+    (
+        "private-H-shape",
+        _set("sensors.0.private.H", [[1.0], [1.0]], with_private),
+        r"^sensors\[0\]\.private\.H: expected a 1x1 matrix \(from sensors\[0\]\.H rows",
+    ),
+    (
+        "private-P0-not-pd",
+        _set("sensors.0.private.P0", [[0.0]], with_private),
+        r"^sensors\[0\]\.private\.P0: not positive definite$",
+    ),
+    (
+        "private-Q-not-psd",
+        _set("sensors.0.private.Q", [[-0.01]], with_private),
+        r"^sensors\[0\]\.private\.Q: not positive semi-definite",
+    ),
+    (
+        "private-state-clash",
+        _set("sensors.0.private.states", ["v"], with_private),
+        r"^sensors\[0\]\.private\.states\[0\]: 'v' is already a state of model\.states$",
+    ),
+    (
+        "private-unknown-key",
+        _set("sensors.0.private.G", [[1.0]], with_private),
+        r"^sensors\[0\]\.private\.G: unknown key$",
+    ),
+    (
+        "private-missing-H",
+        _del("sensors.0.private.H", with_private),
+        r"^sensors\[0\]\.private\.H: missing required key$",
+    ),
     # --- faults
-    ("fault-unknown-sensor", _set("faults.0.sensor", "pos9"),
-     r"^faults\[0\]\.sensor: unknown sensor 'pos9' \(known: pos1, pos2, pos3\)$"),
-    ("fault-unknown-kind", _set("faults.0.kind", "drift"),
-     r"^faults\[0\]\.kind: unknown value 'drift' \(expected one of: bias, ramp, noise-scale, "
-     r"outage, stuck\)$"),
+    (
+        "fault-unknown-sensor",
+        _set("faults.0.sensor", "pos9"),
+        r"^faults\[0\]\.sensor: unknown sensor 'pos9' \(known: pos1, pos2, pos3\)$",
+    ),
+    (
+        "fault-unknown-kind",
+        _set("faults.0.kind", "drift"),
+        r"^faults\[0\]\.kind: unknown value 'drift' \(expected one of: bias, ramp, noise-scale, "
+        r"outage, stuck\)$",
+    ),
     ("fault-negative-start", _set("faults.0.start", -1.0), r"^faults\[0\]\.start: must be >= 0"),
-    ("fault-end-equal", _set("faults.0.end", 300.0),
-     r"^faults\[0\]\.end: must be greater than start \(300\.0\)$"),
+    (
+        "fault-end-equal",
+        _set("faults.0.end", 300.0),
+        r"^faults\[0\]\.end: must be greater than start \(300\.0\)$",
+    ),
     ("fault-end-before", _set("faults.0.end", 100.0), r"^faults\[0\]\.end: must be greater"),
     ("fault-end-inf", _set("faults.0.end", INF), r"^faults\[0\]\.end: is NaN or inf"),
-    ("fault-magnitude-length", _set("faults.0.magnitude", [60.0, 1.0]),
-     r"^faults\[0\]\.magnitude: expected 1 value \(from sensors\[0\]\.H rows\), got 2$"),
-    ("fault-magnitude-nan", _set("faults.0.magnitude", [NAN]),
-     r"^faults\[0\]\.magnitude: contains NaN or inf$"),
-    ("fault-magnitude-missing", _del("faults.0.magnitude"),
-     r"^faults\[0\]\.magnitude: required for kind 'bias'$"),
-    ("noise-scale-zero", _add_fault(kind="noise-scale", magnitude=[0.0]),
-     r"^faults\[1\]\.magnitude: noise-scale factors must all be > 0$"),
-    ("noise-scale-negative", _add_fault(kind="noise-scale", magnitude=[-2.0]),
-     r"^faults\[1\]\.magnitude: noise-scale"),
+    (
+        "fault-magnitude-length",
+        _set("faults.0.magnitude", [60.0, 1.0]),
+        r"^faults\[0\]\.magnitude: expected 1 value \(from sensors\[0\]\.H rows\), got 2$",
+    ),
+    (
+        "fault-magnitude-nan",
+        _set("faults.0.magnitude", [NAN]),
+        r"^faults\[0\]\.magnitude: contains NaN or inf$",
+    ),
+    (
+        "fault-magnitude-missing",
+        _del("faults.0.magnitude"),
+        r"^faults\[0\]\.magnitude: required for kind 'bias'$",
+    ),
+    (
+        "noise-scale-zero",
+        _add_fault(kind="noise-scale", magnitude=[0.0]),
+        r"^faults\[1\]\.magnitude: noise-scale factors must all be > 0$",
+    ),
+    (
+        "noise-scale-negative",
+        _add_fault(kind="noise-scale", magnitude=[-2.0]),
+        r"^faults\[1\]\.magnitude: noise-scale",
+    ),
     ("fault-unknown-key", _set("faults.0.sigma", 1.0), r"^faults\[0\]\.sigma: unknown key$"),
     # --- methods
     ("method-unknown-key", _set("methods.0.bogus", 1), r"^methods\[0\]\.bogus: unknown key$"),
     ("method-missing-name", _del("methods.1.name"), r"^methods\[1\]\.name: missing required"),
-    ("method-duplicate", _dup_method,
-     r"^methods\[1\]\.name: duplicate method name 'fkf-fault-factor'$"),
-    ("sharing-foo", _add_method(sharing="foo"),
-     r"^methods\[2\]\.sharing: unknown value 'foo' \(expected one of: equal, fixed, information, "
-     r"trace, eigen-trace, frobenius, inverse-trace\)$"),
+    (
+        "method-duplicate",
+        _dup_method,
+        r"^methods\[1\]\.name: duplicate method name 'fkf-fault-factor'$",
+    ),
+    (
+        "sharing-foo",
+        _add_method(sharing="foo"),
+        r"^methods\[2\]\.sharing: unknown value 'foo' \(expected one of: equal, fixed, "
+        r"information, trace, eigen-trace, frobenius, inverse-trace\)$",
+    ),
     *[
-        (f"enum-{key}", _add_method(**{key: "foo"}), "^" + path.replace("[", r"\[")
-         .replace("]", r"\]").replace(".", r"\.") + r": unknown value 'foo' \(expected one of: ")
+        (
+            f"enum-{key}",
+            _add_method(**{key: "foo"}),
+            "^"
+            + path.replace("[", r"\[").replace("]", r"\]").replace(".", r"\.")
+            + r": unknown value 'foo' \(expected one of: ",
+        )
         for key, path in ENUMS.items()
     ],
     ("enum-not-string", _add_method(detector=3), r"^methods\[2\]\.detector: unknown value"),
-    ("rbf-without-model", _add_method(detector="rbf"),
-     r"^methods\[2\]\.model: detector 'rbf' needs a trained model file$"),
-    ("neural-without-model", _add_method(architecture="neural"),
-     r"^methods\[2\]\.model: architecture 'neural' needs a trained model file$"),
-    ("model-unused", _add_method(model="x.npz"),
-     r"^methods\[2\]\.model: only used with detector = 'rbf' or architecture = 'neural'$"),
-    ("threshold-above-1", _add_method(detector="rbf", model="x.npz", threshold=1.5),
-     r"^methods\[2\]\.threshold: "),
-    ("fixed-betas-count", _add_method(sharing="fixed", betas=[0.5, 0.5]),
-     r"^methods\[2\]\.betas: expected 3 values \(one per sensor\)"),
-    ("fixed-betas-sum", _add_method(sharing="fixed", betas=[0.5, 0.3, 0.1]),
-     r"^methods\[2\]\.betas: sum\(betas\) \+ master_share must equal 1"),
-    ("fixed-betas-sum-master", _add_method(sharing="fixed", betas=[0.5, 0.3, 0.2],
-                                           master_share=0.1),
-     r"^methods\[2\]\.betas: sum\(betas\) \+ master_share must equal 1"),
-    ("betas-negative", _add_method(sharing="fixed", betas=[1.5, -0.5, 0.0]),
-     r"^methods\[2\]\.betas\[1\]: must be >= 0"),
-    ("betas-without-fixed", _add_method(sharing="equal", betas=[0.5, 0.3, 0.2]),
-     r"^methods\[2\]\.betas: must be empty unless sharing = 'fixed'"),
+    (
+        "rbf-without-model",
+        _add_method(detector="rbf"),
+        r"^methods\[2\]\.model: detector 'rbf' needs a trained model file$",
+    ),
+    (
+        "neural-without-model",
+        _add_method(architecture="neural"),
+        r"^methods\[2\]\.model: architecture 'neural' needs a trained model file$",
+    ),
+    (
+        "model-unused",
+        _add_method(model="x.npz"),
+        r"^methods\[2\]\.model: only used with detector = 'rbf' or architecture = 'neural'$",
+    ),
+    (
+        "threshold-above-1",
+        _add_method(detector="rbf", model="x.npz", threshold=1.5),
+        r"^methods\[2\]\.threshold: ",
+    ),
+    (
+        "fixed-betas-count",
+        _add_method(sharing="fixed", betas=[0.5, 0.5]),
+        r"^methods\[2\]\.betas: expected 3 values \(one per sensor\)",
+    ),
+    (
+        "fixed-betas-sum",
+        _add_method(sharing="fixed", betas=[0.5, 0.3, 0.1]),
+        r"^methods\[2\]\.betas: sum\(betas\) \+ master_share must equal 1",
+    ),
+    (
+        "fixed-betas-sum-master",
+        _add_method(sharing="fixed", betas=[0.5, 0.3, 0.2], master_share=0.1),
+        r"^methods\[2\]\.betas: sum\(betas\) \+ master_share must equal 1",
+    ),
+    (
+        "betas-negative",
+        _add_method(sharing="fixed", betas=[1.5, -0.5, 0.0]),
+        r"^methods\[2\]\.betas\[1\]: must be >= 0",
+    ),
+    (
+        "betas-without-fixed",
+        _add_method(sharing="equal", betas=[0.5, 0.3, 0.2]),
+        r"^methods\[2\]\.betas: must be empty unless sharing = 'fixed'",
+    ),
     ("master-share-one", _add_method(master_share=1.0), r"^methods\[2\]\.master_share: must be <"),
-    ("rescale-not-reconstructed", _add_method(mode="rescale"),
-     r"^methods\[2\]\.mode: 'rescale' is a reconstruction \(spec §1\.5\); "
-     r"set reconstructed = true to use it$"),
-    ("pfa-zero", _add_method(false_alarm_probability=0.0),
-     r"^methods\[2\]\.false_alarm_probability: must be > 0"),
-    ("pfa-one", _add_method(false_alarm_probability=1.0),
-     r"^methods\[2\]\.false_alarm_probability: must be < 1"),
-    ("pfa-nan", _add_method(false_alarm_probability=NAN),
-     r"^methods\[2\]\.false_alarm_probability: is NaN or inf"),
+    (
+        "rescale-not-reconstructed",
+        _add_method(mode="rescale"),
+        r"^methods\[2\]\.mode: 'rescale' is a reconstruction \(spec §1\.5\); "
+        r"set reconstructed = true to use it$",
+    ),
+    (
+        "pfa-zero",
+        _add_method(false_alarm_probability=0.0),
+        r"^methods\[2\]\.false_alarm_probability: must be > 0",
+    ),
+    (
+        "pfa-one",
+        _add_method(false_alarm_probability=1.0),
+        r"^methods\[2\]\.false_alarm_probability: must be < 1",
+    ),
+    (
+        "pfa-nan",
+        _add_method(false_alarm_probability=NAN),
+        r"^methods\[2\]\.false_alarm_probability: is NaN or inf",
+    ),
     ("window-zero", _add_method(window=0), r"^methods\[2\]\.window: must be >= 1"),
-    ("quorum-without-keep", _add_method(common_mode_quorum=2),
-     r"^methods\[2\]\.common_mode_quorum: only used with common_mode = 'keep'"),
-    ("quorum-one", _add_method(common_mode="keep", common_mode_quorum=1),
-     r"^methods\[2\]\.common_mode_quorum: must be >= 2"),
-    ("quorum-above-sensors", _add_method(common_mode="keep", common_mode_quorum=4),
-     r"^methods\[2\]\.common_mode_quorum: must be <= the number of sensors \(3\)"),
-    ("intersection-not-neural", _add_method(prior="intersection"),
-     r"^methods\[2\]\.prior: 'intersection' \(covariance intersection of the local priors\) "
-     r"is only used with architecture = 'neural'$"),
+    (
+        "quorum-without-keep",
+        _add_method(common_mode_quorum=2),
+        r"^methods\[2\]\.common_mode_quorum: only used with common_mode = 'keep'",
+    ),
+    (
+        "quorum-one",
+        _add_method(common_mode="keep", common_mode_quorum=1),
+        r"^methods\[2\]\.common_mode_quorum: must be >= 2",
+    ),
+    (
+        "quorum-above-sensors",
+        _add_method(common_mode="keep", common_mode_quorum=4),
+        r"^methods\[2\]\.common_mode_quorum: must be <= the number of sensors \(3\)",
+    ),
+    (
+        "intersection-not-neural",
+        _add_method(prior="intersection"),
+        r"^methods\[2\]\.prior: 'intersection' \(covariance intersection of the local priors\) "
+        r"is only used with architecture = 'neural'$",
+    ),
     ("prior-unknown", _add_method(prior="fused"), r"^methods\[2\]\.prior: "),
     ("reset-interval-zero", _add_method(reset_interval=0), r"^methods\[2\]\.reset_interval: "),
     ("n_on-zero", _add_method(n_on=0), r"^methods\[2\]\.n_on: must be >= 1"),
     ("n_off-zero", _add_method(n_off=0), r"^methods\[2\]\.n_off: must be >= 1"),
-    ("state-test-reset-small", _add_method(state_test_reset=4),
-     r"^methods\[2\]\.state_test_reset: must be >= 5"),
+    (
+        "state-test-reset-small",
+        _add_method(state_test_reset=4),
+        r"^methods\[2\]\.state_test_reset: must be >= 5",
+    ),
     ("vb-rho-zero", _add_method(vb_rho=0.0), r"^methods\[2\]\.vb_rho: must be > 0"),
     ("vb-rho-big", _add_method(vb_rho=1.5), r"^methods\[2\]\.vb_rho: must be <= 1"),
     ("vb-iterations-zero", _add_method(vb_iterations=0), r"^methods\[2\]\.vb_iterations: "),
-    ("vb-sensors-unknown", _add_method(vb_sensors=["pos1", "gps"]),
-     r"^methods\[2\]\.vb_sensors\[1\]: unknown sensor 'gps' \(known: pos1, pos2, pos3\)$"),
-    ("vb-sensors-duplicate", _add_method(vb_sensors=["pos1", "pos1"]),
-     r"^methods\[2\]\.vb_sensors\[1\]: duplicate sensor 'pos1'$"),
-    ("rescale-factor-one", _add_method(rescale_factor=1.0),
-     r"^methods\[2\]\.rescale_factor: must be < 1"),
-    ("reconstructed-not-bool", _add_method(reconstructed="yes"),
-     r"^methods\[2\]\.reconstructed: expected true or false"),
+    (
+        "vb-sensors-unknown",
+        _add_method(vb_sensors=["pos1", "gps"]),
+        r"^methods\[2\]\.vb_sensors\[1\]: unknown sensor 'gps' \(known: pos1, pos2, pos3\)$",
+    ),
+    (
+        "vb-sensors-duplicate",
+        _add_method(vb_sensors=["pos1", "pos1"]),
+        r"^methods\[2\]\.vb_sensors\[1\]: duplicate sensor 'pos1'$",
+    ),
+    (
+        "rescale-factor-one",
+        _add_method(rescale_factor=1.0),
+        r"^methods\[2\]\.rescale_factor: must be < 1",
+    ),
+    (
+        "reconstructed-not-bool",
+        _add_method(reconstructed="yes"),
+        r"^methods\[2\]\.reconstructed: expected true or false",
+    ),
     ("method-model-not-string", _add_method(model=3), r"^methods\[2\]\.model: expected a string"),
     # --- evaluation
-    ("skip-initial-too-long", _set("evaluation", {"skip_initial": 1200.0}),
-     r"^evaluation\.skip_initial: must be less than dt\*steps"),
-    ("skip-initial-negative", _set("evaluation", {"skip_initial": -1.0}),
-     r"^evaluation\.skip_initial: must be >= 0"),
+    (
+        "skip-initial-too-long",
+        _set("evaluation", {"skip_initial": 1200.0}),
+        r"^evaluation\.skip_initial: must be less than dt\*steps",
+    ),
+    (
+        "skip-initial-negative",
+        _set("evaluation", {"skip_initial": -1.0}),
+        r"^evaluation\.skip_initial: must be >= 0",
+    ),
     ("grace-negative", _set("evaluation", {"grace": -1.0}), r"^evaluation\.grace: must be >= 0"),
-    ("evaluation-unknown-key", _set("evaluation", {"warmup": 1.0}),
-     r"^evaluation\.warmup: unknown key$"),
+    (
+        "evaluation-unknown-key",
+        _set("evaluation", {"warmup": 1.0}),
+        r"^evaluation\.warmup: unknown key$",
+    ),
 ]
 
 
@@ -376,8 +558,13 @@ def test_base_parses_with_arrays_and_defaults() -> None:
     assert sc.name == "example" and sc.description == "" and sc.dt == 1.0 and sc.steps == 1200
     m = sc.model
     assert m.states == ("s", "v", "a") and m.n == 3
-    for a, shape in [(m.F, (3, 3)), (m.Q, (3, 3)), (m.x0, (3,)), (m.P0, (3, 3)),
-                     (m.Q_true, (3, 3))]:
+    for a, shape in [
+        (m.F, (3, 3)),
+        (m.Q, (3, 3)),
+        (m.x0, (3,)),
+        (m.P0, (3, 3)),
+        (m.Q_true, (3, 3)),
+    ]:
         assert a.dtype == np.float64 and a.shape == shape
         assert not a.flags.writeable
     np.testing.assert_array_equal(m.F[0], [1.0, 0.05, 0.00125])
@@ -392,8 +579,11 @@ def test_base_parses_with_arrays_and_defaults() -> None:
     assert (f.sensor, f.kind, f.start, f.end) == ("pos1", "bias", 300.0, 500.0)
     assert f.magnitude.shape == (1,) and f.magnitude[0] == 60.0
     m0, m1 = sc.methods
-    assert (m0.name, m0.sharing, m0.detector) == ("fkf-fault-factor", "inverse-trace",
-                                                  "residual-chi2")
+    assert (m0.name, m0.sharing, m0.detector) == (
+        "fkf-fault-factor",
+        "inverse-trace",
+        "residual-chi2",
+    )
     # every key not given takes the Method dataclass default
     default = Method(name="ckf", architecture="centralized")
     for fl in fields(Method):
@@ -409,19 +599,31 @@ def test_optional_parts_parse() -> None:
     d["sensors"][1].update(R_true=[[60.0]], every=5, offset=2)
     d["faults"] += [
         {"sensor": "pos2", "kind": "outage", "start": 10.0, "end": 20.0},
-        {"sensor": "pos3", "kind": "noise-scale", "start": 10, "end": 2000.0,
-         "magnitude": [3.0]},
+        {"sensor": "pos3", "kind": "noise-scale", "start": 10, "end": 2000.0, "magnitude": [3.0]},
         {"sensor": "pos3", "kind": "stuck", "start": 5000.0, "end": 6000.0},  # after the run
     ]
-    d["methods"].append({
-        "name": "everything", "architecture": "distributed", "mode": "rescale",
-        "reconstructed": True, "sharing": "fixed", "betas": [0.5, 0.25, 0.15],
-        "master_share": 0.1, "trace_mode": "raw", "detector": "state-chi2", "prior": "global",
-        "adaptive_noise": "vb-literal", "vb_sensors": ["pos2"], "increment": "difference",
-        "rescale_factor": 0.0, "vb_rho": 1.0,
-    })
-    d["methods"].append({"name": "learned", "detector": "rbf", "model": "detector.npz",
-                         "threshold": 0.6})
+    d["methods"].append(
+        {
+            "name": "everything",
+            "architecture": "distributed",
+            "mode": "rescale",
+            "reconstructed": True,
+            "sharing": "fixed",
+            "betas": [0.5, 0.25, 0.15],
+            "master_share": 0.1,
+            "trace_mode": "raw",
+            "detector": "state-chi2",
+            "prior": "global",
+            "adaptive_noise": "vb-literal",
+            "vb_sensors": ["pos2"],
+            "increment": "difference",
+            "rescale_factor": 0.0,
+            "vb_rho": 1.0,
+        }
+    )
+    d["methods"].append(
+        {"name": "learned", "detector": "rbf", "model": "detector.npz", "threshold": 0.6}
+    )
     d["evaluation"] = {"skip_initial": 50.0, "grace": 0.0}
     sc = parse_scenario(d)
     p = sc.sensors[0].private
@@ -441,10 +643,12 @@ def test_optional_parts_parse() -> None:
 
 def test_multi_row_sensor_and_nearly_symmetric_matrix() -> None:
     d = base()
-    d["sensors"].append({"name": "pv", "H": [[1.0, 0, 0], [0, 1.0, 0]],
-                         "R": [[4.0, 1.0], [1.0 + 1e-12, 9.0]]})
-    d["faults"].append({"sensor": "pv", "kind": "ramp", "start": 0.0, "end": 1.0,
-                        "magnitude": [1.0, -1.0]})
+    d["sensors"].append(
+        {"name": "pv", "H": [[1.0, 0, 0], [0, 1.0, 0]], "R": [[4.0, 1.0], [1.0 + 1e-12, 9.0]]}
+    )
+    d["faults"].append(
+        {"sensor": "pv", "kind": "ramp", "start": 0.0, "end": 1.0, "magnitude": [1.0, -1.0]}
+    )
     sc = parse_scenario(d)
     R = sc.sensors[-1].R
     assert R.shape == (2, 2) and np.array_equal(R, R.T)
@@ -481,13 +685,27 @@ def test_round_trip(make: Callable[[], dict]) -> None:
 
 def test_round_trip_all_options() -> None:
     d = with_private()
-    d["methods"].append({"name": "x", "sharing": "fixed", "betas": [0.2, 0.3, 0.5],
-                         "vb_sensors": ["pos1"]})
-    d["methods"].append({"name": "learned", "architecture": "neural", "model": "m.npz",
-                         "uncovered": "pos1", "detector": "residual-chi2",
-                         "prior": "intersection"})
-    d["methods"].append({"name": "quorum", "detector": "residual-chi2", "common_mode": "keep",
-                         "common_mode_quorum": 2})
+    d["methods"].append(
+        {"name": "x", "sharing": "fixed", "betas": [0.2, 0.3, 0.5], "vb_sensors": ["pos1"]}
+    )
+    d["methods"].append(
+        {
+            "name": "learned",
+            "architecture": "neural",
+            "model": "m.npz",
+            "uncovered": "pos1",
+            "detector": "residual-chi2",
+            "prior": "intersection",
+        }
+    )
+    d["methods"].append(
+        {
+            "name": "quorum",
+            "detector": "residual-chi2",
+            "common_mode": "keep",
+            "common_mode_quorum": 2,
+        }
+    )
     d["model"]["Q_true"] = [[2.0, 0, 0], [0, 0.0, 0], [0, 0, 0.0]]
     sc = parse_scenario(d)
     _assert_same(sc, parse_scenario(scenario_to_dict(sc)))
@@ -618,7 +836,7 @@ def test_directory_and_binary_files(tmp_path) -> None:
     with pytest.raises(ScenarioError, match=r"is a directory"):
         load_scenario(tmp_path)
     path = tmp_path / "binary.toml"
-    path.write_bytes(b"name = \"\xff\xfe\"\n")
+    path.write_bytes(b'name = "\xff\xfe"\n')
     with pytest.raises(ScenarioError, match=r"binary\.toml: not valid UTF-8"):
         load_scenario(path)
 
@@ -636,8 +854,10 @@ def test_validation_error_from_file_keeps_field_path(tmp_path) -> None:
 def test_json_schema() -> None:
     schema = scenario_json_schema()
     assert isinstance(schema, dict)
-    assert schema["oneOf"] == [{"$ref": "#/$defs/ScenarioFile"},
-                               {"$ref": "#/$defs/InsScenarioFile"}]
+    assert schema["oneOf"] == [
+        {"$ref": "#/$defs/ScenarioFile"},
+        {"$ref": "#/$defs/InsScenarioFile"},
+    ]
     linear = schema["$defs"]["ScenarioFile"]
     props = linear["properties"]
     for key in ("name", "dt", "steps", "model", "sensors", "faults", "methods", "evaluation"):
@@ -717,39 +937,81 @@ def continuous() -> dict[str, Any]:
 
 
 CONTINUOUS_BAD: list[tuple[str, Callable[[], dict], str]] = [
-    ("F-and-F_c", _set("model.F", [[1.0, 1.0], [0.0, 1.0]], continuous),
-     r"^model\.F: not used with F_c and Q_c .*give either F or F_c$"),
-    ("Q-and-Q_c", _set("model.Q", [[1.0, 0.0], [0.0, 1.0]], continuous),
-     r"^model\.Q: not used with F_c and Q_c .*give either Q or Q_c$"),
-    ("F_c-without-Q_c", _del("model.Q_c", continuous),
-     r"^model\.Q_c: missing required key \(F_c makes a continuous-time model\)$"),
-    ("Q_c-without-F_c", _del("model.F_c", continuous),
-     r"^model\.F_c: missing required key \(Q_c makes a continuous-time model\)$"),
-    ("neither-F-nor-F_c", _del("model.F"),
-     r"^model\.F: missing required key \(or F_c and Q_c for a continuous-time model\)$"),
-    ("Q_c_true-with-F", _set("model.Q_c_true", [[1.0, 0.0, 0.0]] * 3),
-     r"^model\.Q_c_true: only used with F_c and Q_c"),
-    ("Q_true-and-Q_c_true", _set("model.Q_c_true", [[0.0, 0.0], [0.0, 1.0]],
-                                 lambda: _set("model.Q_true", [[1.0, 0.0], [0.0, 1.0]],
-                                              continuous)()),
-     r"^model\.Q_c_true: give either Q_true \(discrete\) or Q_c_true"),
-    ("Q_c-not-psd", _set("model.Q_c", [[0.0, 0.0], [0.0, -2.0]], continuous),
-     r"^model\.Q_c: not positive semi-definite"),
-    ("Q_c-shape", _set("model.Q_c", [[2.0]], continuous),
-     r"^model\.Q_c: expected a 2x2 matrix \(from model.states\), got 1x1$"),
-    ("Q_c-nan", _set("model.Q_c", [[0.0, 0.0], [0.0, NAN]], continuous),
-     r"^model\.Q_c: contains NaN or inf$"),
-    ("F_c-string", _set("model.F_c", [[0.0, "x"], [0.0, 0.0]], continuous),
-     r"^model\.F_c\[0\]\[1\]: expected a number"),
-    ("Q_c-reaches-no-state", _set("model.Q_c", [[0.0, 0.0], [0.0, 0.0]], continuous),
-     r"^model\.Q_c: its discrete Q over dt = 1.0 s is not positive definite"),
-    ("F_c-overflows", _set("model.F_c", [[1e6, 0.0], [0.0, 0.0]], continuous),
-     r"^model\.F_c: the discretization over dt = 1.0 s overflows"),
+    (
+        "F-and-F_c",
+        _set("model.F", [[1.0, 1.0], [0.0, 1.0]], continuous),
+        r"^model\.F: not used with F_c and Q_c .*give either F or F_c$",
+    ),
+    (
+        "Q-and-Q_c",
+        _set("model.Q", [[1.0, 0.0], [0.0, 1.0]], continuous),
+        r"^model\.Q: not used with F_c and Q_c .*give either Q or Q_c$",
+    ),
+    (
+        "F_c-without-Q_c",
+        _del("model.Q_c", continuous),
+        r"^model\.Q_c: missing required key \(F_c makes a continuous-time model\)$",
+    ),
+    (
+        "Q_c-without-F_c",
+        _del("model.F_c", continuous),
+        r"^model\.F_c: missing required key \(Q_c makes a continuous-time model\)$",
+    ),
+    (
+        "neither-F-nor-F_c",
+        _del("model.F"),
+        r"^model\.F: missing required key \(or F_c and Q_c for a continuous-time model\)$",
+    ),
+    (
+        "Q_c_true-with-F",
+        _set("model.Q_c_true", [[1.0, 0.0, 0.0]] * 3),
+        r"^model\.Q_c_true: only used with F_c and Q_c",
+    ),
+    (
+        "Q_true-and-Q_c_true",
+        _set(
+            "model.Q_c_true",
+            [[0.0, 0.0], [0.0, 1.0]],
+            lambda: _set("model.Q_true", [[1.0, 0.0], [0.0, 1.0]], continuous)(),
+        ),
+        r"^model\.Q_c_true: give either Q_true \(discrete\) or Q_c_true",
+    ),
+    (
+        "Q_c-not-psd",
+        _set("model.Q_c", [[0.0, 0.0], [0.0, -2.0]], continuous),
+        r"^model\.Q_c: not positive semi-definite",
+    ),
+    (
+        "Q_c-shape",
+        _set("model.Q_c", [[2.0]], continuous),
+        r"^model\.Q_c: expected a 2x2 matrix \(from model.states\), got 1x1$",
+    ),
+    (
+        "Q_c-nan",
+        _set("model.Q_c", [[0.0, 0.0], [0.0, NAN]], continuous),
+        r"^model\.Q_c: contains NaN or inf$",
+    ),
+    (
+        "F_c-string",
+        _set("model.F_c", [[0.0, "x"], [0.0, 0.0]], continuous),
+        r"^model\.F_c\[0\]\[1\]: expected a number",
+    ),
+    (
+        "Q_c-reaches-no-state",
+        _set("model.Q_c", [[0.0, 0.0], [0.0, 0.0]], continuous),
+        r"^model\.Q_c: its discrete Q over dt = 1.0 s is not positive definite",
+    ),
+    (
+        "F_c-overflows",
+        _set("model.F_c", [[1e6, 0.0], [0.0, 0.0]], continuous),
+        r"^model\.F_c: the discretization over dt = 1.0 s overflows",
+    ),
 ]
 
 
-@pytest.mark.parametrize(("mutate", "pattern"), [b[1:] for b in CONTINUOUS_BAD],
-                         ids=[b[0] for b in CONTINUOUS_BAD])
+@pytest.mark.parametrize(
+    ("mutate", "pattern"), [b[1:] for b in CONTINUOUS_BAD], ids=[b[0] for b in CONTINUOUS_BAD]
+)
 def test_invalid_continuous_models_name_the_field(mutate, pattern) -> None:
     with pytest.raises(ScenarioError, match=pattern) as info:
         parse_scenario(mutate())

@@ -51,22 +51,27 @@ BAD_PARAMETERS = [
 ]
 
 
-@pytest.mark.parametrize("cls, kwargs, field", BAD_PARAMETERS,
-                         ids=[f"{c.__name__}-{f}-{i}" for i, (c, _, f) in
-                              enumerate(BAD_PARAMETERS)])
+@pytest.mark.parametrize(
+    "cls, kwargs, field",
+    BAD_PARAMETERS,
+    ids=[f"{c.__name__}-{f}-{i}" for i, (c, _, f) in enumerate(BAD_PARAMETERS)],
+)
 def test_bad_parameter_names_the_field(cls, kwargs, field):
     with pytest.raises(ValueError, match=rf"^{field}: "):
         cls(**kwargs)
 
 
-@pytest.mark.parametrize("kwargs, field", [
-    ({"altimeter_sigma_m": -5.0}, "tan.altimeter_sigma_m"),
-    ({"map_sigma_m": float("nan")}, "tan.map_sigma_m"),
-    ({"min_slope": -0.01}, "tan.min_slope"),
-    ({"min_speed_m_s": -1.0}, "tan.min_speed_m_s"),
-    ({"sigma_m": 0.0}, "tan.sigma_m"),
-    ({"dt": 0.0}, "tan.dt"),
-])
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"altimeter_sigma_m": -5.0}, "tan.altimeter_sigma_m"),
+        ({"map_sigma_m": float("nan")}, "tan.map_sigma_m"),
+        ({"min_slope": -0.01}, "tan.min_slope"),
+        ({"min_speed_m_s": -1.0}, "tan.min_speed_m_s"),
+        ({"sigma_m": 0.0}, "tan.sigma_m"),
+        ({"dt": 0.0}, "tan.dt"),
+    ],
+)
 def test_bad_tan_parameter_names_the_field(kwargs, field):
     with pytest.raises(ValueError, match=rf"^{field}: "):
         Tan(TERRAIN, **kwargs)
@@ -77,35 +82,55 @@ def test_tan_needs_a_terrain():
         Tan("flat")
 
 
-@pytest.mark.parametrize("kwargs, field", [
-    ({"wavelengths_e_m": (100.0, 0.0)}, "terrain.wavelengths_e_m"),
-    ({"phases_n": (0.0,)}, "terrain.phases_n"),
-    ({"origin_lat_deg": 90.0}, "terrain.origin_lat_deg"),
-])
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"wavelengths_e_m": (100.0, 0.0)}, "terrain.wavelengths_e_m"),
+        ({"phases_n": (0.0,)}, "terrain.phases_n"),
+        ({"origin_lat_deg": 90.0}, "terrain.origin_lat_deg"),
+    ],
+)
 def test_bad_terrain_names_the_field(kwargs, field):
-    base = {"origin_lat_deg": 32.0, "origin_lon_deg": 118.0, "h0_m": 0.0,
-            "amplitudes_m": (10.0, 20.0), "wavelengths_e_m": (1000.0, 2000.0),
-            "wavelengths_n_m": (1500.0, 2500.0), "phases_e": (0.0, 1.0), "phases_n": (0.5, 2.0)}
+    base = {
+        "origin_lat_deg": 32.0,
+        "origin_lon_deg": 118.0,
+        "h0_m": 0.0,
+        "amplitudes_m": (10.0, 20.0),
+        "wavelengths_e_m": (1000.0, 2000.0),
+        "wavelengths_n_m": (1500.0, 2500.0),
+        "phases_e": (0.0, 1.0),
+        "phases_n": (0.5, 2.0),
+    }
     with pytest.raises(ValueError, match=rf"^{field}: "):
         AnalyticTerrain(**(base | kwargs))
 
 
-@pytest.mark.parametrize("kwargs, field", [
-    ({"lat_deg": np.array([1.0, 0.5, 2.0])}, "dem.lat_deg"),
-    ({"height_m": np.zeros((2, 3))}, "dem.height_m"),
-    ({"slope": "sobel"}, "dem.slope"),
-    ({"plane_fit_radius_m": 0.0}, "dem.plane_fit_radius_m"),
-])
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"lat_deg": np.array([1.0, 0.5, 2.0])}, "dem.lat_deg"),
+        ({"height_m": np.zeros((2, 3))}, "dem.height_m"),
+        ({"slope": "sobel"}, "dem.slope"),
+        ({"plane_fit_radius_m": 0.0}, "dem.plane_fit_radius_m"),
+    ],
+)
 def test_bad_dem_names_the_field(kwargs, field):
-    base = {"lat_deg": np.array([0.0, 0.5, 1.0]), "lon_deg": np.array([0.0, 1.0, 2.0]),
-            "height_m": np.zeros((3, 3))}
+    base = {
+        "lat_deg": np.array([0.0, 0.5, 1.0]),
+        "lon_deg": np.array([0.0, 1.0, 2.0]),
+        "height_m": np.zeros((3, 3)),
+    }
     with pytest.raises(ValueError, match=rf"^{field}: "):
         GridDem(**(base | kwargs))
 
 
 def _truth(K: int, dt: float = 1.0) -> AidTruth:
-    return AidTruth(dt * np.arange(K), np.tile([0.5, 2.0, 100.0], (K, 1)),
-                    np.tile([0.0, 100.0, 0.0], (K, 1)), euler_to_quat(np.zeros((K, 3))))
+    return AidTruth(
+        dt * np.arange(K),
+        np.tile([0.5, 2.0, 100.0], (K, 1)),
+        np.tile([0.0, 100.0, 0.0], (K, 1)),
+        euler_to_quat(np.zeros((K, 3))),
+    )
 
 
 def test_bad_simulation_inputs():

@@ -30,8 +30,9 @@ def _check(F, GQGt, T):
     if F.ndim < 2 or F.shape[-1] != F.shape[-2]:
         raise ValueError(f"F must be (..., n, n), got shape {F.shape}")
     if GQGt.shape[-2:] != F.shape[-2:]:
-        raise ValueError(f"GQGt must be (..., {F.shape[-1]}, {F.shape[-1]}), "
-                         f"got shape {GQGt.shape}")
+        raise ValueError(
+            f"GQGt must be (..., {F.shape[-1]}, {F.shape[-1]}), got shape {GQGt.shape}"
+        )
     batch = np.broadcast_shapes(F.shape[:-2], GQGt.shape[:-2])
     T = np.asarray(T, dtype=float)
     if not np.all(np.isfinite(T)) or np.any(T <= 0.0):
@@ -157,8 +158,9 @@ def _series_rows(F, GQGt, T, order, Phi, Q):  # pragma: no cover - compiled
         series_row(F[b], GQGt[b], T[b], order, Phi[b], Q[b], X, nxt, Mj, FM)
 
 
-def series_reference(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5
-                     ) -> tuple[np.ndarray, np.ndarray]:
+def series_reference(
+    F: np.ndarray, GQGt: np.ndarray, T, order: int = 5
+) -> tuple[np.ndarray, np.ndarray]:
     """Plain NumPy form of :func:`series` (the compiled kernel's test oracle)."""
     F, GQGt, T, batch = _check(F, GQGt, T)
     if int(order) != order or order < 1:

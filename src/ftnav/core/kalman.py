@@ -103,9 +103,14 @@ def predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> Gauss
     batch = batch_shape(x.shape[:-1], P.shape[:-2], F.shape[:-2], Q.shape[:-2])
     xf = flat(x, batch, (n,))
     x_out, P_out = np.empty_like(xf), np.empty((xf.shape[0], n, n))
-    predict_kernel(xf, flat(P, batch, (n, n)), flat(F, batch, (n, n), True),
-                   flat(Q, batch, (n, n), True),
-                   x_out, P_out)
+    predict_kernel(
+        xf,
+        flat(P, batch, (n, n)),
+        flat(F, batch, (n, n), True),
+        flat(Q, batch, (n, n), True),
+        x_out,
+        P_out,
+    )
     return Gaussian(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)))
 
 
@@ -137,9 +142,7 @@ def predict_reference(x, P, F, Q) -> Gaussian:
     return Gaussian(mv(F, x), symmetrize(F @ P @ mT(F) + Q))
 
 
-def update(
-    x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray
-) -> Update:
+def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray) -> Update:
     """Kalman measurement update in Joseph form (spec §0).
 
     ``K = P Hᵀ S⁻¹``, ``x⁺ = x + K ν``,
@@ -155,8 +158,7 @@ def update(
     R : (..., m, m) measurement-noise covariance.
     """
     n, m = x.shape[-1], z.shape[-1]
-    batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
-                        R.shape[:-2])
+    batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2], R.shape[:-2])
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf, Rf = flat(H, batch, (m, n), True), flat(R, batch, (m, m), True)
     M = xf.shape[0]
@@ -169,8 +171,13 @@ def update(
         Rb = Rf[bad] if Rf.shape[0] > 1 else Rf[0]
         ref = update_reference(xf[bad], Pf[bad], zf[bad], Hb, Rb)
         x_out[bad], P_out[bad], nu[bad], S[bad], q[bad] = ref
-    return Update(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)),
-                  nu.reshape(batch + (m,)), S.reshape(batch + (m, m)), q.reshape(batch))
+    return Update(
+        x_out.reshape(batch + (n,)),
+        P_out.reshape(batch + (n, n)),
+        nu.reshape(batch + (m,)),
+        S.reshape(batch + (m, m)),
+        q.reshape(batch),
+    )
 
 
 def update_reference(x, P, z, H, R) -> Update:
@@ -187,10 +194,9 @@ def update_reference(x, P, z, H, R) -> Update:
     return Update(x_post, P_post, nu, S, nis(nu, S))
 
 
-
-
-def prior_nis(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray,
-              R: np.ndarray) -> np.ndarray:
+def prior_nis(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray
+) -> np.ndarray:
     """NIS of ``z`` against the prior ``(x, P)``: ``νᵀ S⁻¹ ν``, ``ν = z − H x``,
     ``S = H P Hᵀ + R`` (spec §3.1), shape (...); one compiled pass, no update.
 
@@ -198,8 +204,7 @@ def prior_nis(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray,
     computed by :func:`nis` with an LU solve.
     """
     n, m = x.shape[-1], z.shape[-1]
-    batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
-                        R.shape[:-2])
+    batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2], R.shape[:-2])
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf, Rf = flat(H, batch, (m, n), True), flat(R, batch, (m, m), True)
     q = np.empty(xf.shape[0])
@@ -214,9 +219,15 @@ def prior_nis(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray,
     return q.reshape(batch)
 
 
-def differenced_measurement(z: np.ndarray, H: np.ndarray, z_prev: np.ndarray,
-                            H_prev: np.ndarray, Phi: np.ndarray, psi: np.ndarray,
-                            shift: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def differenced_measurement(
+    z: np.ndarray,
+    H: np.ndarray,
+    z_prev: np.ndarray,
+    H_prev: np.ndarray,
+    Phi: np.ndarray,
+    psi: np.ndarray,
+    shift: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Measurement differencing for first-order Markov measurement errors.
 
     Bryson & Henrikson (1968).  With ``z_k = H_k x_k + b_k + n_k``,

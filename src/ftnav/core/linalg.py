@@ -22,8 +22,17 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["spd_solve", "spd_inv", "predict_kernel", "update_kernel", "nis_kernel",
-           "vb_kernel", "fuse_kernel", "flat", "batch_shape"]
+__all__ = [
+    "spd_solve",
+    "spd_inv",
+    "predict_kernel",
+    "update_kernel",
+    "nis_kernel",
+    "vb_kernel",
+    "fuse_kernel",
+    "flat",
+    "batch_shape",
+]
 
 #: compile options of every kernel: cached, GIL released, NumPy error model
 #: (no zero-division checks; a failed Cholesky is detected explicitly instead)
@@ -69,8 +78,6 @@ def _chol_solve_rows(lo, hi, A, B, out, ok):  # pragma: no cover - compiled
                 for p in range(i + 1, n):
                     s -= L[p, i] * out[b, p, c]
                 out[b, i, c] = s / L[i, i]
-
-
 
 
 def _chol_solve(A, B, out):
@@ -125,8 +132,6 @@ def _inv_rows(lo, hi, A, out, ok):  # pragma: no cover - compiled
         _gram_lower(Li, out[b])
 
 
-
-
 def spd_inv(A: np.ndarray) -> np.ndarray:
     """Inverse of SPD ``A (..., n, n)``, symmetric by construction.
 
@@ -174,8 +179,6 @@ def _predict_rows(lo, hi, x, P, F, Q, x_out, P_out):  # pragma: no cover - compi
                 v = s + 0.5 * (Q[g, i, j] + Q[g, j, i])
                 P_out[b, i, j] = v
                 P_out[b, j, i] = v
-
-
 
 
 def predict_kernel(x, P, F, Q, x_out, P_out):
@@ -227,8 +230,9 @@ def _whitened_norm(L, nu, w):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
-                 ok):  # pragma: no cover - compiled
+def _update_rows(
+    lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out, ok
+):  # pragma: no cover - compiled
     n = x.shape[1]
     m = z.shape[1]
     PHt = np.empty((n, m))
@@ -293,14 +297,11 @@ def _update_rows(lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out,
                 P_out[b, j, i] = s
 
 
-
-
 def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):
     """Joseph-form update for flat batches; returns False where S is not SPD."""
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    _update_rows(0, M, x, P, z, H, R, x_out, P_out, nu_out, S_out,
-               nis_out, ok)
+    _update_rows(0, M, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out, ok)
     return ok
 
 
@@ -321,8 +322,6 @@ def _nis_rows(lo, hi, x, P, z, H, R, nis_out, ok):  # pragma: no cover - compile
         nis_out[b] = _whitened_norm(L, nu, w)
 
 
-
-
 def nis_kernel(x, P, z, H, R, nis_out):
     """``νᵀ S⁻¹ ν`` with ``ν = z − H x``, ``S = H P Hᵀ + R`` for flat batches.
 
@@ -335,8 +334,25 @@ def nis_kernel(x, P, z, H, R, nis_out):
 
 
 @numba.njit(**_JIT)
-def _vb_rows(lo, hi, x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out,
-             nis_out, beta_out, R_out, ok):  # pragma: no cover - compiled
+def _vb_rows(
+    lo,
+    hi,
+    x,
+    P,
+    z,
+    H,
+    alpha_post,
+    beta,
+    iterations,
+    x_out,
+    P_out,
+    nu_out,
+    S_out,
+    nis_out,
+    beta_out,
+    R_out,
+    ok,
+):  # pragma: no cover - compiled
     M, m = z.shape
     n = x.shape[1]
     for b in range(lo, hi):
@@ -347,8 +363,7 @@ def _vb_rows(lo, hi, x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_
             for r in range(m):
                 for c in range(m):
                     R_out[b, r, c] = beta_out[b, r] / alpha_post[b, r] if r == c else 0.0
-            _update_rows(b, b + 1, x, P, z, H, R_out, x_out, P_out, nu_out, S_out, nis_out,
-                         ok)
+            _update_rows(b, b + 1, x, P, z, H, R_out, x_out, P_out, nu_out, S_out, nis_out, ok)
             if not ok[b]:
                 break
             for r in range(m):  # β = β⁻ + ½ (z − H x⁺)² + ½ (H P⁺ Hᵀ)_rr
@@ -363,16 +378,32 @@ def _vb_rows(lo, hi, x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_
                 beta_out[b, r] = beta[b, r] + 0.5 * res * res + 0.5 * hph
 
 
-
-
-def vb_kernel(x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out, nis_out,
-              beta_out, R_out):
+def vb_kernel(
+    x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out, nis_out, beta_out, R_out
+):
     """Särkkä VB iterations (spec §7.2) for flat batches: each a Joseph update with
     ``R = diag(β/α)`` then ``β = β⁻ + ½ν⁺² + ½ diag(H P⁺ Hᵀ)``; False where S is not SPD."""
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
-    _vb_rows(0, M, x, P, z, H, alpha_post, beta, iterations, x_out, P_out,
-               nu_out, S_out, nis_out, beta_out, R_out, ok)
+    _vb_rows(
+        0,
+        M,
+        x,
+        P,
+        z,
+        H,
+        alpha_post,
+        beta,
+        iterations,
+        x_out,
+        P_out,
+        nu_out,
+        S_out,
+        nis_out,
+        beta_out,
+        R_out,
+        ok,
+    )
     return ok
 
 
@@ -385,8 +416,9 @@ def batch_shape(*shapes: tuple[int, ...]) -> tuple[int, ...]:
     return np.broadcast_shapes(*shapes)
 
 
-def flat(a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...],
-         shared: bool = False) -> np.ndarray:
+def flat(
+    a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...], shared: bool = False
+) -> np.ndarray:
     """View ``a`` as ``(prod(batch),) + core`` float64 (broadcasting it to ``batch``).
 
     With ``shared=True`` an ``a`` without batch axes is returned as ``(1,) + core``
@@ -397,7 +429,8 @@ def flat(a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...],
     if a.shape == batch + core and a.dtype == np.float64 and a.flags.c_contiguous:
         return a.reshape((-1,) + core)  # fast path: nothing to broadcast or copy
     return np.ascontiguousarray(np.broadcast_to(a, batch + core), dtype=np.float64).reshape(
-        (-1,) + core)
+        (-1,) + core
+    )
 
 
 @numba.njit(**_JIT)
@@ -474,8 +507,6 @@ def _fuse_rows(lo, hi, x, P, w, Y0, y0, x_out, P_out, ok):  # pragma: no cover -
             for j in range(n):
                 s += P_out[b, i, j] * y[j]
             x_out[b, i] = s
-
-
 
 
 def fuse_kernel(x, P, w, Y0, y0, x_out, P_out):

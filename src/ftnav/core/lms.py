@@ -69,8 +69,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-__all__ = ["LmsResult", "PROJECTIONS", "STEPS", "project_simplex", "clip_renormalize",
-           "lms_train"]
+__all__ = ["LmsResult", "PROJECTIONS", "STEPS", "project_simplex", "clip_renormalize", "lms_train"]
 
 #: projection rules applied after every update (spec §5.3)
 PROJECTIONS = ("simplex", "seed")
@@ -307,9 +306,19 @@ def _check_scalar(name: str, x, lo: float, hi: float, lo_open: bool, hi_open: bo
     return v
 
 
-def lms_train(U: np.ndarray, t: np.ndarray, *, projection: str = "simplex", step: str = "lms",
-              mu: float = 0.1, epochs: int = 200, tol: float = 1e-6, decay: bool = True,
-              w0: np.ndarray | None = None, rng: np.random.Generator) -> LmsResult:
+def lms_train(
+    U: np.ndarray,
+    t: np.ndarray,
+    *,
+    projection: str = "simplex",
+    step: str = "lms",
+    mu: float = 0.1,
+    epochs: int = 200,
+    tol: float = 1e-6,
+    decay: bool = True,
+    w0: np.ndarray | None = None,
+    rng: np.random.Generator,
+) -> LmsResult:
     """Train J linear neurons by projected LMS (spec §5.3).
 
     Parameters
@@ -389,10 +398,14 @@ def lms_train(U: np.ndarray, t: np.ndarray, *, projection: str = "simplex", step
     else:
         w0a = np.asarray(w0, dtype=np.float64)
         if w0a.shape not in ((N,), (J, N)):
-            raise ValueError(f"w0: expected shape (N,) = {(N,)} or (J, N) = {(J, N)}, "
-                             f"got {w0a.shape}")
-        if not (np.isfinite(w0a).all() and (w0a >= 0.0).all()
-                and (np.abs(w0a.sum(axis=-1) - 1.0) < 1e-9).all()):
+            raise ValueError(
+                f"w0: expected shape (N,) = {(N,)} or (J, N) = {(J, N)}, got {w0a.shape}"
+            )
+        if not (
+            np.isfinite(w0a).all()
+            and (w0a >= 0.0).all()
+            and (np.abs(w0a.sum(axis=-1) - 1.0) < 1e-9).all()
+        ):
             raise ValueError("w0: must lie on the simplex (w >= 0, sum w = 1)")
         w = np.array(np.broadcast_to(w0a, (J, N)), dtype=np.float64)
 
@@ -402,8 +415,9 @@ def lms_train(U: np.ndarray, t: np.ndarray, *, projection: str = "simplex", step
     else:
         tr = _mean_sq_norm(Ua)
         if not (tr > 0.0).all():
-            raise ValueError("U: the inputs of a neuron are all zero (tr R = 0), "
-                             "the 'lms' step is undefined")
+            raise ValueError(
+                "U: the inputs of a neuron are all zero (tr R = 0), the 'lms' step is undefined"
+            )
         eta0 = mu / tr
 
     min_w = np.full(J, np.inf)
@@ -422,5 +436,11 @@ def lms_train(U: np.ndarray, t: np.ndarray, *, projection: str = "simplex", step
 
     r = ta - np.einsum("jmn,jn->jm", Ua, w)
     mse = np.mean(r * r, axis=1)
-    return LmsResult(weights=w, epochs_run=e, converged=converged, min_weight=min_w,
-                     max_sum_error=max_sum_err, mse=mse)
+    return LmsResult(
+        weights=w,
+        epochs_run=e,
+        converged=converged,
+        min_weight=min_w,
+        max_sum_error=max_sum_err,
+        mse=mse,
+    )

@@ -61,11 +61,11 @@ def vb_update(
     NumPy form and the fallback where ``S`` is not numerically positive definite.
     """
     if variant != "sarkka" or iterations < 1:
-        return vb_update_reference(x, P, z, H, alpha, beta, iterations=iterations,
-                                   variant=variant)
+        return vb_update_reference(x, P, z, H, alpha, beta, iterations=iterations, variant=variant)
     n, m = x.shape[-1], z.shape[-1]
-    batch = batch_shape(x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2],
-                        alpha.shape[:-1], beta.shape[:-1])
+    batch = batch_shape(
+        x.shape[:-1], P.shape[:-2], z.shape[:-1], H.shape[:-2], alpha.shape[:-1], beta.shape[:-1]
+    )
     xf, Pf, zf = flat(x, batch, (n,)), flat(P, batch, (n, n)), flat(z, batch, (m,))
     Hf = flat(H, batch, (m, n), True)
     alpha_post = flat(alpha, batch, (m,)) + 0.5
@@ -74,19 +74,35 @@ def vb_update(
     x_out, P_out = np.empty((M, n)), np.empty((M, n, n))
     nu, S, q = np.empty((M, m)), np.empty((M, m, m)), np.empty(M)
     b_out, R = np.empty((M, m)), np.empty((M, m, m))
-    ok = vb_kernel(xf, Pf, zf, Hf, alpha_post, bf, int(iterations), x_out, P_out, nu, S, q,
-                   b_out, R)
+    ok = vb_kernel(
+        xf, Pf, zf, Hf, alpha_post, bf, int(iterations), x_out, P_out, nu, S, q, b_out, R
+    )
     if not ok.all():
         bad = ~ok
         Hb = Hf[bad] if Hf.shape[0] > 1 else Hf[0]
         up, _, b_out[bad], R[bad] = vb_update_reference(
-            xf[bad], Pf[bad], zf[bad], Hb, alpha_post[bad] - 0.5, bf[bad],
-            iterations=iterations, variant=variant)
+            xf[bad],
+            Pf[bad],
+            zf[bad],
+            Hb,
+            alpha_post[bad] - 0.5,
+            bf[bad],
+            iterations=iterations,
+            variant=variant,
+        )
         x_out[bad], P_out[bad], nu[bad], S[bad], q[bad] = up
-    return (Update(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)),
-                   nu.reshape(batch + (m,)), S.reshape(batch + (m, m)), q.reshape(batch)),
-            alpha_post.reshape(batch + (m,)), b_out.reshape(batch + (m,)),
-            R.reshape(batch + (m, m)))
+    return (
+        Update(
+            x_out.reshape(batch + (n,)),
+            P_out.reshape(batch + (n, n)),
+            nu.reshape(batch + (m,)),
+            S.reshape(batch + (m, m)),
+            q.reshape(batch),
+        ),
+        alpha_post.reshape(batch + (m,)),
+        b_out.reshape(batch + (m,)),
+        R.reshape(batch + (m, m)),
+    )
 
 
 def vb_update_reference(

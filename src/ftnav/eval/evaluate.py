@@ -29,8 +29,15 @@ from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
 __all__ = ["MethodMetrics", "evaluate", "metrics_to_json", "split_unit"]
 
 #: Unit suffixes of state and metric names (longest first) and the units they name.
-_UNIT_SUFFIXES = (("_m_s2", "m/s²"), ("_m_s", "m/s"), ("_arcmin", "arcmin"),
-                  ("_arcsec", "arcsec"), ("_deg", "deg"), ("_rad", "rad"), ("_m", "m"))
+_UNIT_SUFFIXES = (
+    ("_m_s2", "m/s²"),
+    ("_m_s", "m/s"),
+    ("_arcmin", "arcmin"),
+    ("_arcsec", "arcsec"),
+    ("_deg", "deg"),
+    ("_rad", "rad"),
+    ("_m", "m"),
+)
 
 
 def split_unit(name: str) -> tuple[str, str | None]:
@@ -81,8 +88,7 @@ def _norms(err: np.ndarray, states) -> np.ndarray | None:
     return position_norms(err[..., [list(states).index(s) for s in enu]])
 
 
-def _with_norms(values: np.ndarray, states, norm_values: np.ndarray | None
-                ) -> dict[str, float]:
+def _with_norms(values: np.ndarray, states, norm_values: np.ndarray | None) -> dict[str, float]:
     """State name → value, followed by the position norms' values when there are any."""
     out = _named(values, states)
     if norm_values is not None:
@@ -90,11 +96,13 @@ def _with_norms(values: np.ndarray, states, norm_values: np.ndarray | None
     return out
 
 
-def _rmse(err: np.ndarray, norms: np.ndarray | None, states, mask: np.ndarray
-          ) -> dict[str, float]:
+def _rmse(err: np.ndarray, norms: np.ndarray | None, states, mask: np.ndarray) -> dict[str, float]:
     """State name (and position norm) → mean over runs of the per-run RMSE over ``mask``."""
-    return _with_norms(error_stats(err, mask).rmse, states,
-                       None if norms is None else error_stats(norms, mask).rmse)
+    return _with_norms(
+        error_stats(err, mask).rmse,
+        states,
+        None if norms is None else error_stats(norms, mask).rmse,
+    )
 
 
 def _max_rel_diff(a: np.ndarray, b: np.ndarray) -> float:
@@ -112,9 +120,17 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
     out_fault = ~sc.fault_mask() & window
     truth = result.simulation.truth
     methods = {m.name: m for m in sc.methods}
-    central = next((n for n, m in methods.items() if m.architecture == "centralized"
-                    and m.detector == "none" and m.adaptive_noise == "none"
-                    and n in result.results), None)
+    central = next(
+        (
+            n
+            for n, m in methods.items()
+            if m.architecture == "centralized"
+            and m.detector == "none"
+            and m.adaptive_noise == "none"
+            and n in result.results
+        ),
+        None,
+    )
     out: dict[str, MethodMetrics] = {}
     for name, res in result.results.items():
         err = _errors(res, truth)
@@ -126,11 +142,14 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
         if res.flag is not None:
             detection = {}
             for i, s in enumerate(sc.sensors):
-                wins = [(f.start, f.end) for f in sc.faults
-                        if f.sensor == s.name and f.kind != "outage"]
+                wins = [
+                    (f.start, f.end) for f in sc.faults if f.sensor == s.name and f.kind != "outage"
+                ]
                 d = detection_stats(res.flag[..., i], t, wins, sc.evaluation.grace)
-                detection[s.name] = {k: (None if isinstance(v, float) and math.isnan(v)
-                                         else float(v)) for k, v in d._asdict().items()}
+                detection[s.name] = {
+                    k: (None if isinstance(v, float) and math.isnan(v) else float(v))
+                    for k, v in d._asdict().items()
+                }
         ff = None
         ff_res = result.fault_free.get(name)
         if ff_res is not None:
@@ -139,7 +158,8 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
             ff = {
                 "rmse": _rmse(ff_err, ff_norms, states, window),
                 "rmse_fault_window": _rmse(ff_err, ff_norms, states, in_fault)
-                if in_fault.any() else None,
+                if in_fault.any()
+                else None,
             }
         rel = None
         if central is not None and name != central:
@@ -153,8 +173,9 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
             rmse=_with_norms(es.rmse, states, es_norms and es_norms.rmse),
             rmse_fault=_rmse(err, norms, states, in_fault) if in_fault.any() else None,
             rmse_nofault=_rmse(err, norms, states, out_fault) if out_fault.any() else None,
-            ensemble_rmse=_with_norms(es.ensemble_rmse, states,
-                                      es_norms and es_norms.ensemble_rmse),
+            ensemble_rmse=_with_norms(
+                es.ensemble_rmse, states, es_norms and es_norms.ensemble_rmse
+            ),
             max_abs_error=_with_norms(es.max_abs, states, es_norms and es_norms.max_abs),
             anees=float(ns.anees),
             anees_band=(float(ns.band[0]), float(ns.band[1])),
@@ -163,15 +184,18 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
             fault_free=ff,
             max_rel_diff_to_centralized=rel,
             mean_beta=_named(res.beta[:, window].mean((0, 1)), sc.sensor_names)
-            if res.beta is not None else None,
-            nan_measurements={s.name: int(res.nan_count[:, i].sum())
-                              for i, s in enumerate(sc.sensors)},
+            if res.beta is not None
+            else None,
+            nan_measurements={
+                s.name: int(res.nan_count[:, i].sum()) for i, s in enumerate(sc.sensors)
+            },
         )
     return out
 
 
-def metrics_to_json(result: ScenarioResult, metrics: dict[str, MethodMetrics],
-                    claims: list[dict] | None = None) -> dict:
+def metrics_to_json(
+    result: ScenarioResult, metrics: dict[str, MethodMetrics], claims: list[dict] | None = None
+) -> dict:
     """The ``metrics.json`` document (stable contract; ``None`` is written as null)."""
     from ftnav import __version__
 

@@ -51,10 +51,19 @@ def ins_configurations(sc: InsScenario) -> list[tuple[str, np.ndarray, InsFault 
     return out
 
 
-def train_ins_fusion(sc: InsScenario, runs: int = 4, seed: int = 1, *, fault_start: float = 150.0,
-                     skip: float = 60.0, max_samples: int = 4000, mu: float = 1.0,
-                     epochs: int = 500, progress: Callable[[int], None] | None = None,
-                     samples: dict | None = None) -> NeuronModel:
+def train_ins_fusion(
+    sc: InsScenario,
+    runs: int = 4,
+    seed: int = 1,
+    *,
+    fault_start: float = 150.0,
+    skip: float = 60.0,
+    max_samples: int = 4000,
+    mu: float = 1.0,
+    epochs: int = 500,
+    progress: Callable[[int], None] | None = None,
+    samples: dict | None = None,
+) -> NeuronModel:
     """Train the neuron banks of the scenario's integrated system (module docstring).
 
     LMS step ``η = μ / tr R`` (``step="lms"``) with μ = 1 and 500 decaying epochs: the
@@ -77,11 +86,12 @@ def train_ins_fusion(sc: InsScenario, runs: int = 4, seed: int = 1, *, fault_sta
         data = simulate_ins(variant, range(runs), seed)
         filt = NeuralFusion(system, collect_method, collect=True, untrained="inverse-variance")
         truth = np.empty((runs, sc.steps, nc))
-        res, _ = run_ins_methods({"collect": filt}, variant, data, system, progress,
-                                 true_states=truth)["collect"]
+        res, _ = run_ins_methods(
+            {"collect": filt}, variant, data, system, progress, true_states=truth
+        )["collect"]
         U = res.features.reshape(runs, sc.steps, -1, nc)  # (B, K, N_in, nc)
         t = sc.times
-        window = (t >= (skip if fault is None else fault_start + skip))
+        window = t >= (skip if fault is None else fault_start + skip)
         u = U[:, window].reshape(-1, *U.shape[2:])
         tt = truth[:, window].reshape(-1, nc)
         M = min(max_samples, u.shape[0])
@@ -97,20 +107,38 @@ def train_ins_fusion(sc: InsScenario, runs: int = 4, seed: int = 1, *, fault_sta
     ts = [x[:, :M] for x in ts]
     # scale each neuron's inputs to unit size: the states mix radians and metres
     U_all, t_all = np.concatenate(Us), np.concatenate(ts)
-    scale = np.sqrt((U_all ** 2).mean((1, 2), keepdims=True)) + 1e-300
+    scale = np.sqrt((U_all**2).mean((1, 2), keepdims=True)) + 1e-300
     U_all, t_all = U_all / scale, t_all / scale[..., 0]
     if samples is not None:
         samples.update(U=U_all, t=t_all)
-    lms = lms_train(U_all, t_all, projection="simplex", step="lms", mu=mu, epochs=epochs,
-                    rng=pick)
+    lms = lms_train(U_all, t_all, projection="simplex", step="lms", mu=mu, epochs=epochs, rng=pick)
     C = len(names)
     weights = lms.weights.reshape(C, nc, -1)
-    rmse = (np.sqrt(lms.mse).reshape(C, nc) * scale[:, 0, 0].reshape(C, nc))
-    provenance = {"scenario": sc.name, "profile": sc.profile.name, "runs": runs, "seed": seed,
-                  "fault_start_s": fault_start, "samples_per_neuron": M,
-                  "collect": "closed loop, inverse-variance fusion with oracle flags",
-                  "lms": {"projection": "simplex", "step": "lms", "mu": mu, "epochs": epochs,
-                          "epochs_run": int(lms.epochs_run), "converged": bool(lms.converged)}}
-    return NeuronModel(tuple(names), np.array(patterns), tuple(sc.sensor_names),
-                       tuple(system.model.states), weights, rmse, system.compatibility(),
-                       provenance)
+    rmse = np.sqrt(lms.mse).reshape(C, nc) * scale[:, 0, 0].reshape(C, nc)
+    provenance = {
+        "scenario": sc.name,
+        "profile": sc.profile.name,
+        "runs": runs,
+        "seed": seed,
+        "fault_start_s": fault_start,
+        "samples_per_neuron": M,
+        "collect": "closed loop, inverse-variance fusion with oracle flags",
+        "lms": {
+            "projection": "simplex",
+            "step": "lms",
+            "mu": mu,
+            "epochs": epochs,
+            "epochs_run": int(lms.epochs_run),
+            "converged": bool(lms.converged),
+        },
+    }
+    return NeuronModel(
+        tuple(names),
+        np.array(patterns),
+        tuple(sc.sensor_names),
+        tuple(system.model.states),
+        weights,
+        rmse,
+        system.compatibility(),
+        provenance,
+    )

@@ -39,8 +39,14 @@ from ftnav.sim.ins_data import InsData, simulate_ins
 from ftnav.sim.ins_scenario import InsScenario
 from ftnav.sim.scenario import LinearModel, Sensor
 
-__all__ = ["build_ins_system", "run_ins_scenario", "run_ins_methods", "chunk_runs",
-           "IntegratedSimulation", "initial_ins_state"]
+__all__ = [
+    "build_ins_system",
+    "run_ins_scenario",
+    "run_ins_methods",
+    "chunk_runs",
+    "IntegratedSimulation",
+    "initial_ins_state",
+]
 
 _ARCMIN = np.pi / 180.0 / 60.0
 N_NAV = 9
@@ -76,13 +82,24 @@ class InsSystem(LinearSystem):
         parts = {"states": list(self.model.states), "P0": self.model.P0}
         for s in self.sensors:
             parts[f"sensor:{s.name}"] = {
-                "R": s.R, "every": s.every, "offset": s.offset,
-                "private": None if s.private is None else {
-                    "names": list(s.private.names), "F": s.private.F, "Q": s.private.Q,
-                    "P0": s.private.P0}}
-        return {"states": list(self.model.states), "sensors": [s.name for s in self.sensors],
-                "measurement_dims": [s.dim for s in self.sensors],
-                "system_hash": system_hash(parts)}
+                "R": s.R,
+                "every": s.every,
+                "offset": s.offset,
+                "private": None
+                if s.private is None
+                else {
+                    "names": list(s.private.names),
+                    "F": s.private.F,
+                    "Q": s.private.Q,
+                    "P0": s.private.P0,
+                },
+            }
+        return {
+            "states": list(self.model.states),
+            "sensors": [s.name for s in self.sensors],
+            "measurement_dims": [s.dim for s in self.sensors],
+            "system_hash": system_hash(parts),
+        }
 
 
 def _nominal_H(sensor, truth, n: int) -> np.ndarray:
@@ -90,7 +107,7 @@ def _nominal_H(sensor, truth, n: int) -> np.ndarray:
     from ftnav.sensors.base import AidTruth
 
     j = truth.t.size // 2
-    tr = AidTruth(*(a[j:j + 1] for a in truth))
+    tr = AidTruth(*(a[j : j + 1] for a in truth))
     c = sensor.simulate_errors(tr, 0, range(1), 0).constants * 0.0
     raw = sensor.output(tr, np.zeros((1, 1, sensor.dim)), c)[:, 0]
     lin = sensor.measure(tr.q, tr.v, tr.p, raw)
@@ -104,11 +121,22 @@ def build_ins_system(sc: InsScenario) -> InsSystem:
 
     n = sc.error_model.n
     P0 = np.diag(np.asarray(sc.initial_sigma[:n], float) ** 2)
-    model = LinearModel(sc.error_model.names, np.eye(n), np.zeros((n, n)), np.zeros(n), P0,
-                        np.zeros((n, n)))
+    model = LinearModel(
+        sc.error_model.names, np.eye(n), np.zeros((n, n)), np.zeros(n), P0, np.zeros((n, n))
+    )
     truth = epoch_truth(trajectory_of(sc.profile), sc.samples_per_epoch, sc.steps)
-    sensors = tuple(Sensor(a.name, _nominal_H(a.sensor, truth, n), a.sensor.R, a.sensor.R,
-                           a.every, a.offset, a.sensor.private) for a in sc.aids)
+    sensors = tuple(
+        Sensor(
+            a.name,
+            _nominal_H(a.sensor, truth, n),
+            a.sensor.R,
+            a.sensor.R,
+            a.every,
+            a.offset,
+            a.sensor.private,
+        )
+        for a in sc.aids
+    )
     return InsSystem(model, sensors)
 
 
@@ -194,8 +222,19 @@ class _Recorder:
             self.features[:, k] = out.features
 
     def result(self) -> tuple[MethodResult, LocalTrack | None]:
-        res = MethodResult(self.x, self.P, self.nees, self.beta, self.stat, self.thr, self.raw,
-                           self.flag, tuple(self.R_hat), self.nan, self.features)
+        res = MethodResult(
+            self.x,
+            self.P,
+            self.nees,
+            self.beta,
+            self.stat,
+            self.thr,
+            self.raw,
+            self.flag,
+            tuple(self.R_hat),
+            self.nan,
+            self.features,
+        )
         return res, (None if self.local is None else LocalTrack(self.local))
 
 
@@ -203,10 +242,15 @@ def _tile(a: np.ndarray, M: int) -> np.ndarray:
     return a if M == 1 else np.concatenate([a] * M, 0)
 
 
-def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSystem,
-                    progress: Callable[[int], None] | None = None, check_spd: bool = False,
-                    true_states: np.ndarray | None = None
-                    ) -> dict[str, tuple[MethodResult, LocalTrack | None]]:
+def run_ins_methods(
+    filters: dict,
+    sc: InsScenario,
+    data: InsData,
+    system: InsSystem,
+    progress: Callable[[int], None] | None = None,
+    check_spd: bool = False,
+    true_states: np.ndarray | None = None,
+) -> dict[str, tuple[MethodResult, LocalTrack | None]]:
     """Run every fusion method closed-loop over the simulated runs (module docstring).
 
     Each method has its own SINS per run; the SINS of all methods are integrated,
@@ -245,15 +289,24 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
         dth, dvel = _tile(data.dtheta[:, sl], M), _tile(data.dv[:, sl], M)
         f_b = dvel.sum(1) / sc.dt
         C_bn = attitude.quat_to_dcm(ins.q)
-        Phi, Q = discrete_model(ins.p[:, 0], ins.p[:, 1], ins.p[:, 2], ins.v, f_b, C_bn,
-                                sc.error_model, sc.dt, sc.discretization, 5)
+        Phi, Q = discrete_model(
+            ins.p[:, 0],
+            ins.p[:, 1],
+            ins.p[:, 2],
+            ins.v,
+            f_b,
+            C_bn,
+            sc.error_model,
+            sc.dt,
+            sc.discretization,
+            5,
+        )
         ins, _ = integrate(ins, dth, dvel, dt_imu, algorithm=sc.algorithm, output_every=every)
         z, H, avail = [], [], np.zeros((M * B, N), bool)
         for i, aid in enumerate(sc.aids):
             raw = _tile(data.raw[i][:, k - 1], M)
             lin = aid.sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw, nan=1.0))
-            ok = _tile(data.available[:, k - 1, i], M) & lin.valid & \
-                np.isfinite(lin.z).all(-1)
+            ok = _tile(data.available[:, k - 1, i], M) & lin.valid & np.isfinite(lin.z).all(-1)
             zi, Hi = lin.z, np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1))
             if psi[i] is not None:  # measurement differencing of a Markov error (GNSS)
                 this = (zi, Hi, ok)
@@ -261,31 +314,36 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
                     ok = np.zeros_like(ok)  # nothing to difference with yet
                 else:
                     z_prev, H_prev, ok_prev = previous[i]
-                    zi, Hi = kf.differenced_measurement(zi, Hi, z_prev, H_prev, Phi, psi[i],
-                                                        shift)
+                    zi, Hi = kf.differenced_measurement(zi, Hi, z_prev, H_prev, Phi, psi[i], shift)
                     ok = ok & ok_prev
                 previous[i] = this
             z.append(np.where(ok[:, None], zi, np.nan))
             H.append(Hi)
             avail[:, i] = ok
-        e_true = navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1],
-                                   truth.p[k - 1])
+        e_true = navigation_errors(
+            ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1], truth.p[k - 1]
+        )
         if true_states is not None:
             it = data.imu_truth
             accel = it.accel_bias + it.accel_markov[:, k - 1]  # ∇ holds both (18 and 15)
-            gyro = [it.gyro_bias, it.gyro_markov[:, k - 1]] if n == 18 else \
-                [it.gyro_bias + it.gyro_markov[:, k - 1]]
+            gyro = (
+                [it.gyro_bias, it.gyro_markov[:, k - 1]]
+                if n == 18
+                else [it.gyro_bias + it.gyro_markov[:, k - 1]]
+            )
             true_states[:, k - 1] = np.concatenate([e_true[:B], *gyro, accel], -1)
         for j, nm in enumerate(names):
             p = parts[j]
             lin_k = Linearization(Phi[p], Q[p], tuple(h[p] for h in H))
-            states[j], out = filters[nm].step(states[j], k, [zz[p] for zz in z], avail[p],
-                                              data.oracle[k - 1], lin=lin_k)
+            states[j], out = filters[nm].step(
+                states[j], k, [zz[p] for zz in z], avail[p], data.oracle[k - 1], lin=lin_k
+            )
             if not (np.isfinite(out.x).all() and np.isfinite(out.P).all()):
                 raise FloatingPointError(f"methods[{nm}]: NaN or inf at epoch {k}")
             if check_spd and not fused_covariance_ok(out.P):
-                raise FloatingPointError(f"methods[{nm}]: covariance not symmetric positive "
-                                         f"definite at epoch {k}")
+                raise FloatingPointError(
+                    f"methods[{nm}]: covariance not symmetric positive definite at epoch {k}"
+                )
             r = rec[j]
             xg = out.x[:, :N_NAV]
             d_all[p], P_all[p] = xg, out.P[:, :N_NAV, :N_NAV]
@@ -293,8 +351,9 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
             if locs is not None:
                 if r.local is None:
                     r.local = np.empty((B, K, N, 3))
-                r.local[:, k - 1] = _metric_errors(e_true[p][:, None, :] - locs,
-                                                   truth.p[k - 1])[..., :3]
+                r.local[:, k - 1] = _metric_errors(e_true[p][:, None, :] - locs, truth.p[k - 1])[
+                    ..., :3
+                ]
             if feedback_on:
                 states[j] = shift_estimates(states[j], xg, information=zr[j])
             else:
@@ -311,9 +370,12 @@ def run_ins_methods(filters: dict, sc: InsScenario, data: InsData, system: InsSy
             ins = feedback(ins, d_all[:, 0:3], d_all[:, 3:6], d_all[:, 6:9])
             if differencing:
                 shift = np.concatenate([d_all, np.zeros((M * B, n - N_NAV))], 1)
-            e_out = _metric_errors(navigation_errors(ins.q, ins.v, ins.p, truth.q[k - 1],
-                                                     truth.v[k - 1], truth.p[k - 1]),
-                                   truth.p[k - 1])
+            e_out = _metric_errors(
+                navigation_errors(
+                    ins.q, ins.v, ins.p, truth.q[k - 1], truth.v[k - 1], truth.p[k - 1]
+                ),
+                truth.p[k - 1],
+            )
             for j in range(M):
                 rec[j].x[:, k - 1] = e_out[parts[j]]
     return {nm: rec[j].result() for j, nm in enumerate(names)}
@@ -343,11 +405,19 @@ def chunk_runs(sc: InsScenario, twin: bool = True) -> int:
     return max(1, CHUNK_BYTES // per_run)
 
 
-def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
-                     fault_free: bool = True, first_run: int = 0,
-                     progress: Callable[[int], None] | None = None,
-                     check_spd: bool = False, chunk: int | None = None,
-                     workers: int = 1) -> IntegratedResult:
+def run_ins_scenario(
+    sc: InsScenario,
+    runs: int,
+    seed: int,
+    *,
+    methods=None,
+    fault_free: bool = True,
+    first_run: int = 0,
+    progress: Callable[[int], None] | None = None,
+    check_spd: bool = False,
+    chunk: int | None = None,
+    workers: int = 1,
+) -> IntegratedResult:
     """Simulate and run every method closed-loop; with faults, also the fault-free twin.
 
     The fault-free twin draws the same random streams with the faults removed and
@@ -376,11 +446,16 @@ def run_ins_scenario(sc: InsScenario, runs: int, seed: int, *, methods=None,
     if workers > 1 and len(starts) < workers:
         groups = [tuple(g) for g in split_even(methods, -(-workers // len(starts)))]
     keep = len(starts) * len(groups) == 1  # the simulated data stay in this process
-    tasks = [(sc, range(s, min(s + chunk, first_run + runs)), seed, g, fault_free, check_spd,
-              keep) for s in starts for g in groups]
+    tasks = [
+        (sc, range(s, min(s + chunk, first_run + runs)), seed, g, fault_free, check_spd, keep)
+        for s in starts
+        for g in groups
+    ]
     parts = run_tasks(_ins_task, tasks, workers, progress)
-    by_chunk = [_merge_methods(parts[i:i + len(groups)], methods)
-                for i in range(0, len(parts), len(groups))]
+    by_chunk = [
+        _merge_methods(parts[i : i + len(groups)], methods)
+        for i in range(0, len(parts), len(groups))
+    ]
     if len(by_chunk) == 1:
         return by_chunk[0]
     return _merge_chunks(by_chunk, runs)
@@ -398,8 +473,7 @@ def _ins_task(task, progress: Callable[[int], None] | None = None) -> Integrated
     if twin:
         both = _concat(data, simulate_ins(sc.without_faults(), rr, seed))
     results, ff, local, local_ff = {}, {}, {}, {}
-    for name, (res, loc) in run_ins_methods(filters, sc, both, system, progress,
-                                            check_spd).items():
+    for name, (res, loc) in run_ins_methods(filters, sc, both, system, progress, check_spd).items():
         if twin:
             results[name], ff[name] = split_result(res, runs)
             local[name] = None if loc is None else LocalTrack(loc.pos[:runs])
@@ -407,8 +481,15 @@ def _ins_task(task, progress: Callable[[int], None] | None = None) -> Integrated
         else:
             results[name], local[name] = res, loc
     zeros = np.zeros((runs, sc.steps, N_NAV))
-    sr = ScenarioResult(sc, runs, seed, IntegratedSimulation(zeros, data if keep else None),
-                        results, IntegratedSimulation(zeros) if twin else None, ff)
+    sr = ScenarioResult(
+        sc,
+        runs,
+        seed,
+        IntegratedSimulation(zeros, data if keep else None),
+        results,
+        IntegratedSimulation(zeros) if twin else None,
+        ff,
+    )
     return IntegratedResult(sr, local, local_ff)
 
 
@@ -423,15 +504,19 @@ def _merge_methods(parts: list[IntegratedResult], methods) -> IntegratedResult:
         return {k: merged[k] for k in order if k in merged}
 
     r0 = parts[0].result
-    sr = r0._replace(simulation=IntegratedSimulation(r0.simulation.truth),
-                     results=union([p.result.results for p in parts]),
-                     fault_free=union([p.result.fault_free for p in parts]))
-    return IntegratedResult(sr, union([p.local for p in parts]),
-                            union([p.local_fault_free for p in parts]))
+    sr = r0._replace(
+        simulation=IntegratedSimulation(r0.simulation.truth),
+        results=union([p.result.results for p in parts]),
+        fault_free=union([p.result.fault_free for p in parts]),
+    )
+    return IntegratedResult(
+        sr, union([p.local for p in parts]), union([p.local_fault_free for p in parts])
+    )
 
 
 def _merge_chunks(parts: list[IntegratedResult], runs: int) -> IntegratedResult:
     """One result from batches of consecutive runs (the run axis concatenated)."""
+
     def cat(arrays):
         first = arrays[0]
         if first is None:
@@ -441,43 +526,64 @@ def _merge_chunks(parts: list[IntegratedResult], runs: int) -> IntegratedResult:
         return np.concatenate(arrays, 0)
 
     def methods(dicts):
-        return {name: type(dicts[0][name])(*cat([d[name] for d in dicts]))
-                if dicts[0][name] is not None else None for name in dicts[0]}
+        return {
+            name: type(dicts[0][name])(*cat([d[name] for d in dicts]))
+            if dicts[0][name] is not None
+            else None
+            for name in dicts[0]
+        }
 
     r0 = parts[0].result
     sc = r0.scenario
     zeros = np.zeros((runs, sc.steps, N_NAV))
-    sr = ScenarioResult(sc, runs, r0.seed, IntegratedSimulation(zeros),
-                        methods([p.result.results for p in parts]),
-                        None if r0.fault_free_simulation is None else IntegratedSimulation(zeros),
-                        methods([p.result.fault_free for p in parts]))
-    return IntegratedResult(sr, methods([p.local for p in parts]),
-                            methods([p.local_fault_free for p in parts]))
+    sr = ScenarioResult(
+        sc,
+        runs,
+        r0.seed,
+        IntegratedSimulation(zeros),
+        methods([p.result.results for p in parts]),
+        None if r0.fault_free_simulation is None else IntegratedSimulation(zeros),
+        methods([p.result.fault_free for p in parts]),
+    )
+    return IntegratedResult(
+        sr, methods([p.local for p in parts]), methods([p.local_fault_free for p in parts])
+    )
 
 
 def _concat(a: InsData, b: InsData) -> InsData:
     """Two simulations of the same runs as one batch (the oracle becomes per run)."""
     B = a.init_error.shape[0]
-    oracle = np.concatenate([np.broadcast_to(a.oracle[:, None], (a.oracle.shape[0], B,
-                                                                  a.oracle.shape[1])),
-                             np.broadcast_to(b.oracle[:, None], (b.oracle.shape[0], B,
-                                                                  b.oracle.shape[1]))], 1)
+    oracle = np.concatenate(
+        [
+            np.broadcast_to(a.oracle[:, None], (a.oracle.shape[0], B, a.oracle.shape[1])),
+            np.broadcast_to(b.oracle[:, None], (b.oracle.shape[0], B, b.oracle.shape[1])),
+        ],
+        1,
+    )
     from ftnav.sim.imu import ImuErrorTruth
 
-    return InsData(a.trajectory, a.truth, np.concatenate([a.dtheta, b.dtheta]),
-                   np.concatenate([a.dv, b.dv]),
-                   ImuErrorTruth(*(np.concatenate([x, y]) for x, y in zip(a.imu_truth,
-                                                                           b.imu_truth,
-                                                                           strict=True))),
-                   np.concatenate([a.init_error, b.init_error]),
-                   tuple(np.concatenate([x, y]) for x, y in zip(a.raw, b.raw, strict=True)),
-                   np.concatenate([a.available, b.available]), oracle, a.runs)
+    return InsData(
+        a.trajectory,
+        a.truth,
+        np.concatenate([a.dtheta, b.dtheta]),
+        np.concatenate([a.dv, b.dv]),
+        ImuErrorTruth(
+            *(np.concatenate([x, y]) for x, y in zip(a.imu_truth, b.imu_truth, strict=True))
+        ),
+        np.concatenate([a.init_error, b.init_error]),
+        tuple(np.concatenate([x, y]) for x, y in zip(a.raw, b.raw, strict=True)),
+        np.concatenate([a.available, b.available]),
+        oracle,
+        a.runs,
+    )
 
 
 def fused_covariance_ok(P: np.ndarray) -> bool:
     """Symmetric and positive definite (Cholesky succeeds) for every run."""
-    if not np.allclose(P, kf.mT(P), rtol=0, atol=1e-12 * np.abs(P).max()) or \
-            not (np.diagonal(P, axis1=-2, axis2=-1) > 0).all():
+    if (
+        not np.allclose(P, kf.mT(P), rtol=0, atol=1e-12 * np.abs(P).max())
+        or not (np.diagonal(P, axis1=-2, axis2=-1) > 0).all()
+    ):
         return False
     try:
         np.linalg.cholesky(P)

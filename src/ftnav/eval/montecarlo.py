@@ -22,8 +22,15 @@ from ftnav.parallel import run_tasks, split_even
 from ftnav.sim.linear import Simulation, concat_simulations, simulate
 from ftnav.sim.scenario import Method, Scenario
 
-__all__ = ["MethodResult", "ScenarioResult", "build_filter", "run_filter", "run_scenario",
-           "concat_simulations", "split_result"]
+__all__ = [
+    "MethodResult",
+    "ScenarioResult",
+    "build_filter",
+    "run_filter",
+    "run_scenario",
+    "concat_simulations",
+    "split_result",
+]
 
 
 class MethodResult(NamedTuple):
@@ -83,8 +90,9 @@ def build_filter(system: LinearSystem, method: Method, features: tuple[str, ...]
     raise ValueError(f"methods[{method.name}].architecture: unknown value {method.architecture!r}")
 
 
-def run_filter(filt, sim: Simulation, n_common: int,
-               progress: Callable[[int], None] | None = None) -> MethodResult:
+def run_filter(
+    filt, sim: Simulation, n_common: int, progress: Callable[[int], None] | None = None
+) -> MethodResult:
     """Run one filter over a simulation; returns per-epoch arrays."""
     B, K = sim.truth.shape[:2]
     N = len(sim.z)
@@ -164,8 +172,9 @@ def run_scenario(
         groups = [tuple(g) for g in split_even(methods, 3 * workers)]
     # in this process the task reuses the simulation; a worker simulates its own copy
     local = (sim, sim_ff) if len(groups) == 1 else None
-    parts = run_tasks(_method_group, [(scenario, runs, seed, g, twin, local) for g in groups],
-                      workers, progress)
+    parts = run_tasks(
+        _method_group, [(scenario, runs, seed, g, twin, local) for g in groups], workers, progress
+    )
     results, ff = {}, {}
     for group, (res, res_ff) in zip(groups, parts, strict=True):
         results.update((m.name, r) for m, r in zip(group, res, strict=True))
@@ -175,28 +184,39 @@ def run_scenario(
     return ScenarioResult(scenario, runs, seed, sim, results, sim_ff, ff)
 
 
-def _method_group(task, progress: Callable[[int], None] | None = None
-                  ) -> tuple[list[MethodResult], list[MethodResult]]:
+def _method_group(
+    task, progress: Callable[[int], None] | None = None
+) -> tuple[list[MethodResult], list[MethodResult]]:
     """One task of :func:`run_scenario`: a group of methods over every run."""
     scenario, runs, seed, methods, twin, local = task
     system = LinearSystem.from_scenario(scenario)
     nc = system.n_common
-    sim, sim_ff = local if local is not None else (
-        simulate(scenario, runs, seed),
-        simulate(scenario.without_faults(), runs, seed) if twin else None)
+    sim, sim_ff = (
+        local
+        if local is not None
+        else (
+            simulate(scenario, runs, seed),
+            simulate(scenario.without_faults(), runs, seed) if twin else None,
+        )
+    )
     if not twin:
         return [run_filter(build_filter(system, m), sim, nc, progress) for m in methods], []
     both = concat_simulations(sim, sim_ff)
-    split = [split_result(run_filter(build_filter(system, m), both, nc, progress), runs)
-             for m in methods]
+    split = [
+        split_result(run_filter(build_filter(system, m), both, nc, progress), runs) for m in methods
+    ]
     return [r[0] for r in split], [r[1] for r in split]
 
 
 def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult]:
     """Split a :class:`MethodResult` of a concatenated batch after ``runs`` runs."""
+
     def part(sl):
-        return MethodResult(*(
-            tuple(a[sl] for a in v) if isinstance(v, tuple) else None if v is None else v[sl]
-            for v in r))
+        return MethodResult(
+            *(
+                tuple(a[sl] for a in v) if isinstance(v, tuple) else None if v is None else v[sl]
+                for v in r
+            )
+        )
 
     return part(slice(None, runs)), part(slice(runs, None))

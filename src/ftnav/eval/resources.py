@@ -43,9 +43,15 @@ import re
 import sys
 from pathlib import Path
 
-__all__ = ["available_memory_bytes", "format_bytes", "kernels_compiled",
-           "mark_kernels_compiled", "max_runs_within", "run_memory_bytes",
-           "trajectory_memory_bytes"]
+__all__ = [
+    "available_memory_bytes",
+    "format_bytes",
+    "kernels_compiled",
+    "mark_kernels_compiled",
+    "max_runs_within",
+    "run_memory_bytes",
+    "trajectory_memory_bytes",
+]
 
 _F8 = 8  # bytes of a float64
 #: (samples of the largest segment) x this: transient bytes per IMU sample of
@@ -71,8 +77,7 @@ def format_bytes(n: float) -> str:
 # ----------------------------------------------------------------------- memory estimate
 
 
-def _result_bytes(method, B: int, K: int, nc: int, N: int, dims_sum: int,
-                  local: bool) -> int:
+def _result_bytes(method, B: int, K: int, nc: int, N: int, dims_sum: int, local: bool) -> int:
     """Bytes of one method's per-epoch results over B runs (:class:`MethodResult`)."""
     floats = 2 * nc + 1 + dims_sum  # x, P_diag, nees, R_hat
     flags = 0
@@ -91,8 +96,7 @@ def _state_bytes(B: int, local_sizes: list[int]) -> int:
     return B * _STATE_COPIES * _F8 * sum(n * n + n for n in local_sizes)
 
 
-def _linear_bytes(sc, runs: int, workers: int, fault_free: bool,
-                  save_estimates: bool) -> int:
+def _linear_bytes(sc, runs: int, workers: int, fault_free: bool, save_estimates: bool) -> int:
     K, B, N = int(sc.steps), int(runs), len(sc.sensors)
     nc = len(sc.model.states)
     dims = [int(s.dim) for s in sc.sensors]
@@ -164,16 +168,16 @@ def _integrated_chunk_bytes(sc, b: int, twin: bool) -> tuple[int, int, int]:
         held = data
     Bf = 2 * b if twin else b
     n = int(sc.error_model.n)
-    sizes = [n + (0 if a.sensor.private is None else len(a.sensor.private.names))
-             for a in sc.aids]
+    sizes = [n + (0 if a.sensor.private is None else len(a.sensor.private.names)) for a in sc.aids]
     # every method's SINS, Φ, Q and H per run, plus each method's filters
     M = max(1, len(sc.methods))
     temporaries = M * _state_bytes(Bf, sizes) + M * Bf * 4 * n * n * _F8
     return simulation, held, temporaries
 
 
-def _integrated_bytes(sc, runs: int, workers: int, fault_free: bool,
-                      save_estimates: bool, chunk: int | None) -> int:
+def _integrated_bytes(
+    sc, runs: int, workers: int, fault_free: bool, save_estimates: bool, chunk: int | None
+) -> int:
     from ftnav.eval.integrated import chunk_runs
 
     twin = fault_free and bool(sc.faults)
@@ -217,8 +221,15 @@ def _flight_bytes(profile) -> tuple[int, int]:
     return kept, kept + largest * _GENERATE_TRANSIENT
 
 
-def run_memory_bytes(scenario, runs: int, *, workers: int = 1, fault_free: bool = True,
-                     save_estimates: bool = False, chunk: int | None = None) -> int:
+def run_memory_bytes(
+    scenario,
+    runs: int,
+    *,
+    workers: int = 1,
+    fault_free: bool = True,
+    save_estimates: bool = False,
+    chunk: int | None = None,
+) -> int:
     """Estimated peak memory (bytes) of running ``scenario`` over ``runs`` Monte Carlo runs.
 
     Parameters

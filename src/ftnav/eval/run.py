@@ -17,8 +17,15 @@ from ftnav.eval.montecarlo import ScenarioResult, run_scenario
 __all__ = ["run"]
 
 
-def run(scenario, runs: int, seed: int, *, fault_free: bool = True, workers: int = 1,
-        progress: Callable[[int], None] | None = None) -> ScenarioResult:
+def run(
+    scenario,
+    runs: int,
+    seed: int,
+    *,
+    fault_free: bool = True,
+    workers: int = 1,
+    progress: Callable[[int], None] | None = None,
+) -> ScenarioResult:
     """Simulate ``runs`` Monte Carlo runs from ``seed`` and run every method of ``scenario``.
 
     Parameters
@@ -31,7 +38,9 @@ def run(scenario, runs: int, seed: int, *, fault_free: bool = True, workers: int
     progress : called with the number of method-epochs done.
     """
     if getattr(scenario, "kind", "linear") == "integrated":
-        return run_ins_scenario(scenario, runs, seed, fault_free=fault_free, workers=workers,
-                                progress=progress).result
-    return run_scenario(scenario, runs, seed, fault_free=fault_free, workers=workers,
-                        progress=progress)
+        return run_ins_scenario(
+            scenario, runs, seed, fault_free=fault_free, workers=workers, progress=progress
+        ).result
+    return run_scenario(
+        scenario, runs, seed, fault_free=fault_free, workers=workers, progress=progress
+    )

@@ -105,10 +105,12 @@ class ChiSquareDetector:
         tested : (B, N) bool, whether a test happened this epoch.
         """
         t = tested[..., None]
-        hist = np.where(t, np.concatenate([state.history[..., 1:], statistic[..., None]], -1),
-                        state.history)
-        hdof = np.where(t, np.concatenate([state.history_dof[..., 1:], dof[..., None]], -1),
-                        state.history_dof)
+        hist = np.where(
+            t, np.concatenate([state.history[..., 1:], statistic[..., None]], -1), state.history
+        )
+        hdof = np.where(
+            t, np.concatenate([state.history_dof[..., 1:], dof[..., None]], -1), state.history_dof
+        )
         total = hist.sum(-1)
         total_dof = hdof.sum(-1)
         threshold = chi2_threshold(total_dof, self.pfa)
@@ -121,8 +123,9 @@ class ChiSquareDetector:
         )
 
 
-def apply_hysteresis(state: DetectorState, raw: np.ndarray, tested: np.ndarray, n_on: int,
-                     n_off: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def apply_hysteresis(
+    state: DetectorState, raw: np.ndarray, tested: np.ndarray, n_on: int, n_off: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Spec §3.1 hysteresis: set after ``n_on`` alarms in a row, clear after ``n_off`` passes.
 
     Epochs that are not tested leave the counters and the flag as they are.

@@ -29,13 +29,15 @@ __all__ = ["FEATURE_KINDS", "feature_names", "whitened_innovation", "detector_fe
 FEATURE_KINDS = ("state-difference", "innovation")
 
 
-def feature_names(kinds: Sequence[str], states: Sequence[str], sensors: Sequence[str],
-                  dims: Sequence[int]) -> list[str]:
+def feature_names(
+    kinds: Sequence[str], states: Sequence[str], sensors: Sequence[str], dims: Sequence[int]
+) -> list[str]:
     """Column names of the feature matrix, e.g. ``"e[pos1].s"``, ``"nu[pos2][0]"``."""
     unknown = [k for k in kinds if k not in FEATURE_KINDS]
     if unknown or not kinds:
-        raise ValueError(f"features: expected a non-empty subset of {list(FEATURE_KINDS)}, "
-                         f"got {list(kinds)}")
+        raise ValueError(
+            f"features: expected a non-empty subset of {list(FEATURE_KINDS)}, got {list(kinds)}"
+        )
     names: list[str] = []
     if "state-difference" in kinds:
         names += [f"e[{s}].{x}" for s in sensors for x in states]
@@ -44,8 +46,9 @@ def feature_names(kinds: Sequence[str], states: Sequence[str], sensors: Sequence
     return names
 
 
-def whitened_innovation(x: np.ndarray, P: np.ndarray, z: np.ndarray, use: np.ndarray,
-                        H: np.ndarray, R: np.ndarray) -> np.ndarray:
+def whitened_innovation(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, use: np.ndarray, H: np.ndarray, R: np.ndarray
+) -> np.ndarray:
     """``chol(H P Hᵀ + R)⁻¹ (z − H x)`` (spec §4.1), zero where ``use`` is False.
 
     Parameters
@@ -64,8 +67,13 @@ def whitened_innovation(x: np.ndarray, P: np.ndarray, z: np.ndarray, use: np.nda
     return np.where(use[:, None], w, 0.0)
 
 
-def detector_features(kinds: Sequence[str], local_x: np.ndarray, local_var: np.ndarray,
-                      reference: np.ndarray, innovations: Sequence[np.ndarray]) -> np.ndarray:
+def detector_features(
+    kinds: Sequence[str],
+    local_x: np.ndarray,
+    local_var: np.ndarray,
+    reference: np.ndarray,
+    innovations: Sequence[np.ndarray],
+) -> np.ndarray:
     """Raw (un-normalised) feature matrix of one epoch (spec §4.1).
 
     Parameters

@@ -78,10 +78,18 @@ class RBFNetwork:
     weights_ : (M + 1, N) output layer, last row the bias.
     """
 
-    def __init__(self, n_centres: int = 60, width: str = "global", ridge: float = 1e-6,
-                 n_init: int = 10, class_weight: str = "none", kmeans_samples: int = 20000,
-                 transform: str = "signed-log", balance: bool = True,
-                 random_state: int | None = None):
+    def __init__(
+        self,
+        n_centres: int = 60,
+        width: str = "global",
+        ridge: float = 1e-6,
+        n_init: int = 10,
+        class_weight: str = "none",
+        kmeans_samples: int = 20000,
+        transform: str = "signed-log",
+        balance: bool = True,
+        random_state: int | None = None,
+    ):
         self.n_centres = n_centres
         self.width = width
         self.ridge = ridge
@@ -123,8 +131,9 @@ class RBFNetwork:
         X = np.asarray(X, dtype=float)
         Y = np.asarray(Y, dtype=float)
         if X.ndim != 2 or Y.ndim != 2 or X.shape[0] != Y.shape[0]:
-            raise ValueError(f"X, Y: expected (K, F) and (K, N) with the same K, "
-                             f"got {X.shape} and {Y.shape}")
+            raise ValueError(
+                f"X, Y: expected (K, F) and (K, N) with the same K, got {X.shape} and {Y.shape}"
+            )
         if not np.isfinite(X).all():
             raise ValueError("X: features must be finite")
         M = int(self.n_centres)
@@ -138,8 +147,12 @@ class RBFNetwork:
         # one OpenMP thread: scikit-learn's threads fight numba's for the same cores
         # (11 s instead of 0.2 s on a busy 2-core machine), and one thread is deterministic
         with threadpool_limits(1, user_api="openmp"):
-            km = KMeans(n_clusters=M, init="k-means++", n_init=int(self.n_init),
-                        random_state=self.random_state).fit(sub)
+            km = KMeans(
+                n_clusters=M,
+                init="k-means++",
+                n_init=int(self.n_init),
+                random_state=self.random_state,
+            ).fit(sub)
         self.centres_ = km.cluster_centers_
         self.inertia_ = float(km.inertia_)
         d = np.sqrt(((self.centres_[:, None, :] - self.centres_[None, :, :]) ** 2).sum(-1))
@@ -189,7 +202,7 @@ class RBFNetwork:
         from sklearn.metrics.pairwise import euclidean_distances
 
         d2 = euclidean_distances(Xn, self.centres_, squared=True)
-        H = np.exp(-d2 / (2.0 * self.widths_ ** 2))
+        H = np.exp(-d2 / (2.0 * self.widths_**2))
         return np.concatenate([H, np.ones((Xn.shape[0], 1))], axis=1)
 
     # -- inference -----------------------------------------------------------------
@@ -216,15 +229,26 @@ class RBFNetwork:
 
     # -- arrays for the model file ----------------------------------------------------
     def to_arrays(self) -> dict[str, np.ndarray]:
-        return {"mean": self.mean_, "scale": self.scale_, "centres": self.centres_,
-                "widths": self.widths_, "weights": self.weights_}
+        return {
+            "mean": self.mean_,
+            "scale": self.scale_,
+            "centres": self.centres_,
+            "widths": self.widths_,
+            "weights": self.weights_,
+        }
 
     def get_params(self) -> dict:
-        return {"n_centres": int(self.n_centres), "width": self.width,
-                "ridge": float(self.ridge), "n_init": int(self.n_init),
-                "class_weight": self.class_weight, "kmeans_samples": int(self.kmeans_samples),
-                "transform": self.transform, "balance": bool(self.balance),
-                "random_state": self.random_state}
+        return {
+            "n_centres": int(self.n_centres),
+            "width": self.width,
+            "ridge": float(self.ridge),
+            "n_init": int(self.n_init),
+            "class_weight": self.class_weight,
+            "kmeans_samples": int(self.kmeans_samples),
+            "transform": self.transform,
+            "balance": bool(self.balance),
+            "random_state": self.random_state,
+        }
 
     @classmethod
     def from_arrays(cls, arrays: Mapping[str, np.ndarray], params: Mapping) -> RBFNetwork:
@@ -232,8 +256,13 @@ class RBFNetwork:
         net = cls(**params)
         c, w, W = arrays["centres"], arrays["widths"], arrays["weights"]
         M, F = c.shape
-        if (arrays["mean"].shape != (F,) or arrays["scale"].shape != (F,) or w.shape != (M,)
-                or W.shape[0] != M + 1 or M != int(net.n_centres)):
+        if (
+            arrays["mean"].shape != (F,)
+            or arrays["scale"].shape != (F,)
+            or w.shape != (M,)
+            or W.shape[0] != M + 1
+            or M != int(net.n_centres)
+        ):
             raise ValueError("arrays: inconsistent RBF network shapes")
         if not (w > 0).all() or not (arrays["scale"] > 0).all():
             raise ValueError("arrays: widths and feature scales must be positive")
@@ -271,12 +300,22 @@ class RBFModel:
         """Write the open-format model file (npz arrays + JSON metadata, no pickle)."""
         from ftnav.io.model_file import save_model
 
-        settings = {"network": self.network.get_params(), "features": list(self.features),
-                    "prior": self.prior, "threshold": [float(v) for v in self.threshold],
-                    "n_on": int(self.n_on), "n_off": int(self.n_off),
-                    "training": self.training}
-        return save_model(path, MODEL_KIND, self.network.to_arrays(),
-                          compatibility=self.compatibility, settings=settings)
+        settings = {
+            "network": self.network.get_params(),
+            "features": list(self.features),
+            "prior": self.prior,
+            "threshold": [float(v) for v in self.threshold],
+            "n_on": int(self.n_on),
+            "n_off": int(self.n_off),
+            "training": self.training,
+        }
+        return save_model(
+            path,
+            MODEL_KIND,
+            self.network.to_arrays(),
+            compatibility=self.compatibility,
+            settings=settings,
+        )
 
     @classmethod
     def load(cls, path: str | Path, compatibility: Mapping | None = None) -> RBFModel:
@@ -290,9 +329,16 @@ class RBFModel:
             tau = np.asarray(s["threshold"], dtype=float)
             if tau.shape != (net.n_outputs_,) or not (np.isfinite(tau).all()):
                 raise ValueError("threshold: expected one finite value per output")
-            model = cls(net, tuple(s["features"]), str(s["prior"]), tau,
-                        int(s["n_on"]), int(s["n_off"]), dict(mf.compatibility),
-                        dict(s.get("training", {})))
+            model = cls(
+                net,
+                tuple(s["features"]),
+                str(s["prior"]),
+                tau,
+                int(s["n_on"]),
+                int(s["n_off"]),
+                dict(mf.compatibility),
+                dict(s.get("training", {})),
+            )
         except (KeyError, TypeError, ValueError) as e:
             raise ModelFileError(path, f"inconsistent RBF detector settings ({e})") from None
         return model
@@ -307,8 +353,13 @@ class RBFDetector:
     threshold, n_on, n_off : override the model's defaults when given.
     """
 
-    def __init__(self, model: RBFModel, threshold: float | None = None,
-                 n_on: int | None = None, n_off: int | None = None):
+    def __init__(
+        self,
+        model: RBFModel,
+        threshold: float | None = None,
+        n_on: int | None = None,
+        n_off: int | None = None,
+    ):
         self.model = model
         self.threshold = np.asarray(model.threshold if threshold is None else float(threshold))
         self.n_on = model.n_on if n_on is None else int(n_on)
@@ -321,18 +372,28 @@ class RBFDetector:
     def init(self, batch: int, n_filters: int) -> DetectorState:
         shape = (batch, n_filters)
         if n_filters != self.model.network.n_outputs_:
-            raise ValueError(f"model: trained for {self.model.network.n_outputs_} local "
-                             f"filters, this system has {n_filters}")
-        return DetectorState(np.zeros(shape + (0,)), np.zeros(shape + (0,), dtype=int),
-                             np.zeros(shape, dtype=int), np.zeros(shape, dtype=int),
-                             np.zeros(shape, dtype=bool))
+            raise ValueError(
+                f"model: trained for {self.model.network.n_outputs_} local "
+                f"filters, this system has {n_filters}"
+            )
+        return DetectorState(
+            np.zeros(shape + (0,)),
+            np.zeros(shape + (0,), dtype=int),
+            np.zeros(shape, dtype=int),
+            np.zeros(shape, dtype=int),
+            np.zeros(shape, dtype=bool),
+        )
 
-    def step(self, state: DetectorState, features: np.ndarray, tested: np.ndarray
-             ) -> tuple[DetectorState, DetectorOutput]:
+    def step(
+        self, state: DetectorState, features: np.ndarray, tested: np.ndarray
+    ) -> tuple[DetectorState, DetectorOutput]:
         """One epoch: features (B, F), tested (B, N) -> new state and spec §3.4 output."""
         y = self.model.network.decision_function(features)
         raw = tested & (y > self.threshold)
         on, off, flag = apply_hysteresis(state, raw, tested, self.n_on, self.n_off)
-        return (DetectorState(state.history, state.history_dof, on, off, flag),
-                DetectorOutput(np.where(tested, y, 0.0), np.broadcast_to(self.threshold, y.shape),
-                               raw, flag))
+        return (
+            DetectorState(state.history, state.history_dof, on, off, flag),
+            DetectorOutput(
+                np.where(tested, y, 0.0), np.broadcast_to(self.threshold, y.shape), raw, flag
+            ),
+        )

@@ -44,8 +44,13 @@ from ftnav.sim.fault_family import (
 from ftnav.sim.linear import Simulation
 from ftnav.sim.scenario import Method, Scenario
 
-__all__ = ["DetectorTraining", "DetectorReport", "train_detector", "default_method",
-           "held_out_table"]
+__all__ = [
+    "DetectorTraining",
+    "DetectorReport",
+    "train_detector",
+    "default_method",
+    "held_out_table",
+]
 
 #: spawn-key component of the generator that draws the family's fault windows
 _WINDOW_STREAM = 0x4642
@@ -126,8 +131,13 @@ def default_method(scenario: Scenario) -> Method:
     for m in scenario.methods:
         if m.detector == "rbf":
             return m
-    return Method(name="fkf-inverse-trace-rbf", architecture="federated",
-                  sharing="inverse-trace", detector="rbf", n_off=3)
+    return Method(
+        name="fkf-inverse-trace-rbf",
+        architecture="federated",
+        sharing="inverse-trace",
+        detector="rbf",
+        n_off=3,
+    )
 
 
 def _rng(seed: int) -> np.random.Generator:
@@ -166,8 +176,10 @@ def train_detector(
     """
     method = default_method(scenario) if method is None else method
     if method.architecture not in ("federated", "distributed"):
-        raise ValueError(f"methods[{method.name}].architecture: the RBF detector's features "
-                         "need local filters (federated or distributed)")
+        raise ValueError(
+            f"methods[{method.name}].architecture: the RBF detector's features "
+            "need local filters (federated or distributed)"
+        )
     s = settings
     system = LinearSystem.from_scenario(scenario)
     kinds = tuple(s.features)
@@ -177,43 +189,71 @@ def train_detector(
     res, labels = _collect(system, oracle_method, sim, kinds, progress)
     X = [res.features.reshape(-1, res.features.shape[-1])]
     Y = [labels.reshape(-1, labels.shape[-1])]
-    net = RBFNetwork(s.n_centres, s.width, s.ridge, s.n_init, s.class_weight,
-                             random_state=s.seed)
+    net = RBFNetwork(s.n_centres, s.width, s.ridge, s.n_init, s.class_weight, random_state=s.seed)
     net.fit(np.concatenate(X), np.concatenate(Y))
     compat = system.compatibility()
-    provenance = {"scenario": scenario.name, "method": method.name,
-                  "architecture": method.architecture, "mode": method.mode,
-                  "sharing": method.sharing, "runs_per_variant": s.runs, "seed": s.seed,
-                  "variants": [v.label for v in variants], "closed_loop": s.closed_loop,
-                  "family": {k: list(v) if isinstance(v, tuple) else v
-                             for k, v in asdict(s.family).items()}}
+    provenance = {
+        "scenario": scenario.name,
+        "method": method.name,
+        "architecture": method.architecture,
+        "mode": method.mode,
+        "sharing": method.sharing,
+        "runs_per_variant": s.runs,
+        "seed": s.seed,
+        "variants": [v.label for v in variants],
+        "closed_loop": s.closed_loop,
+        "family": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(s.family).items()},
+    }
 
     clean = ~window_masks(scenario, variants, s.runs, scenario.evaluation.grace).reshape(
-        -1, system.n_sensors)  # (B·K, N) epochs where an alarm of output i is false
+        -1, system.n_sensors
+    )  # (B·K, N) epochs where an alarm of output i is false
 
     def model_of(network):
-        return RBFModel(network, kinds, s.prior, _calibrate(network, X, clean, s), s.n_on,
-                        s.n_off, compat, provenance)
+        return RBFModel(
+            network,
+            kinds,
+            s.prior,
+            _calibrate(network, X, clean, s),
+            s.n_on,
+            s.n_off,
+            compat,
+            provenance,
+        )
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "detector.npz"
         for _ in range(s.closed_loop):
             model_of(net).save(path)
-            loop = replace(method, detector="rbf", model=str(path), threshold=None,
-                           n_on=s.n_on, n_off=s.n_off)
+            loop = replace(
+                method, detector="rbf", model=str(path), threshold=None, n_on=s.n_on, n_off=s.n_off
+            )
             res_loop, _ = _collect(system, loop, sim, None, progress)
             X.append(res_loop.features.reshape(X[0].shape[0], -1))
             Y.append(Y[0])
             clean = np.concatenate([clean, clean[: Y[0].shape[0]]])
-            net = RBFNetwork(s.n_centres, s.width, s.ridge, s.n_init, s.class_weight,
-                             random_state=s.seed)
+            net = RBFNetwork(
+                s.n_centres, s.width, s.ridge, s.n_init, s.class_weight, random_state=s.seed
+            )
             net.fit(np.concatenate(X), np.concatenate(Y))
         model_of(net).save(path)
-        report = _held_out(scenario, system, method, variants, s, str(path), progress,
-                           train_samples=sum(x.shape[0] for x in X))
-    summary = {"false_alarm": report.false_alarm,
-               "rows": [{k: (None if isinstance(v, float) and math.isnan(v) else v)
-                         for k, v in r.items()} for r in report.rows]}
+        report = _held_out(
+            scenario,
+            system,
+            method,
+            variants,
+            s,
+            str(path),
+            progress,
+            train_samples=sum(x.shape[0] for x in X),
+        )
+    summary = {
+        "false_alarm": report.false_alarm,
+        "rows": [
+            {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.items()}
+            for r in report.rows
+        ],
+    }
     final = model_of(net)
     return replace(final, training={**provenance, "held_out": summary}), report
 
@@ -231,23 +271,42 @@ def _calibrate(network, X, clean, s: DetectorTraining) -> np.ndarray:
     return tau
 
 
-def _held_out(scenario, system, method, variants: list[FaultVariant], s: DetectorTraining,
-              model_path: str, progress, train_samples: int) -> DetectorReport:
+def _held_out(
+    scenario,
+    system,
+    method,
+    variants: list[FaultVariant],
+    s: DetectorTraining,
+    model_path: str,
+    progress,
+    train_samples: int,
+) -> DetectorReport:
     from ftnav.eval.montecarlo import build_filter, run_filter
 
     sim, vidx = simulate_variants(scenario, variants, s.holdout_runs, s.seed, HOLDOUT_OFFSET)
-    rbf = replace(method, detector="rbf", model=model_path, threshold=None,
-                  n_on=s.n_on, n_off=s.n_off)
-    chi2 = replace(method, detector="residual-chi2", prior="global",
-                   false_alarm_probability=s.chi2_pfa, n_on=s.n_on, n_off=5, model=None)
+    rbf = replace(
+        method, detector="rbf", model=model_path, threshold=None, n_on=s.n_on, n_off=s.n_off
+    )
+    chi2 = replace(
+        method,
+        detector="residual-chi2",
+        prior="global",
+        false_alarm_probability=s.chi2_pfa,
+        n_on=s.n_on,
+        n_off=5,
+        model=None,
+    )
     nc = system.n_common
-    results = {name: run_filter(build_filter(system, m), sim, nc, progress)
-               for name, m in (("rbf", rbf), ("chi2", chi2))}
+    results = {
+        name: run_filter(build_filter(system, m), sim, nc, progress)
+        for name, m in (("rbf", rbf), ("chi2", chi2))
+    }
     return _report(scenario, variants, vidx, sim, results, s.holdout_runs, train_samples)
 
 
-def _report(scenario, variants, vidx, sim: Simulation, results, runs_per_variant: int,
-            train_samples: int) -> DetectorReport:
+def _report(
+    scenario, variants, vidx, sim: Simulation, results, runs_per_variant: int, train_samples: int
+) -> DetectorReport:
     t = scenario.times
     dt = scenario.dt
     labels = np.swapaxes(np.asarray(sim.oracle, dtype=bool), 0, 1)  # (B, K, N)
@@ -266,8 +325,9 @@ def _report(scenario, variants, vidx, sim: Simulation, results, runs_per_variant
             for j in members:
                 runs = vidx == j
                 (fault,) = variants[j].faults
-                stats.append(detection_stats(res.flag[runs, :, i], t, [(fault.start, fault.end)],
-                                             grace))
+                stats.append(
+                    detection_stats(res.flag[runs, :, i], t, [(fault.start, fault.end)], grace)
+                )
             rate = np.mean([x.rate for x in stats])
             event = np.mean([x.event_rate for x in stats])
             delays = [x.median_delay_s for x in stats if not math.isnan(x.median_delay_s)]
@@ -278,23 +338,31 @@ def _report(scenario, variants, vidx, sim: Simulation, results, runs_per_variant
     # false alarms: every held-out run's clean epochs of each output (outside its
     # variant's window and grace period), as in spec §11
     clean = ~window_masks(scenario, variants, runs_per_variant, grace)
-    false_alarm = {d: float((res.flag & clean).sum() / clean.sum()) if clean.any()
-                   else float("nan") for d, res in results.items()}
+    false_alarm = {
+        d: float((res.flag & clean).sum() / clean.sum()) if clean.any() else float("nan")
+        for d, res in results.items()
+    }
     roc, confusion = {}, {}
     for i, sensor in enumerate(names):
         y = labels[..., i].ravel()
-        roc[sensor] = (y, results["rbf"].statistic[..., i].ravel(),  # network outputs
-                       results["chi2"].statistic[..., i].ravel())
+        roc[sensor] = (
+            y,
+            results["rbf"].statistic[..., i].ravel(),  # network outputs
+            results["chi2"].statistic[..., i].ravel(),
+        )
         f = results["rbf"].flag[..., i].ravel()
-        confusion[sensor] = np.array([[np.sum(~y & ~f), np.sum(~y & f)],
-                                      [np.sum(y & ~f), np.sum(y & f)]])
+        confusion[sensor] = np.array(
+            [[np.sum(~y & ~f), np.sum(~y & f)], [np.sum(y & ~f), np.sum(y & f)]]
+        )
     return DetectorReport(rows, false_alarm, roc, confusion, int(train_samples))
 
 
 def held_out_table(report: DetectorReport) -> str:
     """Plain-text table of the held-out metrics, RBF beside chi-square."""
-    head = (f"{'sensor':10s} {'fault':14s} {'Pd rbf':>7s} {'Pd chi2':>7s} {'ev rbf':>7s} "
-            f"{'ev chi2':>7s} {'delay rbf':>9s} {'delay chi2':>10s}")
+    head = (
+        f"{'sensor':10s} {'fault':14s} {'Pd rbf':>7s} {'Pd chi2':>7s} {'ev rbf':>7s} "
+        f"{'ev chi2':>7s} {'delay rbf':>9s} {'delay chi2':>10s}"
+    )
     lines = [head, "-" * len(head)]
 
     def f(v, fmt):
@@ -302,11 +370,15 @@ def held_out_table(report: DetectorReport) -> str:
 
     for r in report.rows:
         fault = f"{r['kind']} {r['size']:g}" + ("σ" if r["kind"] != "noise-scale" else "x")
-        lines.append(f"{r['sensor']:10s} {fault:14s} {f(r['rbf_rate'], '{:.3f}'):>7s} "
-                     f"{f(r['chi2_rate'], '{:.3f}'):>7s} {f(r['rbf_event_rate'], '{:.2f}'):>7s} "
-                     f"{f(r['chi2_event_rate'], '{:.2f}'):>7s} "
-                     f"{f(r['rbf_median_delay'], '{:.1f}'):>9s} "
-                     f"{f(r['chi2_median_delay'], '{:.1f}'):>10s}")
-    lines.append(f"false-alarm rate per epoch: rbf {report.false_alarm['rbf']:.4%}, "
-                 f"chi2 {report.false_alarm['chi2']:.4%}")
+        lines.append(
+            f"{r['sensor']:10s} {fault:14s} {f(r['rbf_rate'], '{:.3f}'):>7s} "
+            f"{f(r['chi2_rate'], '{:.3f}'):>7s} {f(r['rbf_event_rate'], '{:.2f}'):>7s} "
+            f"{f(r['chi2_event_rate'], '{:.2f}'):>7s} "
+            f"{f(r['rbf_median_delay'], '{:.1f}'):>9s} "
+            f"{f(r['chi2_median_delay'], '{:.1f}'):>10s}"
+        )
+    lines.append(
+        f"false-alarm rate per epoch: rbf {report.false_alarm['rbf']:.4%}, "
+        f"chi2 {report.false_alarm['chi2']:.4%}"
+    )
     return "\n".join(lines)

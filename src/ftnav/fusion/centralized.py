@@ -65,8 +65,10 @@ class CentralizedFilter:
         self.method = method
         self.detector = make_detector(method, system)
         if method.detector == "rbf" and "state-difference" in self.detector.features:
-            raise ValueError(f"methods[{method.name}].model: its features include local "
-                             "state differences; a centralized filter has no local filters")
+            raise ValueError(
+                f"methods[{method.name}].model: its features include local "
+                "state differences; a centralized filter has no local filters"
+            )
         self.variant = vb_variant(method)
         self.H = [system.augmented_H(i) for i in range(system.n_sensors)]
         self.vb_on = vb_enabled(method, system.sensors)
@@ -97,32 +99,60 @@ class CentralizedFilter:
         """
         m = self.method
         F, Q = self.system.augmented_transition(k, lin=lin)
-        Hs = self.H if lin is None else [self.system.augmented_H(i, lin)
-                                         for i in range(self.n_filters)]
+        Hs = (
+            self.H
+            if lin is None
+            else [self.system.augmented_H(i, lin) for i in range(self.n_filters)]
+        )
         x, P = kf.predict(state.x, state.P, F, Q)
-        usable, nan = zip(*(valid_measurement(z[i], available[:, i])
-                            for i in range(self.n_filters)), strict=True)
+        usable, nan = zip(
+            *(valid_measurement(z[i], available[:, i]) for i in range(self.n_filters)), strict=True
+        )
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
-        R_now = [predicted_noise(state.noise[i], s.R, m.vb_rho)
-                 for i, s in enumerate(self.system.sensors)]
+        R_now = [
+            predicted_noise(state.noise[i], s.R, m.vb_rho)
+            for i, s in enumerate(self.system.sensors)
+        ]
         # the residual test's statistic (spec §3.1); no other detector reads it
-        stat = np.stack([residual_statistic(x, P, z[i], usable[:, i], Hs[i], R_now[i])
-                         for i in range(self.n_filters)], 1) \
-            if m.detector == "residual-chi2" else np.zeros(usable.shape)
+        stat = (
+            np.stack(
+                [
+                    residual_statistic(x, P, z[i], usable[:, i], Hs[i], R_now[i])
+                    for i in range(self.n_filters)
+                ],
+                1,
+            )
+            if m.detector == "residual-chi2"
+            else np.zeros(usable.shape)
+        )
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
         feats = None
         if m.detector == "rbf":
-            feats = np.concatenate([whitened_innovation(x, P, z[i], usable[:, i], Hs[i],
-                                                        R_now[i])
-                                    for i in range(self.n_filters)], 1)
-        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, usable, oracle,
-                                    feats)
+            feats = np.concatenate(
+                [
+                    whitened_innovation(x, P, z[i], usable[:, i], Hs[i], R_now[i])
+                    for i in range(self.n_filters)
+                ],
+                1,
+            )
+        det_state, det_out = detect(
+            m, self.detector, state.detector, stat, dof, usable, oracle, feats
+        )
         use = usable if det_out is None else usable & ~det_out.flag
         noise, R_hat = [], []
         for i, s in enumerate(self.system.sensors):
-            up = local_update(x, P, z[i], use[:, i], Hs[i], s.R, state.noise[i],
-                              variant=self.variant if self.vb_on[i] else None,
-                              rho=m.vb_rho, iterations=m.vb_iterations)
+            up = local_update(
+                x,
+                P,
+                z[i],
+                use[:, i],
+                Hs[i],
+                s.R,
+                state.noise[i],
+                variant=self.variant if self.vb_on[i] else None,
+                rho=m.vb_rho,
+                iterations=m.vb_iterations,
+            )
             x, P = up.x, up.P
             noise.append(up.noise)
             R_hat.append(np.diagonal(up.R, axis1=-2, axis2=-1))

@@ -74,12 +74,20 @@ class DistributedFilter:
         RBF detector (training data collection).
     """
 
-    def __init__(self, system: LinearSystem, method: Method, local_Q_scale=None,
-                 local_P0_scale=None, features: tuple[str, ...] | None = None):
+    def __init__(
+        self,
+        system: LinearSystem,
+        method: Method,
+        local_Q_scale=None,
+        local_P0_scale=None,
+        features: tuple[str, ...] | None = None,
+    ):
         name = f"methods[{method.name}]"
         if method.mode == "rescale" and not method.reconstructed:
-            raise ValueError(f"{name}.mode: 'rescale' is a reconstruction (spec §1.5); "
-                             "set reconstructed = true to use it")
+            raise ValueError(
+                f"{name}.mode: 'rescale' is a reconstruction (spec §1.5); "
+                "set reconstructed = true to use it"
+            )
         check_prior(method)
         self.system = system
         self.method = method
@@ -87,13 +95,12 @@ class DistributedFilter:
         self.N = N
         self.H = [system.augmented_H(i) for i in range(N)]
         self.q_scale = np.ones(N) if local_Q_scale is None else np.asarray(local_Q_scale, float)
-        self.p_scale = np.ones(N) if local_P0_scale is None else np.asarray(local_P0_scale,
-                                                                              float)
+        self.p_scale = np.ones(N) if local_P0_scale is None else np.asarray(local_P0_scale, float)
         self.detector = make_detector(method, system)
-        self.features, self.feature_prior = detector_feature_kinds(self.detector, method,
-                                                                   features)
-        self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
-            else None
+        self.features, self.feature_prior = detector_feature_kinds(self.detector, method, features)
+        self.state_test = (
+            StateTest(method.state_test_reset) if method.detector == "state-chi2" else None
+        )
         self.variant = vb_variant(method)
         self.vb_on = vb_enabled(method, system.sensors)
         self.gamma = method.rescale_factor if method.mode == "rescale" else 1.0
@@ -107,13 +114,19 @@ class DistributedFilter:
         B = batch
         xs = tuple(np.broadcast_to(x0, (B,) + x0.shape).copy() for _ in range(self.N))
         Ps = tuple(np.broadcast_to(P0 * c, (B,) + P0.shape).copy() for c in self.p_scale)
-        noise = tuple(initial_noise(s.R, B) if on else None
-                      for s, on in zip(self.system.sensors, self.vb_on, strict=True))
+        noise = tuple(
+            initial_noise(s.R, B) if on else None
+            for s, on in zip(self.system.sensors, self.vb_on, strict=True)
+        )
         det = self.detector.init(B, self.N) if self.detector else None
-        prop = tuple(kf.Gaussian(x, P) for x, P in zip(xs, Ps, strict=True)) \
-            if self.state_test else None
-        return DistributedState(xs, Ps, xs[0].copy(), np.broadcast_to(P0, (B,) + P0.shape).copy(),
-                                noise, det, prop)
+        prop = (
+            tuple(kf.Gaussian(x, P) for x, P in zip(xs, Ps, strict=True))
+            if self.state_test
+            else None
+        )
+        return DistributedState(
+            xs, Ps, xs[0].copy(), np.broadcast_to(P0, (B,) + P0.shape).copy(), noise, det, prop
+        )
 
     def step(self, state: DistributedState, k: int, z, available, oracle, lin=None):
         """Advance one epoch (spec §6.1 steps 1-3); ``lin`` as in the centralized filter."""
@@ -121,8 +134,9 @@ class DistributedFilter:
         F, Q = self.system.augmented_transition(k, lin=lin)
         Hs = self.H if lin is None else [self.system.augmented_H(i, lin) for i in range(N)]
         xg_pr, Pg_pr = kf.predict(state.xg, state.Pg, F, Q)
-        usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
-                          strict=True)
+        usable, nan = zip(
+            *(valid_measurement(z[i], available[:, i]) for i in range(N)), strict=True
+        )
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
         priors, stat, props, innov = [], [], [], []
         for i, s in enumerate(self.system.sensors):
@@ -131,8 +145,11 @@ class DistributedFilter:
             R = predicted_noise(state.noise[i], s.R, m.vb_rho)
             base = kf.Gaussian(xg_pr, Pg_pr) if m.prior == "global" else prior
             # the residual test's statistic (spec §3.1); no other detector reads it
-            stat.append(residual_statistic(*base, z[i], usable[:, i], Hs[i], R)
-                        if m.detector == "residual-chi2" else np.zeros(usable.shape[0]))
+            stat.append(
+                residual_statistic(*base, z[i], usable[:, i], Hs[i], R)
+                if m.detector == "residual-chi2"
+                else np.zeros(usable.shape[0])
+            )
             if self.features is not None:
                 fb = kf.Gaussian(xg_pr, Pg_pr) if self.feature_prior == "global" else prior
                 innov.append(whitened_innovation(*fb, z[i], usable[:, i], Hs[i], R))
@@ -144,10 +161,13 @@ class DistributedFilter:
         posts = None
         if self.state_test is not None:
             # the state test compares this epoch's posterior with the propagator
-            posts = [self._update(i, priors[i], z[i], usable[:, i], state.noise[i], Hs[i])
-                     for i in range(N)]
-            res = [self.state_test.statistic(k, posts[i].x, posts[i].P, *props[i])
-                   for i in range(N)]
+            posts = [
+                self._update(i, priors[i], z[i], usable[:, i], state.noise[i], Hs[i])
+                for i in range(N)
+            ]
+            res = [
+                self.state_test.statistic(k, posts[i].x, posts[i].P, *props[i]) for i in range(N)
+            ]
             stat = np.stack([r[0] for r in res], 1)
             dof = np.stack([r[1] for r in res], 1)
             tested = np.stack([r[2] for r in res], 1)
@@ -155,15 +175,21 @@ class DistributedFilter:
         if self.features is not None:
             # features see each local posterior before the isolation decision (spec §4.1)
             if posts is None:
-                posts = [self._update(i, priors[i], z[i], usable[:, i], state.noise[i],
-                                      Hs[i]) for i in range(N)]
+                posts = [
+                    self._update(i, priors[i], z[i], usable[:, i], state.noise[i], Hs[i])
+                    for i in range(N)
+                ]
             nc = self.system.n_common
             feats = detector_features(
-                self.features, np.stack([p.x[:, :nc] for p in posts], 1),
+                self.features,
+                np.stack([p.x[:, :nc] for p in posts], 1),
                 np.stack([np.diagonal(p.P, axis1=-2, axis2=-1)[:, :nc] for p in posts], 1),
-                xg_pr[:, :nc], innov)
-        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle,
-                                    feats)
+                xg_pr[:, :nc],
+                innov,
+            )
+        det_state, det_out = detect(
+            m, self.detector, state.detector, stat, dof, tested, oracle, feats
+        )
         use = usable if det_out is None else usable & ~det_out.flag
 
         yg, Yg = kf.to_information(xg_pr, Pg_pr)
@@ -191,15 +217,24 @@ class DistributedFilter:
         xg, Pg = kf.from_information(yg, Yg)
         prop = None
         if self.state_test is not None:
-            prop = tuple(kf.Gaussian(*self.state_test.restart(k, xs[i], Ps[i], *props[i]))
-                         for i in range(N))
+            prop = tuple(
+                kf.Gaussian(*self.state_test.restart(k, xs[i], Ps[i], *props[i])) for i in range(N)
+            )
         nc = self.system.n_common
         out = StepOutput(xg[:, :nc], Pg[:, :nc, :nc], None, det_out, tuple(R_hat), nan, feats)
-        return DistributedState(tuple(xs), tuple(Ps), xg, Pg, tuple(noise), det_state,
-                                prop), out
+        return DistributedState(tuple(xs), tuple(Ps), xg, Pg, tuple(noise), det_state, prop), out
 
     def _update(self, i, prior, z, use, noise, H):
         s = self.system.sensors[i]
-        return local_update(prior.x, prior.P, z, use, H, s.R, noise,
-                            variant=self.variant if self.vb_on[i] else None,
-                            rho=self.method.vb_rho, iterations=self.method.vb_iterations)
+        return local_update(
+            prior.x,
+            prior.P,
+            z,
+            use,
+            H,
+            s.R,
+            noise,
+            variant=self.variant if self.vb_on[i] else None,
+            rho=self.method.vb_rho,
+            iterations=self.method.vb_iterations,
+        )

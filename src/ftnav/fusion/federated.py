@@ -95,27 +95,36 @@ class FederatedFilter:
         RBF detector (training data collection); reported in ``StepOutput.features``.
     """
 
-    def __init__(self, system: LinearSystem, method: Method,
-                 features: tuple[str, ...] | None = None):
+    def __init__(
+        self, system: LinearSystem, method: Method, features: tuple[str, ...] | None = None
+    ):
         name = f"methods[{method.name}]"
         if method.mode == "rescale":
             raise ValueError(f"{name}.mode: 'rescale' is provided by the distributed architecture")
         if method.mode == "zero-reset":
             if system.has_private:
-                raise ValueError(f"{name}.mode: zero-reset needs full-state local filters "
-                                 "(a sensor has private states)")
+                raise ValueError(
+                    f"{name}.mode: zero-reset needs full-state local filters "
+                    "(a sensor has private states)"
+                )
             if method.adaptive_noise != "none":
-                raise ValueError(f"{name}.adaptive_noise: not available with zero-reset "
-                                 "(local filters have no prior)")
+                raise ValueError(
+                    f"{name}.adaptive_noise: not available with zero-reset "
+                    "(local filters have no prior)"
+                )
             if method.detector in ("state-chi2", "rbf") or features:
-                raise ValueError(f"{name}.detector: {method.detector!r} needs local priors; "
-                                 "zero-reset locals have none")
+                raise ValueError(
+                    f"{name}.detector: {method.detector!r} needs local priors; "
+                    "zero-reset locals have none"
+                )
         check_prior(method)
         N = system.n_sensors
         q = method.common_mode_quorum
         if q is not None and not (method.common_mode == "keep" and 2 <= q <= N):
-            raise ValueError(f"{name}.common_mode_quorum: needs common_mode 'keep' and "
-                             f"2 <= quorum <= {N}, got {q} with {method.common_mode!r}")
+            raise ValueError(
+                f"{name}.common_mode_quorum: needs common_mode 'keep' and "
+                f"2 <= quorum <= {N}, got {q} with {method.common_mode!r}"
+            )
         if method.sharing == "fixed" and len(method.betas) != N:
             raise ValueError(f"{name}.betas: expected {N} values, got {len(method.betas)}")
         self.system = system
@@ -124,16 +133,16 @@ class FederatedFilter:
         self.nc = system.n_common
         self.locals = [system.local(i) for i in range(N)]
         self.detector = make_detector(method, system)
-        self.features, self.feature_prior = detector_feature_kinds(self.detector, method,
-                                                                   features)
-        self.state_test = StateTest(method.state_test_reset) if method.detector == "state-chi2" \
-            else None
+        self.features, self.feature_prior = detector_feature_kinds(self.detector, method, features)
+        self.state_test = (
+            StateTest(method.state_test_reset) if method.detector == "state-chi2" else None
+        )
         self.variant = vb_variant(method)
         self.vb_on = vb_enabled(method, system.sensors)
-        self.scale = None if method.trace_mode == "raw" else 1.0 / np.sqrt(
-            np.diag(system.model.P0))
-        self.info = information_content([s.H for s in system.sensors],
-                                        [s.R for s in system.sensors], self.scale)
+        self.scale = None if method.trace_mode == "raw" else 1.0 / np.sqrt(np.diag(system.model.P0))
+        self.info = information_content(
+            [s.H for s in system.sensors], [s.R for s in system.sensors], self.scale
+        )
         self.zr = method.mode == "zero-reset"
         self.beta_m = 0.0 if self.zr else float(method.master_share)
         self.global_prior = method.prior == "global" or self.zr
@@ -151,8 +160,15 @@ class FederatedFilter:
         keeps its measurements in the fusion; a zero β (fault, fixed 0) stays 0.
         """
         m = self.method
-        beta = sharing_coefficients(m.sharing, P_common, r, master_share=self.beta_m,
-                                    betas=np.asarray(m.betas), info=self.info, scale=self.scale)
+        beta = sharing_coefficients(
+            m.sharing,
+            P_common,
+            r,
+            master_share=self.beta_m,
+            betas=np.asarray(m.betas),
+            info=self.info,
+            scale=self.scale,
+        )
         tiny = (beta > 0) & (beta < MIN_SHARE)
         if not tiny.any():
             return beta
@@ -181,18 +197,31 @@ class FederatedFilter:
         master = None
         if self.zr or self.beta_m > 0:
             bm = 1.0 if self.zr else self.beta_m
-            master = kf.Gaussian(np.broadcast_to(x0c, (B, nc)).copy(),
-                                 np.broadcast_to(P0c / bm, (B, nc, nc)).copy())
-        noise = tuple(initial_noise(s.R, B) if on else None
-                      for s, on in zip(self.system.sensors, self.vb_on, strict=True))
+            master = kf.Gaussian(
+                np.broadcast_to(x0c, (B, nc)).copy(), np.broadcast_to(P0c / bm, (B, nc, nc)).copy()
+            )
+        noise = tuple(
+            initial_noise(s.R, B) if on else None
+            for s, on in zip(self.system.sensors, self.vb_on, strict=True)
+        )
         det = self.detector.init(B, self.N) if self.detector else None
-        prop = tuple(kf.Gaussian(x, P) for x, P in zip(xs, Ps, strict=True)) \
-            if self.state_test else None
-        return FederatedState(tuple(xs), tuple(Ps), master,
-                              np.broadcast_to(x0c, (B, nc)).copy(),
-                              np.broadcast_to(P0c, (B, nc, nc)).copy(),
-                              share, np.ones((B, self.N), dtype=bool) if self.zr else share > 0,
-                              noise, det, prop)
+        prop = (
+            tuple(kf.Gaussian(x, P) for x, P in zip(xs, Ps, strict=True))
+            if self.state_test
+            else None
+        )
+        return FederatedState(
+            tuple(xs),
+            tuple(Ps),
+            master,
+            np.broadcast_to(x0c, (B, nc)).copy(),
+            np.broadcast_to(P0c, (B, nc, nc)).copy(),
+            share,
+            np.ones((B, self.N), dtype=bool) if self.zr else share > 0,
+            noise,
+            det,
+            prop,
+        )
 
     # ------------------------------------------------------------------------------
     def step(self, state: FederatedState, k: int, z, available, oracle, lin=None):
@@ -206,11 +235,16 @@ class FederatedFilter:
         Hs = [lm.H for lm in self.locals] if lin is None else list(lin.H)
         B = state.xg.shape[0]
         # the fused prior: needed by global-prior tests and when every local is isolated
-        need_prior = self.global_prior or self.features is not None or \
-            not state.active.any(1).all() and state.master is None
+        need_prior = (
+            self.global_prior
+            or self.features is not None
+            or not state.active.any(1).all()
+            and state.master is None
+        )
         xg_pr, Pg_pr = kf.predict(state.xg, state.Pg, F, Q) if need_prior else (None, None)
-        usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
-                          strict=True)
+        usable, nan = zip(
+            *(valid_measurement(z[i], available[:, i]) for i in range(N)), strict=True
+        )
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
 
         priors, posts, noise, R_hat, stat, props = [], [], [], [], [], []
@@ -220,21 +254,32 @@ class FederatedFilter:
                 y, Y = kf.information_predict(state.x[i], state.P[i], F, Q)
                 HtRinv = kf.mT(np.linalg.solve(s.R, Hs[i]))
                 Y_post = np.where(use[:, None, None], Y + HtRinv @ Hs[i], Y)
-                y_post = np.where(use[:, None], y + kf.mv(HtRinv, np.where(
-                    use[:, None], z[i], 0.0)), y)
+                y_post = np.where(
+                    use[:, None], y + kf.mv(HtRinv, np.where(use[:, None], z[i], 0.0)), y
+                )
                 priors.append((y, Y))
                 posts.append((y_post, Y_post))
                 noise.append(None)
                 R_hat.append(np.broadcast_to(np.diag(s.R), (B, s.dim)))
             else:
                 sharing_local = state.active[:, i] & (state.share[:, i] > 0)
-                scale = np.where(sharing_local, 1.0 / np.where(sharing_local,
-                                                               state.share[:, i], 1.0), 1.0)
+                scale = np.where(
+                    sharing_local, 1.0 / np.where(sharing_local, state.share[:, i], 1.0), 1.0
+                )
                 Fi, Qi = self.system.local_transition(i, k, scale, lin)
                 x_pr, P_pr = kf.predict(state.x[i], state.P[i], Fi, Qi)
-                up = local_update(x_pr, P_pr, z[i], use, Hs[i], s.R, state.noise[i],
-                                  variant=self.variant if self.vb_on[i] else None,
-                                  rho=m.vb_rho, iterations=m.vb_iterations)
+                up = local_update(
+                    x_pr,
+                    P_pr,
+                    z[i],
+                    use,
+                    Hs[i],
+                    s.R,
+                    state.noise[i],
+                    variant=self.variant if self.vb_on[i] else None,
+                    rho=m.vb_rho,
+                    iterations=m.vb_iterations,
+                )
                 priors.append((x_pr, P_pr))
                 posts.append((up.x, up.P))
                 noise.append(up.noise)
@@ -244,8 +289,11 @@ class FederatedFilter:
             if m.detector != "residual-chi2":  # no other detector reads the statistic
                 stat.append(np.zeros(B))
             elif self.global_prior:  # covers zero-reset
-                stat.append(self._residual(i, *with_common(priors[i], xg_pr, Pg_pr),
-                                           z[i], use, state.noise[i], Hs[i]))
+                stat.append(
+                    self._residual(
+                        i, *with_common(priors[i], xg_pr, Pg_pr), z[i], use, state.noise[i], Hs[i]
+                    )
+                )
             else:
                 stat.append(up.nis)
         stat = np.stack(stat, 1)
@@ -259,8 +307,9 @@ class FederatedFilter:
         feats = None
         if self.features is not None:
             feats = self._features(priors, posts, xg_pr, Pg_pr, z, usable, state.noise, Hs)
-        det_state, det_out = detect(m, self.detector, state.detector, stat, dof, tested, oracle,
-                                    feats)
+        det_state, det_out = detect(
+            m, self.detector, state.detector, stat, dof, tested, oracle, feats
+        )
         flag = np.zeros((B, N), dtype=bool) if det_out is None else det_out.flag
         if m.common_mode == "keep" and N > 1:
             # at least a quorum of the aids (by default every one) flagged at once: the
@@ -282,10 +331,12 @@ class FederatedFilter:
             xg, Pg = kf.from_information(yg, Yg)
             any_source = np.ones(B, dtype=bool)
         else:
-            xc = np.stack([select(newly[:, i], priors[i][0], posts[i][0])[:, :nc]
-                           for i in range(N)], 1)
-            Pc = np.stack([select(newly[:, i], priors[i][1], posts[i][1])[:, :nc, :nc]
-                           for i in range(N)], 1)
+            xc = np.stack(
+                [select(newly[:, i], priors[i][0], posts[i][0])[:, :nc] for i in range(N)], 1
+            )
+            Pc = np.stack(
+                [select(newly[:, i], priors[i][1], posts[i][1])[:, :nc, :nc] for i in range(N)], 1
+            )
             P_common = [posts[i][1][:, :nc, :nc] for i in range(N)]
             master = y0 = Y0 = None
             if state.master is not None:
@@ -303,8 +354,11 @@ class FederatedFilter:
         active_next = r.copy() if (reset_epoch or m.mode == "no-reset") else state.active & r
         if m.mode == "no-reset":
             # time-update isolation leaves a flagged local uncontaminated: keep fusing it
-            active_next = (state.share > 0) if m.isolation == "time-update" and not self.zr \
+            active_next = (
+                (state.share > 0)
+                if m.isolation == "time-update" and not self.zr
                 else active_next & (state.share > 0)
+            )
         xs = [p[0] for p in posts]
         Ps = [p[1] for p in posts]
         if m.isolation == "time-update" and not self.zr:
@@ -335,11 +389,22 @@ class FederatedFilter:
 
         prop = None
         if self.state_test is not None:
-            prop = tuple(kf.Gaussian(*self.state_test.restart(k, xs[i], Ps[i], *props[i]))
-                         for i in range(N))
+            prop = tuple(
+                kf.Gaussian(*self.state_test.restart(k, xs[i], Ps[i], *props[i])) for i in range(N)
+            )
         out = StepOutput(xg, Pg, beta_report, det_out, tuple(R_hat), nan, feats)
-        return FederatedState(tuple(xs), tuple(Ps), new_master, xg, Pg, share, active_next,
-                              tuple(noise), det_state, prop), out
+        return FederatedState(
+            tuple(xs),
+            tuple(Ps),
+            new_master,
+            xg,
+            Pg,
+            share,
+            active_next,
+            tuple(noise),
+            det_state,
+            prop,
+        ), out
 
     # ------------------------------------------------------------------------------
     def _residual(self, i, x, P, z, use, noise, H):
@@ -352,8 +417,11 @@ class FederatedFilter:
         nc = self.nc
         innov = []
         for i, s in enumerate(self.system.sensors):
-            base = with_common(priors[i], xg_pr, Pg_pr) \
-                if self.feature_prior == "global" else priors[i]
+            base = (
+                with_common(priors[i], xg_pr, Pg_pr)
+                if self.feature_prior == "global"
+                else priors[i]
+            )
             R = predicted_noise(noise[i], s.R, self.method.vb_rho)
             innov.append(whitened_innovation(*base, z[i], usable[:, i], Hs[i], R))
         xl = np.stack([p[0][:, :nc] for p in posts], 1)

@@ -41,24 +41,34 @@ def shift_estimates(state, delta: np.ndarray, information: bool = False):
     if isinstance(state, CentralizedState):
         return state._replace(x=_minus(state.x, delta))
     if isinstance(state, DistributedState):
-        return state._replace(x=tuple(_minus(x, delta) for x in state.x),
-                              xg=_minus(state.xg, delta),
-                              propagator=_shift_gaussians(state.propagator, delta))
+        return state._replace(
+            x=tuple(_minus(x, delta) for x in state.x),
+            xg=_minus(state.xg, delta),
+            propagator=_shift_gaussians(state.propagator, delta),
+        )
     if isinstance(state, FederatedState):
         if information:
             d = delta.shape[-1]
-            xs = tuple(y - kf.mv(Y[..., :d], delta) for y, Y in zip(state.x, state.P,
-                                                                      strict=True))
+            xs = tuple(y - kf.mv(Y[..., :d], delta) for y, Y in zip(state.x, state.P, strict=True))
         else:
             xs = tuple(_minus(x, delta) for x in state.x)
-        master = None if state.master is None else kf.Gaussian(_minus(state.master.x, delta),
-                                                               state.master.P)
-        return state._replace(x=xs, master=master, xg=_minus(state.xg, delta),
-                              propagator=_shift_gaussians(state.propagator, delta))
+        master = (
+            None
+            if state.master is None
+            else kf.Gaussian(_minus(state.master.x, delta), state.master.P)
+        )
+        return state._replace(
+            x=xs,
+            master=master,
+            xg=_minus(state.xg, delta),
+            propagator=_shift_gaussians(state.propagator, delta),
+        )
     if isinstance(state, NeuralState):
-        return state._replace(x=tuple(_minus(x, delta) for x in state.x),
-                              free=kf.Gaussian(_minus(state.free.x, delta), state.free.P),
-                              xf=_minus(state.xf, delta))
+        return state._replace(
+            x=tuple(_minus(x, delta) for x in state.x),
+            free=kf.Gaussian(_minus(state.free.x, delta), state.free.P),
+            xf=_minus(state.xf, delta),
+        )
     raise TypeError(f"state: no feedback rule for {type(state).__name__}")
 
 

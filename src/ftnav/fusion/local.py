@@ -36,13 +36,16 @@ __all__ = [
 def check_prior(method: Method, allowed: tuple[str, ...] = ("local", "global")) -> None:
     """One-line error unless ``method.prior`` is one the architecture implements."""
     if method.prior not in allowed:
-        raise ValueError(f"methods[{method.name}].prior: {method.prior!r} is not available "
-                         f"with architecture {method.architecture!r} (expected one of "
-                         f"{list(allowed)})")
+        raise ValueError(
+            f"methods[{method.name}].prior: {method.prior!r} is not available "
+            f"with architecture {method.architecture!r} (expected one of "
+            f"{list(allowed)})"
+        )
 
 
-def with_common(prior: tuple[np.ndarray, np.ndarray], xc: np.ndarray,
-                Pc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def with_common(
+    prior: tuple[np.ndarray, np.ndarray], xc: np.ndarray, Pc: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """A local prior ``(x, P)`` with its common block replaced by ``(xc, Pc)``.
 
     Private states keep their prior; their cross-covariance with the common block
@@ -134,8 +137,9 @@ def local_update(
         new_noise = None
     else:
         a, b = vbk.vb_predict(noise.alpha, noise.beta, rho)
-        up, a_post, b_post, R_post = vbk.vb_update(x, P, z0, H, a, b, iterations=iterations,
-                                                   variant=variant)
+        up, a_post, b_post, R_post = vbk.vb_update(
+            x, P, z0, H, a, b, iterations=iterations, variant=variant
+        )
         # no measurement: the noise posterior is only forgotten (spec §7.2 predict)
         new_noise = NoiseState(select(use, a_post, a), select(use, b_post, b))
         # the noise the posterior was computed with (what a CKF needs to reproduce it)
@@ -177,8 +181,9 @@ def make_detector(method: Method, system=None) -> ChiSquareDetector | RBFDetecto
             method.false_alarm_probability, method.window, method.n_on, method.n_off
         )
     if method.detector == "rbf":
-        model = load_method_model(RBFModel, method, system, "detector 'rbf'",
-                                  "ftnav train-detector")
+        model = load_method_model(
+            RBFModel, method, system, "detector 'rbf'", "ftnav train-detector"
+        )
         return RBFDetector(model, method.threshold, method.n_on, method.n_off)
     return None
 
@@ -202,8 +207,9 @@ def load_method_model(cls, method: Method, system, what: str, trainer: str):
         raise ModelFileError(method.model, e.reason, field=field) from None
 
 
-def detector_feature_kinds(detector, method: Method, extra: tuple[str, ...] | None = None
-                           ) -> tuple[tuple[str, ...] | None, str]:
+def detector_feature_kinds(
+    detector, method: Method, extra: tuple[str, ...] | None = None
+) -> tuple[tuple[str, ...] | None, str]:
     """Feature kinds a filter must compute and the prior its innovations use.
 
     The RBF detector's kinds and trained prior, or ``extra`` with the method's
@@ -285,8 +291,9 @@ def detect(
         return detector.step(state, statistic, dof, tested)
     if method.detector == "oracle":
         flag = np.broadcast_to(np.asarray(oracle, dtype=bool), statistic.shape).copy()
-        return state, DetectorOutput(np.zeros_like(statistic), np.full_like(statistic, np.inf),
-                                     flag, flag)
+        return state, DetectorOutput(
+            np.zeros_like(statistic), np.full_like(statistic, np.inf), flag, flag
+        )
     return state, None
 
 

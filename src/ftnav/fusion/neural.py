@@ -70,8 +70,14 @@ from ftnav.fusion.local import (
 from ftnav.fusion.system import LinearSystem
 from ftnav.sim.scenario import Method
 
-__all__ = ["NeuronModel", "NeuralFusion", "NeuralState", "select_weights", "MODEL_KIND",
-           "FREE_INPUT"]
+__all__ = [
+    "NeuronModel",
+    "NeuralFusion",
+    "NeuralState",
+    "select_weights",
+    "MODEL_KIND",
+    "FREE_INPUT",
+]
 
 #: ``kind`` of a neuron fusion model file.
 MODEL_KIND = "neuron-fusion"
@@ -108,8 +114,10 @@ class NeuronModel:
     def __post_init__(self):
         C, N = self.patterns.shape
         if self.weights.shape != (C, len(self.states), len(self.inputs)):
-            raise ValueError(f"weights: expected {(C, len(self.states), len(self.inputs))}, "
-                             f"got {self.weights.shape}")
+            raise ValueError(
+                f"weights: expected {(C, len(self.states), len(self.inputs))}, "
+                f"got {self.weights.shape}"
+            )
         if len(self.configurations) != C or self.patterns[0].any():
             raise ValueError("configurations: the first must be the healthy one (no flag)")
         if (self.weights < 0).any() or np.abs(self.weights.sum(-1) - 1.0).max() > 1e-9:
@@ -125,11 +133,19 @@ class NeuronModel:
         """Write the open-format model file (npz arrays + JSON metadata, no pickle)."""
         from ftnav.io.model_file import save_model
 
-        settings = {"configurations": list(self.configurations), "inputs": list(self.inputs),
-                    "states": list(self.states), "training": self.training}
-        return save_model(path, MODEL_KIND, {"patterns": self.patterns, "weights": self.weights,
-                                             "rmse": self.rmse},
-                          compatibility=self.compatibility, settings=settings)
+        settings = {
+            "configurations": list(self.configurations),
+            "inputs": list(self.inputs),
+            "states": list(self.states),
+            "training": self.training,
+        }
+        return save_model(
+            path,
+            MODEL_KIND,
+            {"patterns": self.patterns, "weights": self.weights, "rmse": self.rmse},
+            compatibility=self.compatibility,
+            settings=settings,
+        )
 
     @classmethod
     def load(cls, path: str | Path, compatibility: Mapping | None = None) -> NeuronModel:
@@ -139,10 +155,16 @@ class NeuronModel:
         mf = load_model(path, MODEL_KIND, compatibility=compatibility)
         s = mf.settings
         try:
-            return cls(tuple(s["configurations"]), np.array(mf.arrays["patterns"], dtype=bool),
-                       tuple(s["inputs"]), tuple(s["states"]), np.array(mf.arrays["weights"]),
-                       np.array(mf.arrays["rmse"]), dict(mf.compatibility),
-                       dict(s.get("training", {})))
+            return cls(
+                tuple(s["configurations"]),
+                np.array(mf.arrays["patterns"], dtype=bool),
+                tuple(s["inputs"]),
+                tuple(s["states"]),
+                np.array(mf.arrays["weights"]),
+                np.array(mf.arrays["rmse"]),
+                dict(mf.compatibility),
+                dict(s.get("training", {})),
+            )
         except (KeyError, TypeError, ValueError) as e:
             raise ModelFileError(path, f"inconsistent neuron fusion settings ({e})") from None
 
@@ -200,26 +222,38 @@ class NeuralFusion:
         its fused estimate is fed back to the SINS.
     """
 
-    def __init__(self, system: LinearSystem, method: Method, model: NeuronModel | None = None,
-                 collect: bool = False, free_input: bool = False, untrained: str = "uniform"):
+    def __init__(
+        self,
+        system: LinearSystem,
+        method: Method,
+        model: NeuronModel | None = None,
+        collect: bool = False,
+        free_input: bool = False,
+        untrained: str = "uniform",
+    ):
         name = f"methods[{method.name}]"
         if method.detector in ("rbf", "state-chi2"):
-            raise ValueError(f"{name}.detector: the neural architecture selects its "
-                             "configuration from 'residual-chi2' (or 'oracle', 'none')")
+            raise ValueError(
+                f"{name}.detector: the neural architecture selects its "
+                "configuration from 'residual-chi2' (or 'oracle', 'none')"
+            )
         self.system = system
         self.method = method
         self.N = system.n_sensors
         self.nc = system.n_common
         self.collect = collect
         if model is None and not collect:
-            model = load_method_model(NeuronModel, method, system, "architecture 'neural'",
-                                      "ftnav train-fusion")
+            model = load_method_model(
+                NeuronModel, method, system, "architecture 'neural'", "ftnav train-fusion"
+            )
         if model is not None:
             if model.states != tuple(system.model.states):
                 raise ValueError(f"{name}.model: trained for states {list(model.states)}")
             if method.uncovered != "renormalize" and method.uncovered not in model.configurations:
-                raise ValueError(f"{name}.uncovered: expected 'renormalize' or one of "
-                                 f"{list(model.configurations)}, got {method.uncovered!r}")
+                raise ValueError(
+                    f"{name}.uncovered: expected 'renormalize' or one of "
+                    f"{list(model.configurations)}, got {method.uncovered!r}"
+                )
         self.model = model
         self.untrained = untrained
         self.free_input = model.free_input if model is not None else bool(free_input)
@@ -236,8 +270,9 @@ class NeuralFusion:
         xs = tuple(np.broadcast_to(lm.x0, (B, lm.n)).copy() for lm in self.locals)
         Ps = tuple(np.broadcast_to(lm.P0, (B,) + lm.P0.shape).copy() for lm in self.locals)
         x0, P0 = self.system.model.x0, self.system.model.P0
-        free = kf.Gaussian(np.broadcast_to(x0, (B, nc)).copy(),
-                           np.broadcast_to(P0, (B, nc, nc)).copy())
+        free = kf.Gaussian(
+            np.broadcast_to(x0, (B, nc)).copy(), np.broadcast_to(P0, (B, nc, nc)).copy()
+        )
         det = self.detector.init(B, self.N) if self.detector else None
         return NeuralState(xs, Ps, free, free.x.copy(), free.P.copy(), det)
 
@@ -248,8 +283,9 @@ class NeuralFusion:
         """
         m, nc, N = self.method, self.nc, self.N
         F, Q = self.system.transition(k, lin)
-        usable, nan = zip(*(valid_measurement(z[i], available[:, i]) for i in range(N)),
-                          strict=True)
+        usable, nan = zip(
+            *(valid_measurement(z[i], available[:, i]) for i in range(N)), strict=True
+        )
         usable, nan = np.stack(usable, 1), np.stack(nan, 1)
         xs, Ps, stat, R_hat, priors, Hs = [], [], [], [], [], []
         for i, (lm, s) in enumerate(zip(self.locals, self.system.sensors, strict=True)):
@@ -267,11 +303,14 @@ class NeuralFusion:
             if m.prior == "global":  # the predicted neuron output and its bound
                 ref = kf.predict(state.xf, state.Pf, F, Q)
             else:  # covariance intersection of the local priors (module doc)
-                ref = kf.intersect(np.stack([p[0][:, :nc] for p in priors], 1),
-                                   np.stack([p[1][:, :nc, :nc] for p in priors], 1))
-            stat = [residual_statistic(*with_common(priors[i], *ref), z[i], usable[:, i],
-                                       Hs[i], s.R)
-                    for i, s in enumerate(self.system.sensors)]
+                ref = kf.intersect(
+                    np.stack([p[0][:, :nc] for p in priors], 1),
+                    np.stack([p[1][:, :nc, :nc] for p in priors], 1),
+                )
+            stat = [
+                residual_statistic(*with_common(priors[i], *ref), z[i], usable[:, i], Hs[i], s.R)
+                for i, s in enumerate(self.system.sensors)
+            ]
         stat = np.stack(stat, 1)
         dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
         det_state, det_out = detect(m, self.detector, state.detector, stat, dof, usable, oracle)

@@ -46,8 +46,9 @@ _SAMPLE_STREAM = 0x4E53
 
 
 def _default_family() -> FaultFamily:
-    return FaultFamily(step_sizes=(5.0, 10.0, 20.0), ramp_sizes=(20.0,), noise_scales=(5.0,),
-                       fault_free=4)
+    return FaultFamily(
+        step_sizes=(5.0, 10.0, 20.0), ramp_sizes=(20.0,), noise_scales=(5.0,), fault_free=4
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,15 +126,16 @@ def _training_epochs(scenario: Scenario, variants, s: FusionTraining):
     M = min(s.max_samples, *(int(m.sum()) for m in masks.values()))
     n_in = len(scenario.sensors) + int(s.free_input)
     if M <= n_in:
-        raise ValueError(f"runs: too few training epochs ({M}) for {n_in} inputs; "
-                         "raise runs or the fault windows")
+        raise ValueError(
+            f"runs: too few training epochs ({M}) for {n_in} inputs; "
+            "raise runs or the fault windows"
+        )
     return masks, M
 
 
 def check_training(scenario: Scenario, settings: FusionTraining = FusionTraining()) -> None:
     """Raise the ``ValueError`` :func:`train_fusion` would, before anything is computed."""
-    rng = np.random.default_rng(np.random.SeedSequence(settings.seed,
-                                                       spawn_key=(_WINDOW_STREAM,)))
+    rng = np.random.default_rng(np.random.SeedSequence(settings.seed, spawn_key=(_WINDOW_STREAM,)))
     _training_epochs(scenario, fault_variants(scenario, settings.family, rng), settings)
 
 
@@ -141,8 +143,9 @@ def _inputs(system, sim, free_input, progress):
     """Stacked local estimates (B, K, N_in, n_c) of independent local filters."""
     from ftnav.eval.montecarlo import run_filter
 
-    collect = NeuralFusion(system, Method(name="collect", architecture="neural"),
-                           collect=True, free_input=free_input)
+    collect = NeuralFusion(
+        system, Method(name="collect", architecture="neural"), collect=True, free_input=free_input
+    )
     res = run_filter(collect, sim, system.n_common, progress)
     B, K, _ = res.features.shape
     return res.features.reshape(B, K, -1, system.n_common)
@@ -180,26 +183,59 @@ def train_fusion(
         ubar = u.mean(1)  # (M, nc) centring (spec §5.3)
         Us.append(np.moveaxis(u - ubar[:, None, :], 2, 0))  # (nc, M, N_in)
         ts.append((t - ubar).T)  # (nc, M)
-    lms = lms_train(np.concatenate(Us), np.concatenate(ts), projection=s.projection,
-                    step=s.step, mu=s.mu, epochs=s.epochs, tol=s.tol, rng=pick)
+    lms = lms_train(
+        np.concatenate(Us),
+        np.concatenate(ts),
+        projection=s.projection,
+        step=s.step,
+        mu=s.mu,
+        epochs=s.epochs,
+        tol=s.tol,
+        rng=pick,
+    )
     C = len(configs)
     weights = lms.weights.reshape(C, nc, -1)
     patterns = np.zeros((C, N), dtype=bool)
     for j, c in enumerate(configs[1:], start=1):
         patterns[j, scenario.sensor_names.index(c)] = True
     inputs = scenario.sensor_names + ((FREE_INPUT,) if s.free_input else ())
-    provenance = {"scenario": scenario.name, "runs_per_variant": s.runs, "seed": s.seed,
-                  "variants": [v.label for v in variants], "samples_per_neuron": M,
-                  "lms": {"projection": s.projection, "step": s.step, "mu": s.mu,
-                          "epochs": s.epochs, "epochs_run": int(lms.epochs_run),
-                          "converged": bool(lms.converged), "tol": s.tol},
-                  "family": {k: list(v) if isinstance(v, tuple) else v
-                             for k, v in asdict(s.family).items()}}
-    model = NeuronModel(configs, patterns, inputs, tuple(scenario.model.states), weights,
-                        np.sqrt(lms.mse).reshape(C, nc), system.compatibility(), provenance)
+    provenance = {
+        "scenario": scenario.name,
+        "runs_per_variant": s.runs,
+        "seed": s.seed,
+        "variants": [v.label for v in variants],
+        "samples_per_neuron": M,
+        "lms": {
+            "projection": s.projection,
+            "step": s.step,
+            "mu": s.mu,
+            "epochs": s.epochs,
+            "epochs_run": int(lms.epochs_run),
+            "converged": bool(lms.converged),
+            "tol": s.tol,
+        },
+        "family": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(s.family).items()},
+    }
+    model = NeuronModel(
+        configs,
+        patterns,
+        inputs,
+        tuple(scenario.model.states),
+        weights,
+        np.sqrt(lms.mse).reshape(C, nc),
+        system.compatibility(),
+        provenance,
+    )
     rmse = _held_out(scenario, system, model, variants, s, progress)
-    report = FusionReport(rmse, configs, tuple(scenario.model.states), M, int(lms.epochs_run),
-                          float(lms.min_weight.min()), float(lms.max_sum_error.max()))
+    report = FusionReport(
+        rmse,
+        configs,
+        tuple(scenario.model.states),
+        M,
+        int(lms.epochs_run),
+        float(lms.min_weight.min()),
+        float(lms.max_sum_error.max()),
+    )
     return replace(model, training={**provenance, "held_out_rmse": rmse}), report
 
 
@@ -214,20 +250,34 @@ def _held_out(scenario, system, model, variants, s: FusionTraining, progress) ->
     truth = sim.truth[..., :nc]
     est = {name: U[:, :, i] for i, name in enumerate(model.inputs)}
     base = Method(name="neural", architecture="neural")
-    for src, m in (("neural-oracle", replace(base, detector="oracle")),
-                   ("neural-chi2", replace(base, detector="residual-chi2",
-                                           false_alarm_probability=s.chi2_pfa, n_off=3,
-                                           prior=s.chi2_prior)),
-                   ("centralized", Method(name="ckf", architecture="centralized"))):
-        filt = NeuralFusion(system, m, model=model) if m.architecture == "neural" else \
-            build_filter(system, m)
+    for src, m in (
+        ("neural-oracle", replace(base, detector="oracle")),
+        (
+            "neural-chi2",
+            replace(
+                base,
+                detector="residual-chi2",
+                false_alarm_probability=s.chi2_pfa,
+                n_off=3,
+                prior=s.chi2_prior,
+            ),
+        ),
+        ("centralized", Method(name="ckf", architecture="centralized")),
+    ):
+        filt = (
+            NeuralFusion(system, m, model=model)
+            if m.architecture == "neural"
+            else build_filter(system, m)
+        )
         est[src] = run_filter(filt, sim, nc, progress).x
     rmse = {}
     states = tuple(scenario.model.states)
     for src, x in est.items():
         err2 = (x - truth) ** 2
-        rmse[src] = {c: {st: float(np.sqrt(err2[mask][:, j].mean())) for j, st in
-                         enumerate(states)} for c, mask in masks.items()}
+        rmse[src] = {
+            c: {st: float(np.sqrt(err2[mask][:, j].mean())) for j, st in enumerate(states)}
+            for c, mask in masks.items()
+        }
     order = ["neural-oracle", "neural-chi2", "centralized", *model.inputs]
     return {k: rmse[k] for k in order}
 
@@ -240,13 +290,16 @@ def fusion_table(model: NeuronModel, report: FusionReport) -> str:
         cols = "".join(f"{c:>12s}" for c in report.configurations)
         lines += [head, f"{'source':16s}{cols}"]
         for src, by in report.rmse.items():
-            lines.append(f"{src:16s}" + "".join(f"{by[c][st]:12.3g}" for c in
-                                                report.configurations))
+            lines.append(
+                f"{src:16s}" + "".join(f"{by[c][st]:12.3g}" for c in report.configurations)
+            )
         lines.append("weights (" + ", ".join(model.inputs) + "):")
         for c, w in zip(model.configurations, model.weights[:, j], strict=True):
             lines.append(f"  {c:14s} " + " ".join(f"{v:.3f}" for v in w))
         lines.append("")
-    lines.append(f"LMS: {report.samples_per_neuron} samples per neuron, {report.lms_epochs} "
-                 f"epochs; constraints over every update: min w = {report.min_weight:.3g}, "
-                 f"max |sum w - 1| = {report.max_sum_error:.2g}")
+    lines.append(
+        f"LMS: {report.samples_per_neuron} samples per neuron, {report.lms_epochs} "
+        f"epochs; constraints over every update: min w = {report.min_weight:.3g}, "
+        f"max |sum w - 1| = {report.max_sum_error:.2g}"
+    )
     return "\n".join(lines)

@@ -74,14 +74,17 @@ class LinearSystem:
         blocks = []
         for i in range(len(self.sensors)):
             lm = self.local(i)
-            blocks.append((block_diag(self.model.F, lm.F_private),
-                           block_diag(self.model.Q, lm.Q_private)))
+            blocks.append(
+                (block_diag(self.model.F, lm.F_private), block_diag(self.model.Q, lm.Q_private))
+            )
         object.__setattr__(self, "_blocks", tuple(blocks))
         aug = {}
         for true in (False, True):
             Q = self.model.Q_true if true else self.model.Q
-            aug[true] = (block_diag(self.model.F, *self._private_blocks("F")),
-                         block_diag(Q, *self._private_blocks("Q")))
+            aug[true] = (
+                block_diag(self.model.F, *self._private_blocks("F")),
+                block_diag(Q, *self._private_blocks("Q")),
+            )
         object.__setattr__(self, "_aug", aug)
 
     @classmethod
@@ -117,28 +120,47 @@ class LinearSystem:
         """
         from ftnav.io.model_file import system_hash
 
-        parts = {"states": list(self.model.states), "F": self.model.F, "Q": self.model.Q,
-                 "x0": self.model.x0, "P0": self.model.P0}
+        parts = {
+            "states": list(self.model.states),
+            "F": self.model.F,
+            "Q": self.model.Q,
+            "x0": self.model.x0,
+            "P0": self.model.P0,
+        }
         for s in self.sensors:
             parts[f"sensor:{s.name}"] = {
-                "H": s.H, "R": s.R, "every": s.every, "offset": s.offset,
-                "private": None if s.private is None else {
-                    "names": list(s.private.names), "F": s.private.F, "Q": s.private.Q,
-                    "x0": s.private.x0, "P0": s.private.P0, "H": s.private.H}}
-        return {"states": list(self.model.states), "sensors": [s.name for s in self.sensors],
-                "measurement_dims": [s.dim for s in self.sensors],
-                "system_hash": system_hash(parts)}
+                "H": s.H,
+                "R": s.R,
+                "every": s.every,
+                "offset": s.offset,
+                "private": None
+                if s.private is None
+                else {
+                    "names": list(s.private.names),
+                    "F": s.private.F,
+                    "Q": s.private.Q,
+                    "x0": s.private.x0,
+                    "P0": s.private.P0,
+                    "H": s.private.H,
+                },
+            }
+        return {
+            "states": list(self.model.states),
+            "sensors": [s.name for s in self.sensors],
+            "measurement_dims": [s.dim for s in self.sensors],
+            "system_hash": system_hash(parts),
+        }
 
     # -- common / augmented matrices ---------------------------------------------
-    def transition(self, k: int, lin: Linearization | None = None
-                   ) -> tuple[np.ndarray, np.ndarray]:
+    def transition(self, k: int, lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Common-state ``(F, Q)`` for the step ``k−1 → k`` (filter's assumed Q)."""
         if lin is not None:
             return lin.Phi, lin.Q
         return self.model.F, self.model.Q
 
-    def augmented_transition(self, k: int, true: bool = False,
-                             lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def augmented_transition(
+        self, k: int, true: bool = False, lin: Linearization | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Augmented ``(F, Q)``; ``true=True`` gives the simulator's ``Q_true``."""
         if lin is not None:
             return _with_batch_common(*self._aug[False], lin)
@@ -166,7 +188,7 @@ class LinearSystem:
         H = np.zeros((s.dim, self.n_aug))
         H[:, : self.n_common] = s.H
         if s.private is not None:
-            H[:, index[self.n_common:]] = s.private.H
+            H[:, index[self.n_common :]] = s.private.H
         return H
 
     def local_H(self, i: int, lin: Linearization | None = None) -> np.ndarray:
@@ -197,8 +219,9 @@ class LinearSystem:
     def _local_blocks(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
         return self._blocks[i]
 
-    def local_transition(self, i: int, k: int, common_scale=None,
-                         lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def local_transition(
+        self, i: int, k: int, common_scale=None, lin: Linearization | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Local ``(F_i, Q_i)``; the common block of Q is multiplied by ``common_scale``.
 
         ``common_scale`` (B,) is ``1/β_i`` for a sharing local filter (spec §1.2)
@@ -239,8 +262,9 @@ class TimeVaryingSystem(LinearSystem):
             raise ValueError("Phi, Qk: a time-varying system needs both")
         Phi, Qk = np.asarray(self.Phi, dtype=float), np.asarray(self.Qk, dtype=float)
         if Phi.ndim != 3 or Phi.shape[1:] != (n, n) or Qk.shape != Phi.shape:
-            raise ValueError(f"Phi, Qk: expected (K, {n}, {n}) each, got {Phi.shape} and "
-                             f"{Qk.shape}")
+            raise ValueError(
+                f"Phi, Qk: expected (K, {n}, {n}) each, got {Phi.shape} and {Qk.shape}"
+            )
         if not (np.isfinite(Phi).all() and np.isfinite(Qk).all()):
             raise ValueError("Phi, Qk: contain NaN or inf")
         object.__setattr__(self, "Phi", Phi)
@@ -251,8 +275,7 @@ class TimeVaryingSystem(LinearSystem):
     def steps(self) -> int:
         return int(self.Phi.shape[0])
 
-    def transition(self, k: int, lin: Linearization | None = None
-                   ) -> tuple[np.ndarray, np.ndarray]:
+    def transition(self, k: int, lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
         if lin is not None:
             return lin.Phi, lin.Q
         return self.Phi[k - 1], self.Qk[k - 1]
@@ -264,8 +287,9 @@ class TimeVaryingSystem(LinearSystem):
         F[:nc, :nc], Q[:nc, :nc] = self.Phi[k - 1], self.Qk[k - 1]
         return F, Q
 
-    def augmented_transition(self, k: int, true: bool = False,
-                             lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def augmented_transition(
+        self, k: int, true: bool = False, lin: Linearization | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         if lin is not None:
             return _with_batch_common(*self._aug[False], lin)
         return self._with_common(*self._aug[False], k)
@@ -274,8 +298,9 @@ class TimeVaryingSystem(LinearSystem):
         return self._with_common(*self._blocks[i], k)
 
 
-def _with_batch_common(F: np.ndarray, Q: np.ndarray, lin: Linearization
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def _with_batch_common(
+    F: np.ndarray, Q: np.ndarray, lin: Linearization
+) -> tuple[np.ndarray, np.ndarray]:
     """Constant blocks (private states) under the epoch's per-run common corner."""
     nc = lin.Phi.shape[-1]
     if F.shape[-1] == nc:

@@ -42,9 +42,16 @@ from ftnav.sim.ins_scenario import (
 )
 from ftnav.sim.scenario import Evaluation
 
-__all__ = ["parse_ins_scenario", "AID_TYPES", "sensor_from_table", "filter_model",
-           "FilterModel", "ScenarioWarning", "imu_errors",
-           "initial_sigma"]
+__all__ = [
+    "parse_ins_scenario",
+    "AID_TYPES",
+    "sensor_from_table",
+    "filter_model",
+    "FilterModel",
+    "ScenarioWarning",
+    "imu_errors",
+    "initial_sigma",
+]
 
 _STRICT = ConfigDict(extra="forbid", strict=True)
 _DEG = np.pi / 180.0
@@ -53,8 +60,13 @@ _DEG_H = _DEG / 3600.0
 _G = 9.80665
 
 
-_AID_CLASSES = {"gnss": ("gnss", "Gnss"), "tan": ("tan", "Tan"), "dns": ("dns", "Doppler"),
-                "cns": ("cns", "StarTracker"), "ads": ("ads", "Barometer")}
+_AID_CLASSES = {
+    "gnss": ("gnss", "Gnss"),
+    "tan": ("tan", "Tan"),
+    "dns": ("dns", "Doppler"),
+    "cns": ("cns", "StarTracker"),
+    "ads": ("ads", "Barometer"),
+}
 AID_TYPES = tuple(_AID_CLASSES)
 
 
@@ -65,8 +77,6 @@ def _aid_class(kind: str) -> type:
     return getattr(importlib.import_module(f"ftnav.sensors.{module}"), cls)
 
 
-
-
 class TerrainFile(BaseModel):
     """``[terrain]``: the surface TAN flies over (analytic, or a DEM grid file)."""
 
@@ -75,8 +85,7 @@ class TerrainFile(BaseModel):
     seed: int = Field(default=7, ge=0, description="analytic: random waves from this seed")
     h0_m: float = -300.0
     amplitude_range_m: list[float] = Field(default=[10.0, 80.0], min_length=2, max_length=2)
-    wavelength_range_m: list[float] = Field(default=[500.0, 5000.0], min_length=2,
-                                            max_length=2)
+    wavelength_range_m: list[float] = Field(default=[500.0, 5000.0], min_length=2, max_length=2)
     waves: int = Field(default=6, ge=1)
     path: str | None = Field(default=None, description="grid: .npz DEM file")
     slope: Literal["central", "plane_fit"] = "central"
@@ -95,13 +104,13 @@ class AidFile(BaseModel):
 class InsFaultFile(BaseModel):
     model_config = _STRICT
     sensor: str
-    kind: Literal["bias", "ramp", "noise-scale", "noise-ramp", "outage", "stuck",
-                  "gyro-bias"]
+    kind: Literal["bias", "ramp", "noise-scale", "noise-ramp", "outage", "stuck", "gyro-bias"]
     start: float = Field(ge=0.0)
     end: float
     magnitude: list[float] | None = None
-    magnitude_deg_h: list[float] | None = Field(default=None,
-                                                description="gyro-bias: step in deg/h")
+    magnitude_deg_h: list[float] | None = Field(
+        default=None, description="gyro-bias: step in deg/h"
+    )
 
 
 _Quantity = str | float | int | list[str | float | int]
@@ -109,25 +118,37 @@ _Quantity = str | float | int | list[str | float | int]
 #: an IMU datasheet table: ``base`` (a preset the table starts from) and the datasheet
 #: keys of :meth:`ImuErrors.from_datasheet`, each ``"<number> <unit>"`` or three of them
 ImuTableFile = create_model(
-    "ImuTableFile", __config__=ConfigDict(extra="forbid", strict=True),
-    base=(Literal[tuple(IMU_PRESETS)] | None, Field(
-        default=None, description="preset whose values the keys not given take")),
-    **{key: (_Quantity | None, Field(default=None, description="'<number> <unit>' or three"))
-       for key in DATASHEET_KEYS})
+    "ImuTableFile",
+    __config__=ConfigDict(extra="forbid", strict=True),
+    base=(
+        Literal[tuple(IMU_PRESETS)] | None,
+        Field(default=None, description="preset whose values the keys not given take"),
+    ),
+    **{
+        key: (_Quantity | None, Field(default=None, description="'<number> <unit>' or three"))
+        for key in DATASHEET_KEYS
+    },
+)
 
 #: an IMU: a preset name or a datasheet table (validated by :func:`imu_errors`, so that an
 #: error names ``imu.<key>``; the JSON schema shows both forms)
-ImuSpec = Annotated[str | dict[str, Any], WithJsonSchema({"anyOf": [
-    {"enum": list(IMU_PRESETS), "type": "string"},
-    ImuTableFile.model_json_schema()]})]
+ImuSpec = Annotated[
+    str | dict[str, Any],
+    WithJsonSchema(
+        {"anyOf": [{"enum": list(IMU_PRESETS), "type": "string"}, ImuTableFile.model_json_schema()]}
+    ),
+]
 
 
 def imu_errors(spec: str | Mapping[str, Any], field: str, origin: str) -> ImuErrors:
     """The :class:`ImuErrors` of a preset name or a datasheet table; errors name the key."""
     if isinstance(spec, str):
         if spec not in IMU_PRESETS:
-            raise _err(field, f"unknown preset {spec!r}; valid: {', '.join(IMU_PRESETS)}, "
-                       "or a datasheet table", origin)
+            raise _err(
+                field,
+                f"unknown preset {spec!r}; valid: {', '.join(IMU_PRESETS)}, or a datasheet table",
+                origin,
+            )
         return imu_preset(spec)
     try:
         table = ImuTableFile.model_validate(dict(spec)).model_dump(exclude_none=True)
@@ -136,8 +157,9 @@ def imu_errors(spec: str | Mapping[str, Any], field: str, origin: str) -> ImuErr
         raise _err(f"{field}.{inner.path}", inner.reason, origin) from None
     base = table.pop("base", None)
     try:
-        return ImuErrors.from_datasheet(table, base=None if base is None else imu_preset(base),
-                                        field=field)
+        return ImuErrors.from_datasheet(
+            table, base=None if base is None else imu_preset(base), field=field
+        )
     except ValueError as exc:
         msg = " ".join(str(exc).split())
         path, _, reason = msg.partition(": ")
@@ -148,8 +170,7 @@ class InitialFile(BaseModel):
     """``[filter.initial]``: σ of the initial INS errors (S1 Table 1 defaults)."""
 
     model_config = _STRICT
-    attitude_arcsec: list[float] = Field(default=[300.0, 300.0, 600.0], min_length=3,
-                                         max_length=3)
+    attitude_arcsec: list[float] = Field(default=[300.0, 300.0, 600.0], min_length=3, max_length=3)
     velocity_m_s: list[float] = Field(default=[0.6, 0.6, 0.6], min_length=3, max_length=3)
     latlon_arcsec: list[float] = Field(default=[30.0, 30.0], min_length=2, max_length=2)
     height_m: float = Field(default=5.0, ge=0.0)
@@ -164,8 +185,12 @@ class FilterFile(BaseModel):
     states: Literal[18, 15] = 18
     bias_frame: Literal["body", "nav"] = "body"
     initial: InitialFile = Field(default_factory=InitialFile)
-    imu: ImuSpec | None = Field(default=None, description=(
-        "the IMU the filters assume (preset or datasheet table); default the true IMU"))
+    imu: ImuSpec | None = Field(
+        default=None,
+        description=(
+            "the IMU the filters assume (preset or datasheet table); default the true IMU"
+        ),
+    )
 
 
 class InsScenarioFile(BaseModel):
@@ -246,55 +271,74 @@ def filter_model(imu: ImuErrors, states: int = 18, bias_frame: str = "body") -> 
     a_const = np.hypot(imu.accel_bias_sd, imu.accel_bias)
     a_markov = np.hypot(imu.accel_markov_sd, a_equiv)
     if np.any(a_equiv > 0):
-        notes.append(f"no state for the accelerometer scale factor and misalignment: under "
-                     f"the ~1 g specific force they act as a bias of up to {_ug(a_equiv)} that "
-                     f"changes with the attitude, added to the accelerometer Markov term "
-                     f"(τ {np.max(imu.accel_markov_tau):g} s)")
+        notes.append(
+            f"no state for the accelerometer scale factor and misalignment: under "
+            f"the ~1 g specific force they act as a bias of up to {_ug(a_equiv)} that "
+            f"changes with the attitude, added to the accelerometer Markov term "
+            f"(τ {np.max(imu.accel_markov_tau):g} s)"
+        )
     if np.any(imu.gyro_scale_sd > 0) or np.any(imu.gyro_misalignment_sd > 0):
-        notes.append("no state for the gyro scale factor and misalignment: their drift, "
-                     "proportional to the angular rate, is unmodelled (small at cruise, "
-                     "up to σ·rate in turns)")
+        notes.append(
+            "no state for the gyro scale factor and misalignment: their drift, "
+            "proportional to the angular rate, is unmodelled (small at cruise, "
+            "up to σ·rate in turns)"
+        )
     if states == 18:
         accel_sigma = np.hypot(a_const, a_markov)
         if np.any(a_const > 0):
-            notes.append(f"the 18-state model has no accelerometer constant-bias state: the "
-                         f"constant bias (σ {_ug(a_const)}) is folded into the Markov bias ∇ "
-                         f"(σ {_ug(accel_sigma)}, τ {np.max(imu.accel_markov_tau):g} s); "
-                         f"states = 15 models it as a random constant")
+            notes.append(
+                f"the 18-state model has no accelerometer constant-bias state: the "
+                f"constant bias (σ {_ug(a_const)}) is folded into the Markov bias ∇ "
+                f"(σ {_ug(accel_sigma)}, τ {np.max(imu.accel_markov_tau):g} s); "
+                f"states = 15 models it as a random constant"
+            )
         params = ErrorModelParams(
             gyro_psd=tuple(np.asarray(imu.gyro_arw) ** 2),
             gyro_markov_sigma=tuple(imu.gyro_markov_sd),
             gyro_markov_tau=tuple(imu.gyro_markov_tau),
-            accel_markov_sigma=tuple(accel_sigma), accel_markov_tau=tuple(imu.accel_markov_tau),
-            accel_psd=tuple(np.asarray(imu.accel_vrw) ** 2), bias_frame=bias_frame, states=18)
+            accel_markov_sigma=tuple(accel_sigma),
+            accel_markov_tau=tuple(imu.accel_markov_tau),
+            accel_psd=tuple(np.asarray(imu.accel_vrw) ** 2),
+            bias_frame=bias_frame,
+            states=18,
+        )
         bias = np.concatenate([g_const, imu.gyro_markov_sd, accel_sigma])
     else:
         g_rw = 2.0 * np.asarray(imu.gyro_markov_sd) ** 2 / np.asarray(imu.gyro_markov_tau)
-        a_rw = 2.0 * a_markov ** 2 / np.asarray(imu.accel_markov_tau)
+        a_rw = 2.0 * a_markov**2 / np.asarray(imu.accel_markov_tau)
         if np.any(imu.gyro_markov_sd > 0) or np.any(a_markov > 0):
-            notes.append("the 15-state model has no Markov states: the Markov terms are "
-                         "random walks of PSD 2σ²/τ on the bias states (conservative over "
-                         "times longer than τ); states = 18 models them")
+            notes.append(
+                "the 15-state model has no Markov states: the Markov terms are "
+                "random walks of PSD 2σ²/τ on the bias states (conservative over "
+                "times longer than τ); states = 18 models them"
+            )
         params = ErrorModelParams(
             gyro_psd=tuple(np.asarray(imu.gyro_arw) ** 2),
-            accel_psd=tuple(np.asarray(imu.accel_vrw) ** 2), gyro_bias_rw_psd=tuple(g_rw),
-            accel_bias_rw_psd=tuple(a_rw), bias_frame=bias_frame, states=15)
-        bias = np.concatenate([np.hypot(g_const, imu.gyro_markov_sd),
-                               np.hypot(a_const, a_markov)])
+            accel_psd=tuple(np.asarray(imu.accel_vrw) ** 2),
+            gyro_bias_rw_psd=tuple(g_rw),
+            accel_bias_rw_psd=tuple(a_rw),
+            bias_frame=bias_frame,
+            states=15,
+        )
+        bias = np.concatenate([np.hypot(g_const, imu.gyro_markov_sd), np.hypot(a_const, a_markov)])
     return FilterModel(params, bias, tuple(notes))
 
 
 def initial_sigma(init: InitialFile, bias_sigma: np.ndarray) -> np.ndarray:
     """(n,) σ of the initial errors: navigation from ``[filter.initial]``, then the biases."""
-    nav = np.concatenate([np.asarray(init.attitude_arcsec) * _ARCSEC,
-                          np.asarray(init.velocity_m_s),
-                          np.asarray(init.latlon_arcsec) * _ARCSEC, [init.height_m]])
+    nav = np.concatenate(
+        [
+            np.asarray(init.attitude_arcsec) * _ARCSEC,
+            np.asarray(init.velocity_m_s),
+            np.asarray(init.latlon_arcsec) * _ARCSEC,
+            [init.height_m],
+        ]
+    )
     # a zero σ would make P0 singular; keep a tiny floor (the state is then known)
     return np.maximum(np.concatenate([nav, bias_sigma]), 1e-12)
 
 
-def _terrain(t: TerrainFile, origin_lat: float, origin_lon: float, base: Path,
-             origin: str):
+def _terrain(t: TerrainFile, origin_lat: float, origin_lon: float, base: Path, origin: str):
     from ftnav.sensors.terrain import AnalyticTerrain, GridDem
 
     if t.kind == "grid":
@@ -306,22 +350,32 @@ def _terrain(t: TerrainFile, origin_lat: float, origin_lon: float, base: Path,
         except (OSError, ValueError) as exc:
             raise _err("terrain.path", str(exc), origin) from None
     rng = np.random.default_rng(t.seed)
-    return AnalyticTerrain.random(rng, origin_lat_deg=origin_lat, origin_lon_deg=origin_lon,
-                                  n_waves=t.waves, h0_m=t.h0_m,
-                                  amplitude_range_m=tuple(t.amplitude_range_m),
-                                  wavelength_range_m=tuple(t.wavelength_range_m))
+    return AnalyticTerrain.random(
+        rng,
+        origin_lat_deg=origin_lat,
+        origin_lon_deg=origin_lon,
+        n_waves=t.waves,
+        h0_m=t.h0_m,
+        amplitude_range_m=tuple(t.amplitude_range_m),
+        wavelength_range_m=tuple(t.wavelength_range_m),
+    )
 
 
-def sensor_from_table(kind: str, params: Mapping[str, Any], path: str, origin: str,
-                      terrain=None, dt: float = 1.0):
+def sensor_from_table(
+    kind: str, params: Mapping[str, Any], path: str, origin: str, terrain=None, dt: float = 1.0
+):
     """Build one sensor from its TOML table; errors name ``path.<field>``."""
     cls = _aid_class(kind)
     fields = {f.name for f in dataclasses.fields(cls)}
     kw = dict(params)
     for key in kw:
         if key not in fields or key in ("terrain",):
-            raise _err(f"{path}.{key}", f"unknown parameter of a {kind} sensor (known: "
-                       f"{', '.join(sorted(fields - {'terrain'}))})", origin)
+            raise _err(
+                f"{path}.{key}",
+                f"unknown parameter of a {kind} sensor (known: "
+                f"{', '.join(sorted(fields - {'terrain'}))})",
+                origin,
+            )
     for key, value in kw.items():
         if isinstance(value, list):
             kw[key] = tuple(value)
@@ -338,8 +392,9 @@ def sensor_from_table(kind: str, params: Mapping[str, Any], path: str, origin: s
         raise _err(path, msg, origin) from None
 
 
-def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
-                       base: Path | None = None) -> InsScenario:
+def parse_ins_scenario(
+    data: Mapping[str, Any], origin: str = "<scenario>", base: Path | None = None
+) -> InsScenario:
     """Validate an integrated scenario dictionary and build the frozen objects."""
     from ftnav.io.profile_file import resolve_profile
 
@@ -372,9 +427,12 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
     tan = [i for i, a in enumerate(f.aids) if a.type == "tan"]
     if tan:
         if f.terrain is None:
-            raise _err("terrain", f"required by the TAN aid aids[{tan[0]}]: the surface it "
-                       f"flies over (kind = 'analytic' or 'grid', docs/scenario-format.md)",
-                       origin)
+            raise _err(
+                "terrain",
+                f"required by the TAN aid aids[{tan[0]}]: the surface it "
+                f"flies over (kind = 'analytic' or 'grid', docs/scenario-format.md)",
+                origin,
+            )
         terrain = _terrain(f.terrain, lat0, lon0, base, origin)
     aids, names = [], []
     for i, a in enumerate(f.aids):
@@ -385,8 +443,7 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
         names.append(name)
         # errors are simulated and private states propagated at every filter epoch; the
         # schedule (every, offset) only masks the epochs without output
-        s = sensor_from_table(a.type, {"name": name, **extra}, f"aids[{i}]", origin, terrain,
-                              fl.dt)
+        s = sensor_from_table(a.type, {"name": name, **extra}, f"aids[{i}]", origin, terrain, fl.dt)
         try:
             aids.append(AidSpec(s, a.every, a.offset))
         except ValueError as exc:
@@ -395,17 +452,26 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
     for i, x in enumerate(f.faults):
         p = f"faults[{i}]"
         if x.sensor != SINS and x.sensor not in names:
-            raise _err(f"{p}.sensor", f"unknown sensor {x.sensor!r} (known: "
-                       f"{', '.join([*names, SINS])})", origin)
+            raise _err(
+                f"{p}.sensor",
+                f"unknown sensor {x.sensor!r} (known: {', '.join([*names, SINS])})",
+                origin,
+            )
         if not x.end > x.start:
             raise _err(f"{p}.end", "must be greater than start", origin)
         if not x.start < steps * fl.dt:
-            raise _err(f"{p}.start", f"{x.start:g} s is not before the end of the flight "
-                       f"({steps * fl.dt:g} s, filter.duration_s): the fault would never act",
-                       origin)
+            raise _err(
+                f"{p}.start",
+                f"{x.start:g} s is not before the end of the flight "
+                f"({steps * fl.dt:g} s, filter.duration_s): the fault would never act",
+                origin,
+            )
         if (x.kind == "gyro-bias") != (x.sensor == SINS):
-            raise _err(f"{p}.kind", "'gyro-bias' is the only fault of the SINS and applies "
-                       "only to it", origin)
+            raise _err(
+                f"{p}.kind",
+                "'gyro-bias' is the only fault of the SINS and applies only to it",
+                origin,
+            )
         if x.kind == "gyro-bias":
             if x.magnitude_deg_h is None or len(x.magnitude_deg_h) != 3:
                 raise _err(f"{p}.magnitude_deg_h", "three values (deg/h) required", origin)
@@ -414,14 +480,16 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
             m = aids[names.index(x.sensor)].dim
             if x.kind in ("noise-scale", "noise-ramp"):
                 if x.magnitude is None or len(x.magnitude) != 1 or not x.magnitude[0] > 0:
-                    raise _err(f"{p}.magnitude", "one positive noise-std factor required",
-                               origin)
+                    raise _err(f"{p}.magnitude", "one positive noise-std factor required", origin)
                 mag = np.asarray(x.magnitude, float)
             elif x.kind in ("bias", "ramp"):
                 if x.magnitude is None or len(x.magnitude) != m:
-                    raise _err(f"{p}.magnitude", f"expected {m} values "
-                               f"({', '.join(aids[names.index(x.sensor)].sensor.components)})",
-                               origin)
+                    raise _err(
+                        f"{p}.magnitude",
+                        f"expected {m} values "
+                        f"({', '.join(aids[names.index(x.sensor)].sensor.components)})",
+                        origin,
+                    )
                 mag = np.asarray(x.magnitude, float)
             else:
                 mag = np.zeros(0)
@@ -443,10 +511,14 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
     if not ev.skip_initial < steps * fl.dt:
         raise _err("evaluation.skip_initial", "must be less than the duration", origin)
     try:
-        figures = _build_figures(f.figures, states=METRIC_STATES + POSITION_NORMS,
-                                 methods=methods, sensors=names,
-                                 kinds=("errors", "local-fused", "vb-noise"),
-                                 position_states=METRIC_STATES[:3])
+        figures = _build_figures(
+            f.figures,
+            states=METRIC_STATES + POSITION_NORMS,
+            methods=methods,
+            sensors=names,
+            kinds=("errors", "local-fused", "vb-noise"),
+            position_states=METRIC_STATES[:3],
+        )
     except Exception as exc:  # pydantic custom error outside validation
         ctx = getattr(exc, "context", None) or {}
         raise _err(_format_loc(ctx.get("path", ())) or "figures", str(exc), origin) from None
@@ -455,11 +527,21 @@ def parse_ins_scenario(data: Mapping[str, Any], origin: str = "<scenario>",
     for note in model.notes:
         warnings.warn(f"{origin}: {field}: {note}", ScenarioWarning, stacklevel=2)
     return InsScenario(
-        name=f.name, profile=prof, imu=imu, error_model=model.params,
-        initial_sigma=initial_sigma(fl.initial, model.bias_sigma), model_notes=model.notes,
-        dt=float(fl.dt), steps=steps, aids=tuple(aids),
-        faults=tuple(faults), methods=tuple(methods),
+        name=f.name,
+        profile=prof,
+        imu=imu,
+        error_model=model.params,
+        initial_sigma=initial_sigma(fl.initial, model.bias_sigma),
+        model_notes=model.notes,
+        dt=float(fl.dt),
+        steps=steps,
+        aids=tuple(aids),
+        faults=tuple(faults),
+        methods=tuple(methods),
         evaluation=Evaluation(float(ev.skip_initial), float(ev.grace)),
-        correction=fl.correction, discretization=fl.discretization,
-        description=f.description, test_profile=test_prof, figures=figures)
-
+        correction=fl.correction,
+        discretization=fl.discretization,
+        description=f.description,
+        test_profile=test_prof,
+        figures=figures,
+    )

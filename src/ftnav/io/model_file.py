@@ -227,7 +227,8 @@ def _to_plain(value: Any, where: str, *, float_arrays: bool = False) -> Any:
         if value.dtype.kind not in "biuf":
             raise ValueError(
                 f"{where}: array of dtype {value.dtype} is not JSON-serialisable "
-                "(only bool, integer and float arrays)")
+                "(only bool, integer and float arrays)"
+            )
         if float_arrays and value.dtype.kind in "iuf":
             value = value.astype(float)
         return _to_plain(value.tolist(), where)
@@ -236,12 +237,15 @@ def _to_plain(value: Any, where: str, *, float_arrays: bool = False) -> Any:
         for key, item in value.items():
             if not isinstance(key, str):
                 raise ValueError(f"{where}: key {key!r} is not a string")
-            out[key] = _to_plain(item, f"{where}.{key}" if where else key,
-                                 float_arrays=float_arrays)
+            out[key] = _to_plain(
+                item, f"{where}.{key}" if where else key, float_arrays=float_arrays
+            )
         return out
     if isinstance(value, list | tuple):
-        return [_to_plain(item, f"{where}[{i}]", float_arrays=float_arrays)
-                for i, item in enumerate(value)]
+        return [
+            _to_plain(item, f"{where}[{i}]", float_arrays=float_arrays)
+            for i, item in enumerate(value)
+        ]
     raise ValueError(f"{where}: value of type {type(value).__name__} is not JSON-serialisable")
 
 
@@ -299,8 +303,10 @@ def _rounded(value: Any) -> Any:
 
 def _check_array_name(name: Any) -> str:
     if not isinstance(name, str) or not _NAME.match(name):
-        raise ValueError(f"arrays[{name!r}]: array names are letters, digits, '_', '.', '-' "
-                         "(not starting with '.' or '-')")
+        raise ValueError(
+            f"arrays[{name!r}]: array names are letters, digits, '_', '.', '-' "
+            "(not starting with '.' or '-')"
+        )
     return name
 
 
@@ -308,8 +314,9 @@ def _prepare_array(name: str, value: Any) -> np.ndarray:
     """The array to store under ``name``, C-contiguous; refuses non-numeric or non-finite."""
     array = np.asarray(value)
     if array.dtype.kind not in _ALLOWED_KINDS or array.dtype.fields is not None:
-        raise ValueError(f"arrays.{name}: dtype {array.dtype} is not allowed "
-                         "(only numeric and bool arrays)")
+        raise ValueError(
+            f"arrays.{name}: dtype {array.dtype} is not allowed (only numeric and bool arrays)"
+        )
     if array.dtype.kind in "fc" and not np.isfinite(array).all():
         raise ValueError(f"arrays.{name}: contains NaN or inf")
     return np.asarray(array, order="C")
@@ -420,8 +427,10 @@ def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, fail) -> bytes:
             raise fail("file is corrupted (CRC mismatch)") from None
         raise fail(f"file is corrupted (member {info.filename!r}: {exc})") from None
     except _ZIP_READ_ERRORS as exc:
-        raise fail(f"file is corrupted (member {info.filename!r} cannot be read: "
-                   f"{type(exc).__name__}: {exc})") from None
+        raise fail(
+            f"file is corrupted (member {info.filename!r} cannot be read: "
+            f"{type(exc).__name__}: {exc})"
+        ) from None
 
 
 def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
@@ -450,8 +459,12 @@ def _parse_metadata(raw: bytes, fail) -> dict[str, Any]:
     except UnicodeDecodeError:
         raise fail("metadata.json is not UTF-8 text") from None
     try:
-        metadata = json.loads(text, object_pairs_hook=_no_duplicates,
-                              parse_constant=_refuse_constant, parse_float=_finite_float)
+        metadata = json.loads(
+            text,
+            object_pairs_hook=_no_duplicates,
+            parse_constant=_refuse_constant,
+            parse_float=_finite_float,
+        )
     except (ValueError, RecursionError) as exc:
         raise fail(f"metadata.json is not valid JSON ({exc})") from None
     if not isinstance(metadata, dict):
@@ -462,14 +475,15 @@ def _parse_metadata(raw: bytes, fail) -> dict[str, Any]:
 def _check_metadata(metadata: dict[str, Any], kind: str | None, fail) -> None:
     """Format, version, checksum, required fields, kind: in this order."""
     if metadata.get("format") != FORMAT:
-        raise fail(f"is not an ftnav model file (format {_short(metadata.get('format'))}, "
-                   f"expected {FORMAT!r})")
+        raise fail(
+            f"is not an ftnav model file (format {_short(metadata.get('format'))}, "
+            f"expected {FORMAT!r})"
+        )
     version = metadata.get("format_version")
     if not isinstance(version, int) or isinstance(version, bool) or version < 1:
         raise fail(f"invalid format version {_short(version)}")
     if version > FORMAT_VERSION:
-        raise fail(f"format version {version} is newer than this ftnav supports "
-                   f"({FORMAT_VERSION})")
+        raise fail(f"format version {version} is newer than this ftnav supports ({FORMAT_VERSION})")
     checksum = metadata.get("checksum")
     body = {k: v for k, v in metadata.items() if k != "checksum"}
     try:
@@ -482,8 +496,9 @@ def _check_metadata(metadata: dict[str, Any], kind: str | None, fail) -> None:
         if key not in metadata:
             raise fail(f"metadata has no {key!r} field")
         if not isinstance(metadata[key], typ):
-            raise fail(f"metadata field {key!r} is not a JSON "
-                       f"{'object' if typ is dict else 'string'}")
+            raise fail(
+                f"metadata field {key!r} is not a JSON {'object' if typ is dict else 'string'}"
+            )
     if kind is not None and metadata["kind"] != kind:
         raise fail(f"is a {metadata['kind']!r} model, expected {kind!r}")
     for name, entry in metadata["arrays"].items():
@@ -494,8 +509,10 @@ def _check_metadata(metadata: dict[str, Any], kind: str | None, fail) -> None:
         dtype, shape, sha = entry.get("dtype"), entry.get("shape"), entry.get("sha256")
         if not isinstance(dtype, str):
             raise fail(f"metadata arrays.{name}.dtype is not a string")
-        if not (isinstance(shape, list) and all(
-                isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in shape)):
+        if not (
+            isinstance(shape, list)
+            and all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in shape)
+        ):
             raise fail(f"metadata arrays.{name}.shape is not a list of non-negative integers")
         if not isinstance(sha, str) or not _SHA256.match(sha):
             raise fail(f"metadata arrays.{name}.sha256 is not a sha256 hex digest")
@@ -508,10 +525,12 @@ def _read_array(name: str, raw: bytes, entry: dict[str, Any], fail) -> np.ndarra
         version = npy_format.read_magic(fp)
         if version == (1, 0):
             shape, fortran, dtype = npy_format.read_array_header_1_0(
-                fp, max_header_size=_MAX_NPY_HEADER)
+                fp, max_header_size=_MAX_NPY_HEADER
+            )
         elif version == (2, 0):
             shape, fortran, dtype = npy_format.read_array_header_2_0(
-                fp, max_header_size=_MAX_NPY_HEADER)
+                fp, max_header_size=_MAX_NPY_HEADER
+            )
         else:
             raise fail(f"array {name!r} has an unsupported .npy version {version}")
     except ModelFileError:
@@ -519,21 +538,23 @@ def _read_array(name: str, raw: bytes, entry: dict[str, Any], fail) -> np.ndarra
     except (ValueError, TypeError, SyntaxError, EOFError, OverflowError) as exc:
         raise fail(f"array {name!r} is not a valid .npy member ({_one_line(exc)})") from None
     if dtype.hasobject or dtype.kind not in _ALLOWED_KINDS or dtype.fields is not None:
-        raise fail(f"array {name!r} has dtype {_short(str(dtype))}, refused "
-                   "(only numeric and bool arrays; object arrays would need unpickling)")
+        raise fail(
+            f"array {name!r} has dtype {_short(str(dtype))}, refused "
+            "(only numeric and bool arrays; object arrays would need unpickling)"
+        )
     if dtype.str != entry["dtype"]:
-        raise fail(f"array {name!r} has dtype {dtype.str!r}, the metadata says "
-                   f"{entry['dtype']!r}")
+        raise fail(f"array {name!r} has dtype {dtype.str!r}, the metadata says {entry['dtype']!r}")
     if list(shape) != entry["shape"]:
-        raise fail(f"array {name!r} has shape {list(shape)}, the metadata says "
-                   f"{entry['shape']}")
+        raise fail(f"array {name!r} has shape {list(shape)}, the metadata says {entry['shape']}")
     expected_size = fp.tell() + dtype.itemsize * math.prod(shape)
     if len(raw) != expected_size:
-        raise fail(f"array {name!r} holds {len(raw)} bytes, {expected_size} expected "
-                   "(truncated or padded)")
+        raise fail(
+            f"array {name!r} holds {len(raw)} bytes, {expected_size} expected (truncated or padded)"
+        )
     try:
-        array = npy_format.read_array(io.BytesIO(raw), allow_pickle=False,
-                                      max_header_size=_MAX_NPY_HEADER)
+        array = npy_format.read_array(
+            io.BytesIO(raw), allow_pickle=False, max_header_size=_MAX_NPY_HEADER
+        )
     except (ValueError, TypeError, EOFError, OSError) as exc:  # pragma: no cover
         raise fail(f"array {name!r} cannot be read ({_one_line(exc)})") from None
     if _array_sha256(array) != entry["sha256"]:
@@ -548,16 +569,19 @@ def _check_compatibility(stored: dict[str, Any], expected: Mapping[str, Any], fa
     for key, want in expected.items():
         want_n = _normalised(want)
         if key not in stored:
-            raise fail(f"was trained without a recorded {key} (missing from its compatibility "
-                       f"record), this scenario has {_short(want_n)}")
+            raise fail(
+                f"was trained without a recorded {key} (missing from its compatibility "
+                f"record), this scenario has {_short(want_n)}"
+            )
         have_n = _normalised(stored[key])
         if have_n == want_n:
             continue
         if key == "system_hash" and isinstance(have_n, str) and isinstance(want_n, str):
-            raise fail(f"was trained for another scenario (system hash {have_n[:12]}… "
-                       f"differs from {want_n[:12]}…)")
-        raise fail(f"was trained for {key} = {_short(have_n)}, "
-                   f"this scenario has {_short(want_n)}")
+            raise fail(
+                f"was trained for another scenario (system hash {have_n[:12]}… "
+                f"differs from {want_n[:12]}…)"
+            )
+        raise fail(f"was trained for {key} = {_short(have_n)}, this scenario has {_short(want_n)}")
 
 
 def load_model(
@@ -648,13 +672,15 @@ def load_model(
             try:
                 itemsize = np.dtype(entry["dtype"]).itemsize
             except (TypeError, ValueError, SyntaxError):
-                raise fail(f"metadata arrays.{name}.dtype {entry['dtype']!r} "
-                           "is not a dtype") from None
+                raise fail(
+                    f"metadata arrays.{name}.dtype {entry['dtype']!r} is not a dtype"
+                ) from None
             if info.file_size > itemsize * math.prod(entry["shape"]) + _MAX_NPY_HEADER:
                 raise fail(f"array {name!r} is larger than its metadata says")
             arrays[name] = _read_array(name, _read_member(zf, info, fail), entry, fail)
 
     if compatibility is not None:
         _check_compatibility(metadata["compatibility"], compatibility, fail)
-    return ModelFile(kind=metadata["kind"], metadata=metadata,
-                     arrays=MappingProxyType(arrays), path=path)
+    return ModelFile(
+        kind=metadata["kind"], metadata=metadata, arrays=MappingProxyType(arrays), path=path
+    )

@@ -76,13 +76,22 @@ def parse_profile(data: Mapping[str, Any], origin: str = "<profile>") -> Profile
     for i, s in enumerate(f.segments):
         if isinstance(s.yaw_rate_deg_s, float) and not math.isfinite(s.yaw_rate_deg_s):
             raise ScenarioError(f"segments[{i}].yaw_rate_deg_s", "is NaN or inf", origin)
-    start = Start((d(f.start.lat_deg), d(f.start.lon_deg), f.start.h_m), f.start.speed_m_s,
-                  (d(f.start.pitch_deg), d(f.start.roll_deg), -d(f.start.heading_deg)))
+    start = Start(
+        (d(f.start.lat_deg), d(f.start.lon_deg), f.start.h_m),
+        f.start.speed_m_s,
+        (d(f.start.pitch_deg), d(f.start.roll_deg), -d(f.start.heading_deg)),
+    )
     segments = tuple(
-        Segment(s.duration_s, d(s.pitch_rate_deg_s), d(s.roll_rate_deg_s),
-                None if s.yaw_rate_deg_s == "coordinated" else d(s.yaw_rate_deg_s),
-                s.accel_m_s2, s.label)
-        for s in f.segments)
+        Segment(
+            s.duration_s,
+            d(s.pitch_rate_deg_s),
+            d(s.roll_rate_deg_s),
+            None if s.yaw_rate_deg_s == "coordinated" else d(s.yaw_rate_deg_s),
+            s.accel_m_s2,
+            s.label,
+        )
+        for s in f.segments
+    )
     try:
         return Profile(f.name, f.imu_rate_hz, start, segments)
     except ValueError as exc:
@@ -100,6 +109,9 @@ def resolve_profile(name_or_path: str) -> Profile:
     if name_or_path in builtin_profile_names():
         return load_profile(builtin_profile_path(name_or_path))
     if not name_or_path.endswith(".toml") and not Path(name_or_path).exists():
-        raise ScenarioError("PROFILE", f"unknown profile {name_or_path!r} (built-in: "
-                            f"{', '.join(builtin_profile_names())}; or a .toml file)")
+        raise ScenarioError(
+            "PROFILE",
+            f"unknown profile {name_or_path!r} (built-in: "
+            f"{', '.join(builtin_profile_names())}; or a .toml file)",
+        )
     return load_profile(name_or_path)

@@ -79,45 +79,84 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
     states = list(sc.model.states)
     units = state_units(states)
     known = any(u != "state units" for u in units)
-    x_units = "see state_units (one unit per state)" if known else \
-        "state units (the scenario does not give them)"
+    x_units = (
+        "see state_units (one unit per state)"
+        if known
+        else "state units (the scenario does not give them)"
+    )
     p_units = "square of state_units (per state)" if known else "state units squared"
     integrated = getattr(sc, "kind", "linear") == "integrated"
     M = METHOD_DIM
     ds = xr.Dataset(
         {
-            "x_hat": ((M, "run", "time", "state"), np.stack([res[m].x for m in names]),
-                      {"units": x_units, "long_name":
-                       "navigation output error of each method (computed - true)"
-                       if integrated else "fused state estimate of each method"}),
-            "P_diag": ((M, "run", "time", "state"), np.stack([res[m].P_diag for m in names]),
-                       {"units": p_units,
-                        "long_name": "variance of each state of the fused estimate"}),
-            "truth": (("run", "time", "state"), sim.truth[..., :n],
-                      {"units": x_units, "long_name":
-                       "zero: x_hat already holds the errors" if integrated
-                       else "true state"}),
-            "fault_flag": ((M, "run", "time", "sensor"), flag,
-                           {"units": "1", "long_name": "fault flag after hysteresis",
-                            "flag_values": np.array([-1, 0, 1], dtype=np.int8),
-                            "flag_meanings": "method_has_no_detector not_flagged flagged"}),
-            "beta": ((M, "run", "time", "sensor"), beta,
-                     {"units": "1", "long_name": "federated sharing coefficient of each "
-                      "local filter (NaN: method without sharing)"}),
+            "x_hat": (
+                (M, "run", "time", "state"),
+                np.stack([res[m].x for m in names]),
+                {
+                    "units": x_units,
+                    "long_name": "navigation output error of each method (computed - true)"
+                    if integrated
+                    else "fused state estimate of each method",
+                },
+            ),
+            "P_diag": (
+                (M, "run", "time", "state"),
+                np.stack([res[m].P_diag for m in names]),
+                {"units": p_units, "long_name": "variance of each state of the fused estimate"},
+            ),
+            "truth": (
+                ("run", "time", "state"),
+                sim.truth[..., :n],
+                {
+                    "units": x_units,
+                    "long_name": "zero: x_hat already holds the errors"
+                    if integrated
+                    else "true state",
+                },
+            ),
+            "fault_flag": (
+                (M, "run", "time", "sensor"),
+                flag,
+                {
+                    "units": "1",
+                    "long_name": "fault flag after hysteresis",
+                    "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+                    "flag_meanings": "method_has_no_detector not_flagged flagged",
+                },
+            ),
+            "beta": (
+                (M, "run", "time", "sensor"),
+                beta,
+                {
+                    "units": "1",
+                    "long_name": "federated sharing coefficient of each "
+                    "local filter (NaN: method without sharing)",
+                },
+            ),
         },
         coords={
             M: (M, names, {"units": "none", "long_name": "fusion method (scenario name)"}),
             "run": ("run", np.arange(B), {"units": "1", "long_name": "Monte Carlo run index"}),
-            "time": ("time", sc.times, {"units": "s",
-                                        "long_name": "epoch time t_k = k dt since the start"}),
+            "time": (
+                "time",
+                sc.times,
+                {"units": "s", "long_name": "epoch time t_k = k dt since the start"},
+            ),
             "state": ("state", states, {"units": "none", "long_name": "state name"}),
             "state_units": ("state", units, {"units": "none", "long_name": "unit of each state"}),
-            "sensor": ("sensor", list(sc.sensor_names),
-                       {"units": "none", "long_name": "aiding sensor name"}),
+            "sensor": (
+                "sensor",
+                list(sc.sensor_names),
+                {"units": "none", "long_name": "aiding sensor name"},
+            ),
         },
-        attrs={"scenario": sc.name, "runs": result.runs, "seed": result.seed,
-               "condition": "fault-free" if fault_free else "with faults",
-               "fault_flag": "1 flagged, 0 not flagged, -1 method has no detector"},
+        attrs={
+            "scenario": sc.name,
+            "runs": result.runs,
+            "seed": result.seed,
+            "condition": "fault-free" if fault_free else "with faults",
+            "fault_flag": "1 flagged, 0 not flagged, -1 method has no detector",
+        },
     )
     return ds
 

@@ -279,20 +279,26 @@ class ModelFile(BaseModel):
     states: list[Name] = Field(min_length=1, description="unique names of the n states")
     F: Matrix | None = Field(default=None, description="n x n transition matrix (or F_c)")
     Q: Matrix | None = Field(
-        default=None, description="n x n process noise assumed by the filters (SPD; or Q_c)")
+        default=None, description="n x n process noise assumed by the filters (SPD; or Q_c)"
+    )
     F_c: Matrix | None = Field(
-        default=None, description="n x n continuous-time system matrix, instead of F")
+        default=None, description="n x n continuous-time system matrix, instead of F"
+    )
     Q_c: Matrix | None = Field(
-        default=None, description="n x n spectral density of the continuous process noise "
-        "(PSD, units²/s), instead of Q; the filters' Q is its Van Loan discretization")
+        default=None,
+        description="n x n spectral density of the continuous process noise "
+        "(PSD, units²/s), instead of Q; the filters' Q is its Van Loan discretization",
+    )
     x0: Vector = Field(description="n initial mean")
     P0: Matrix = Field(description="n x n initial covariance (SPD)")
     Q_true: Matrix | None = Field(
         default=None, description="n x n process noise of the simulator (PSD); default Q"
     )
     Q_c_true: Matrix | None = Field(
-        default=None, description="with F_c: n x n spectral density of the simulator's "
-        "process noise (PSD), instead of Q_true; default Q_c")
+        default=None,
+        description="with F_c: n x n spectral density of the simulator's "
+        "process noise (PSD), instead of Q_true; default Q_c",
+    )
 
 
 class FaultFile(BaseModel):
@@ -358,13 +364,16 @@ class MethodFile(BaseModel):
     model: str | None = Field(
         default=_d("model"),
         description="trained model file (detector 'rbf' or architecture 'neural'); a relative "
-        "path is relative to the scenario file")
-    threshold: float | None = _num("RBF decision threshold (default: the model's)",
-                                   default=_d("threshold"), gt=0, lt=1)
+        "path is relative to the scenario file",
+    )
+    threshold: float | None = _num(
+        "RBF decision threshold (default: the model's)", default=_d("threshold"), gt=0, lt=1
+    )
     uncovered: Name = Field(
         default=_d("uncovered"),
         description="neural: flag pattern no configuration covers -> 'renormalize' or a "
-        "configuration name")
+        "configuration name",
+    )
     isolation: Isolation = Field(
         default=_d("isolation"),
         description="federated, neural: a flagged local filter runs 'standalone' on its own "
@@ -376,7 +385,8 @@ class MethodFile(BaseModel):
         "'keep' them (the shared SINS failed, not the aids)",
     )
     common_mode_quorum: int | None = Field(
-        default=_d("common_mode_quorum"), ge=2,
+        default=_d("common_mode_quorum"),
+        ge=2,
         description="federated, common_mode 'keep': keep every aid when at least this many "
         "are flagged at the same epoch (default: all of them)",
     )
@@ -392,13 +402,16 @@ class FigureFile(BaseModel):
     kind: FigureKind = Field(
         default="errors",
         description="errors: estimation error per state; local-fused (integrated): local and "
-        "fused position errors; vb-noise (integrated): VB noise sigma of one aid")
+        "fused position errors; vb-noise (integrated): VB noise sigma of one aid",
+    )
     methods: list[Name] = Field(
-        min_length=1, description=f"methods compared, at most {MAX_FIGURE_METHODS} (one line "
-        "each per axes)")
+        min_length=1,
+        description=f"methods compared, at most {MAX_FIGURE_METHODS} (one line each per axes)",
+    )
     states: list[Name] = Field(default=[], description="one panel per state; empty = all")
     condition: FigureCondition = Field(
-        default="faults", description="faults: the run with the faults; fault-free: its twin")
+        default="faults", description="faults: the run with the faults; fault-free: its twin"
+    )
     sensor: str = Field(default="", description="vb-noise: the aid whose noise is drawn")
 
 
@@ -496,48 +509,64 @@ def _unique(names: Sequence[str], what: str, *path: str | int) -> None:
 def _model_form(m: ModelFile) -> bool:
     """True for a continuous-time model (F_c, Q_c); checks that the keys are not mixed."""
     continuous = m.F_c is not None or m.Q_c is not None
-    given = [k for k in ("F", "Q", "F_c", "Q_c", "Q_true", "Q_c_true")
-             if getattr(m, k) is not None]
+    given = [k for k in ("F", "Q", "F_c", "Q_c", "Q_true", "Q_c_true") if getattr(m, k) is not None]
     if continuous:
         for key in ("F", "Q"):
             if key in given:
-                raise _fail(f"not used with F_c and Q_c (a continuous-time model: F and Q "
-                            f"come from them by Van Loan); give either {key} or "
-                            f"{key[0]}_c", "model", key)
+                raise _fail(
+                    f"not used with F_c and Q_c (a continuous-time model: F and Q "
+                    f"come from them by Van Loan); give either {key} or "
+                    f"{key[0]}_c",
+                    "model",
+                    key,
+                )
         for key in ("F_c", "Q_c"):
             if key not in given:
-                raise _fail(f"missing required key ({'F_c' if key == 'Q_c' else 'Q_c'} "
-                            "makes a continuous-time model)", "model", key)
+                raise _fail(
+                    f"missing required key ({'F_c' if key == 'Q_c' else 'Q_c'} "
+                    "makes a continuous-time model)",
+                    "model",
+                    key,
+                )
         if "Q_true" in given and "Q_c_true" in given:
-            raise _fail("give either Q_true (discrete) or Q_c_true (spectral density)",
-                        "model", "Q_c_true")
+            raise _fail(
+                "give either Q_true (discrete) or Q_c_true (spectral density)", "model", "Q_c_true"
+            )
     else:
         for key in ("F", "Q"):
             if key not in given:
-                raise _fail("missing required key (or F_c and Q_c for a continuous-time "
-                            "model)", "model", key)
+                raise _fail(
+                    "missing required key (or F_c and Q_c for a continuous-time model)",
+                    "model",
+                    key,
+                )
         if "Q_c_true" in given:
-            raise _fail("only used with F_c and Q_c (a continuous-time model)",
-                        "model", "Q_c_true")
+            raise _fail("only used with F_c and Q_c (a continuous-time model)", "model", "Q_c_true")
     return continuous
 
 
-def _discretized(F_c: np.ndarray, Q_c: np.ndarray, dt: float, key: str,
-                 spd: bool) -> tuple[np.ndarray, np.ndarray]:
+def _discretized(
+    F_c: np.ndarray, Q_c: np.ndarray, dt: float, key: str, spd: bool
+) -> tuple[np.ndarray, np.ndarray]:
     """Van Loan's discretization (spec §8.4) of (F_c, Q_c) over dt, Q checked."""
     from ftnav.core.discretize import van_loan
 
     with np.errstate(all="ignore"):  # an overflow is reported below, as one line
         F, Q = van_loan(F_c, Q_c, dt)
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(Q))):
-        raise _fail(f"the discretization over dt = {dt!r} s overflows (F_c too large)",
-                    "model", "F_c")
+        raise _fail(
+            f"the discretization over dt = {dt!r} s overflows (F_c too large)", "model", "F_c"
+        )
     if spd:
         try:
             np.linalg.cholesky(Q)
         except np.linalg.LinAlgError:
-            raise _fail(f"its discrete Q over dt = {dt!r} s is not positive definite (the "
-                        "noise does not reach every state)", "model", key) from None
+            raise _fail(
+                f"its discrete Q over dt = {dt!r} s is not positive definite (the "
+                "noise does not reach every state)",
+                "model",
+                key,
+            ) from None
     return _frozen(np.array(F)), _frozen(np.array(Q))
 
 
@@ -588,13 +617,13 @@ def _build_sensor(s: SensorFile, model: LinearModel, i: int) -> Sensor:
         raise _fail("expected at least one row", "sensors", i, "H")
     cols = len(s.H[0])
     if cols != n:
-        raise _fail(f"expected {n} columns (from model.states), got {m}x{cols}",
-                    "sensors", i, "H")
+        raise _fail(f"expected {n} columns (from model.states), got {m}x{cols}", "sensors", i, "H")
     H = _matrix(s.H, (m, n), "model.states", "sensors", i, "H")
     src = f"sensors[{i}].H rows"
     R = _matrix(s.R, (m, m), src, "sensors", i, "R", spd=True)
-    R_true = R if s.R_true is None else _matrix(s.R_true, (m, m), src, "sensors", i, "R_true",
-                                                   spd=True)
+    R_true = (
+        R if s.R_true is None else _matrix(s.R_true, (m, m), src, "sensors", i, "R_true", spd=True)
+    )
     private = None if s.private is None else _build_private(s.private, model.states, m, i)
     return Sensor(s.name, H, R, R_true, s.every, s.offset, private)
 
@@ -602,8 +631,9 @@ def _build_sensor(s: SensorFile, model: LinearModel, i: int) -> Sensor:
 def _build_fault(f: FaultFile, sensors: Sequence[Sensor], i: int) -> Fault:
     names = [s.name for s in sensors]
     if f.sensor not in names:
-        raise _fail(f"unknown sensor {f.sensor!r} (known: {', '.join(names)})", "faults", i,
-                    "sensor")
+        raise _fail(
+            f"unknown sensor {f.sensor!r} (known: {', '.join(names)})", "faults", i, "sensor"
+        )
     if not f.end > f.start:
         raise _fail(f"must be greater than start ({f.start!r})", "faults", i, "end")
     j = names.index(f.sensor)
@@ -626,41 +656,69 @@ def _build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
             raise _fail(
                 f"expected {len(sensors)} values (one per sensor) with sharing = 'fixed', "
                 f"got {len(me.betas)}",
-                "methods", i, "betas",
+                "methods",
+                i,
+                "betas",
             )
         total = math.fsum(me.betas) + me.master_share
         if abs(total - 1.0) > SHARE_TOL:
-            raise _fail(f"sum(betas) + master_share must equal 1, got {total!r}",
-                        "methods", i, "betas")
+            raise _fail(
+                f"sum(betas) + master_share must equal 1, got {total!r}", "methods", i, "betas"
+            )
     elif me.betas:
-        raise _fail(f"must be empty unless sharing = 'fixed' (sharing is {me.sharing!r})",
-                    "methods", i, "betas")
+        raise _fail(
+            f"must be empty unless sharing = 'fixed' (sharing is {me.sharing!r})",
+            "methods",
+            i,
+            "betas",
+        )
     _unique(me.vb_sensors, "sensor", "methods", i, "vb_sensors")
     for j, name in enumerate(me.vb_sensors):
         if name not in names:
-            raise _fail(f"unknown sensor {name!r} (known: {', '.join(names)})",
-                        "methods", i, "vb_sensors", j)
+            raise _fail(
+                f"unknown sensor {name!r} (known: {', '.join(names)})",
+                "methods",
+                i,
+                "vb_sensors",
+                j,
+            )
     needs_model = me.detector == "rbf" or me.architecture == "neural"
     if needs_model and me.model is None:
         what = "detector 'rbf'" if me.detector == "rbf" else "architecture 'neural'"
         raise _fail(f"{what} needs a trained model file", "methods", i, "model")
     if me.model is not None and not needs_model:
-        raise _fail("only used with detector = 'rbf' or architecture = 'neural'",
-                    "methods", i, "model")
+        raise _fail(
+            "only used with detector = 'rbf' or architecture = 'neural'", "methods", i, "model"
+        )
     if me.common_mode_quorum is not None:
         if me.common_mode != "keep":
-            raise _fail(f"only used with common_mode = 'keep' (common_mode is "
-                        f"{me.common_mode!r})", "methods", i, "common_mode_quorum")
+            raise _fail(
+                f"only used with common_mode = 'keep' (common_mode is {me.common_mode!r})",
+                "methods",
+                i,
+                "common_mode_quorum",
+            )
         if me.common_mode_quorum > len(sensors):
-            raise _fail(f"must be <= the number of sensors ({len(sensors)})",
-                        "methods", i, "common_mode_quorum")
+            raise _fail(
+                f"must be <= the number of sensors ({len(sensors)})",
+                "methods",
+                i,
+                "common_mode_quorum",
+            )
     if me.prior == "intersection" and me.architecture != "neural":
-        raise _fail("'intersection' (covariance intersection of the local priors) is only "
-                    "used with architecture = 'neural'", "methods", i, "prior")
+        raise _fail(
+            "'intersection' (covariance intersection of the local priors) is only "
+            "used with architecture = 'neural'",
+            "methods",
+            i,
+            "prior",
+        )
     if me.mode == "rescale" and not me.reconstructed:
         raise _fail(
             "'rescale' is a reconstruction (spec §1.5); set reconstructed = true to use it",
-            "methods", i, "mode",
+            "methods",
+            i,
+            "mode",
         )
     return Method(
         name=me.name,
@@ -699,9 +757,15 @@ _FILE_STEM = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
 _RESERVED_FIGURES = ("sharing", "fault_flags")
 
 
-def _build_figure(fg: FigureFile, i: int, states: Sequence[str], methods: Sequence[Method],
-                  sensors: Sequence[str], kinds: Sequence[str] = ("errors",),
-                  position_states: Sequence[str] = ()) -> FigureSpec:
+def _build_figure(
+    fg: FigureFile,
+    i: int,
+    states: Sequence[str],
+    methods: Sequence[Method],
+    sensors: Sequence[str],
+    kinds: Sequence[str] = ("errors",),
+    position_states: Sequence[str] = (),
+) -> FigureSpec:
     """Check one ``[[figures]]`` entry against the scenario's states, methods and sensors.
 
     ``states`` may be drawn by ``errors`` figures, ``position_states`` by ``local-fused``
@@ -709,47 +773,60 @@ def _build_figure(fg: FigureFile, i: int, states: Sequence[str], methods: Sequen
     """
     at = ("figures", i)
     if not _FILE_STEM.fullmatch(fg.name):
-        raise _fail("must be a file name without extension (letters, digits, '_', '-', '.')",
-                    *at, "name")
+        raise _fail(
+            "must be a file name without extension (letters, digits, '_', '-', '.')", *at, "name"
+        )
     if fg.name in _RESERVED_FIGURES:
-        raise _fail(f"{fg.name!r} is reserved (the run writes {fg.name}.png itself)",
-                    *at, "name")
+        raise _fail(f"{fg.name!r} is reserved (the run writes {fg.name}.png itself)", *at, "name")
     if fg.kind not in kinds:
-        raise _fail(f"kind {fg.kind!r} needs an integrated scenario (here: "
-                    f"{', '.join(kinds)})", *at, "kind")
+        raise _fail(
+            f"kind {fg.kind!r} needs an integrated scenario (here: {', '.join(kinds)})", *at, "kind"
+        )
     if len(fg.methods) > MAX_FIGURE_METHODS:
-        raise _fail(f"at most {MAX_FIGURE_METHODS} methods per figure (one line each per "
-                    f"axes), got {len(fg.methods)}; split them over several figures",
-                    *at, "methods")
+        raise _fail(
+            f"at most {MAX_FIGURE_METHODS} methods per figure (one line each per "
+            f"axes), got {len(fg.methods)}; split them over several figures",
+            *at,
+            "methods",
+        )
     by_name = {m.name: m for m in methods}
     _unique(fg.methods, "method", *at, "methods")
     for j, name in enumerate(fg.methods):
         if name not in by_name:
-            raise _fail(f"unknown method {name!r} (known: {', '.join(by_name)})",
-                        *at, "methods", j)
+            raise _fail(f"unknown method {name!r} (known: {', '.join(by_name)})", *at, "methods", j)
     allowed = {"errors": states, "local-fused": position_states, "vb-noise": ()}[fg.kind]
     _unique(fg.states, "state", *at, "states")
     for j, name in enumerate(fg.states):
         if name not in allowed:
-            reason = ("not used with kind 'vb-noise' (its panels are the aid's measurement "
-                      "components)" if fg.kind == "vb-noise" else
-                      f"unknown state {name!r} (known: {', '.join(allowed)})")
+            reason = (
+                "not used with kind 'vb-noise' (its panels are the aid's measurement components)"
+                if fg.kind == "vb-noise"
+                else f"unknown state {name!r} (known: {', '.join(allowed)})"
+            )
             raise _fail(reason, *at, "states", j)
     if fg.kind == "vb-noise":
         if fg.sensor not in sensors:
-            raise _fail(f"required with kind 'vb-noise': one of {', '.join(sensors)}"
-                        if not fg.sensor else
-                        f"unknown sensor {fg.sensor!r} (known: {', '.join(sensors)})",
-                        *at, "sensor")
+            raise _fail(
+                f"required with kind 'vb-noise': one of {', '.join(sensors)}"
+                if not fg.sensor
+                else f"unknown sensor {fg.sensor!r} (known: {', '.join(sensors)})",
+                *at,
+                "sensor",
+            )
         for j, name in enumerate(fg.methods):
             me = by_name[name]
             if me.adaptive_noise == "none" or (me.vb_sensors and fg.sensor not in me.vb_sensors):
-                raise _fail(f"method {name!r} does not estimate the noise of {fg.sensor!r}",
-                            *at, "methods", j)
+                raise _fail(
+                    f"method {name!r} does not estimate the noise of {fg.sensor!r}",
+                    *at,
+                    "methods",
+                    j,
+                )
     elif fg.sensor:
         raise _fail("only used with kind = 'vb-noise'", *at, "sensor")
-    return FigureSpec(fg.name, fg.title, tuple(fg.methods), tuple(fg.states), fg.kind,
-                      fg.condition, fg.sensor)
+    return FigureSpec(
+        fg.name, fg.title, tuple(fg.methods), tuple(fg.states), fg.kind, fg.condition, fg.sensor
+    )
 
 
 def _build_figures(files: Sequence[FigureFile], **context: Any) -> tuple[FigureSpec, ...]:
@@ -783,8 +860,9 @@ def _build(f: ScenarioFile) -> Scenario:
     ev = f.evaluation
     if not ev.skip_initial < duration:
         raise _fail(f"must be less than dt*steps ({duration!r} s)", "evaluation", "skip_initial")
-    figures = _build_figures(f.figures, states=model.states, methods=methods,
-                             sensors=[s.name for s in sensors])
+    figures = _build_figures(
+        f.figures, states=model.states, methods=methods, sensors=[s.name for s in sensors]
+    )
     return Scenario(
         name=f.name,
         dt=float(f.dt),
@@ -847,9 +925,7 @@ def read_toml(source: str | Path) -> dict[str, Any]:
         msg = _one_line(str(exc))
         where = re.fullmatch(r"(.*?)\s*\(at line (\d+), column (\d+)\)", msg)
         if where:
-            reason = (
-                f"TOML syntax error at line {where[2]}, column {where[3]}: {where[1]}"
-            )
+            reason = f"TOML syntax error at line {where[2]}, column {where[3]}: {where[1]}"
         else:
             reason = f"TOML syntax error: {msg}"
         raise ScenarioError(name, reason, name) from None
@@ -876,8 +952,9 @@ def load_scenario(source: str | Path) -> Scenario:
 def resolve_model_paths(sc: Scenario, base: Path) -> Scenario:
     """Make the methods' relative ``model`` paths relative to ``base`` (the file's folder)."""
     methods = tuple(
-        replace(m, model=str(base / m.model)) if m.model and not Path(m.model).is_absolute()
-        else m for m in sc.methods)
+        replace(m, model=str(base / m.model)) if m.model and not Path(m.model).is_absolute() else m
+        for m in sc.methods
+    )
     return replace(sc, methods=methods)
 
 
@@ -898,7 +975,7 @@ def scenario_json_schema() -> dict[str, Any]:
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         "title": "ftnav scenario file",
         "description": "A linear scenario (model, sensors, faults, methods) or, with "
-        "kind = \"integrated\", an integrated-navigation scenario (flight, IMU, aids, "
+        'kind = "integrated", an integrated-navigation scenario (flight, IMU, aids, '
         "faults, methods); docs/scenario-format.md",
         "oneOf": union["anyOf"],
         "$defs": union["$defs"],
@@ -986,8 +1063,15 @@ def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
             "grace": float(sc.evaluation.grace),
         },
         "figures": [
-            {"name": g.name, "title": g.title, "kind": g.kind, "methods": list(g.methods),
-             "states": list(g.states), "condition": g.condition, "sensor": g.sensor}
+            {
+                "name": g.name,
+                "title": g.title,
+                "kind": g.kind,
+                "methods": list(g.methods),
+                "states": list(g.states),
+                "condition": g.condition,
+                "sensor": g.sensor,
+            }
             for g in sc.figures
         ],
     }

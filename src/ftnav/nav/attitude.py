@@ -18,9 +18,21 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 __all__ = [
-    "skew", "euler_to_dcm", "dcm_to_euler", "dcm_to_quat", "quat_to_dcm", "euler_to_quat",
-    "quat_to_euler", "quat_mul", "quat_conj", "rotvec_to_quat", "quat_to_rotvec",
-    "attitude_error", "quat_attitude_error", "heading_deg", "wrap_angle",
+    "skew",
+    "euler_to_dcm",
+    "dcm_to_euler",
+    "dcm_to_quat",
+    "quat_to_dcm",
+    "euler_to_quat",
+    "quat_to_euler",
+    "quat_mul",
+    "quat_conj",
+    "rotvec_to_quat",
+    "quat_to_rotvec",
+    "attitude_error",
+    "quat_attitude_error",
+    "heading_deg",
+    "wrap_angle",
 ]
 
 
@@ -28,11 +40,14 @@ def skew(a: np.ndarray) -> np.ndarray:
     """``[a×]`` (…, 3, 3) with ``[a×] b = a × b``."""
     a = np.asarray(a, dtype=float)
     z = np.zeros_like(a[..., 0])
-    return np.stack([
-        np.stack([z, -a[..., 2], a[..., 1]], -1),
-        np.stack([a[..., 2], z, -a[..., 0]], -1),
-        np.stack([-a[..., 1], a[..., 0], z], -1),
-    ], -2)
+    return np.stack(
+        [
+            np.stack([z, -a[..., 2], a[..., 1]], -1),
+            np.stack([a[..., 2], z, -a[..., 0]], -1),
+            np.stack([-a[..., 1], a[..., 0], z], -1),
+        ],
+        -2,
+    )
 
 
 def _flat(a, core):
@@ -111,12 +126,15 @@ def quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton product ``p ⊗ q`` of scalar-first quaternions (…, 4)."""
     p0, p1, p2, p3 = np.moveaxis(np.asarray(p, dtype=float), -1, 0)
     q0, q1, q2, q3 = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
-    return np.stack([
-        p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3,
-        p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
-        p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1,
-        p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0,
-    ], -1)
+    return np.stack(
+        [
+            p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3,
+            p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
+            p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1,
+            p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0,
+        ],
+        -1,
+    )
 
 
 def quat_conj(q: np.ndarray) -> np.ndarray:
@@ -143,8 +161,9 @@ def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     v = q[..., 1:]
     s = np.sqrt(np.sum(v * v, -1))
     angle = 2.0 * np.arctan2(s, q[..., 0])
-    scale = np.where(s < 1e-12, 2.0 / np.maximum(q[..., 0], 1e-300), angle / np.where(
-        s < 1e-12, 1.0, s))
+    scale = np.where(
+        s < 1e-12, 2.0 / np.maximum(q[..., 0], 1e-300), angle / np.where(s < 1e-12, 1.0, s)
+    )
     return scale[..., None] * v
 
 

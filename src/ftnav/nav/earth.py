@@ -15,8 +15,17 @@ import numba
 import numpy as np
 
 __all__ = [
-    "A", "F", "E2", "OMEGA_IE", "GM",
-    "radii", "gravity", "gravity_gradient", "omega_ie_n", "omega_en_n", "enu_metres",
+    "A",
+    "F",
+    "E2",
+    "OMEGA_IE",
+    "GM",
+    "radii",
+    "gravity",
+    "gravity_gradient",
+    "omega_ie_n",
+    "omega_en_n",
+    "enu_metres",
 ]
 
 A = 6378137.0  #: semi-major axis (m)

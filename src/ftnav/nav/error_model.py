@@ -54,13 +54,35 @@ from ftnav.nav.earth import (
 )
 
 __all__ = [
-    "STATES_18", "STATES_15", "ErrorModelParams", "ContinuousModel", "NavState",
-    "continuous_model", "discrete_model", "SinsErrorModel",
+    "STATES_18",
+    "STATES_15",
+    "ErrorModelParams",
+    "ContinuousModel",
+    "NavState",
+    "continuous_model",
+    "discrete_model",
+    "SinsErrorModel",
 ]
 
 STATES_18 = (
-    "phi_E", "phi_N", "phi_U", "dv_E", "dv_N", "dv_U", "dL", "dlam", "dh",
-    "eps_bx", "eps_by", "eps_bz", "eps_rx", "eps_ry", "eps_rz", "nabla_x", "nabla_y", "nabla_z",
+    "phi_E",
+    "phi_N",
+    "phi_U",
+    "dv_E",
+    "dv_N",
+    "dv_U",
+    "dL",
+    "dlam",
+    "dh",
+    "eps_bx",
+    "eps_by",
+    "eps_bz",
+    "eps_rx",
+    "eps_ry",
+    "eps_rz",
+    "nabla_x",
+    "nabla_y",
+    "nabla_z",
 )  #: state names of the 18-state model, in order (spec §8.3)
 STATES_15 = STATES_18[:9] + ("eps_x", "eps_y", "eps_z", "nabla_x", "nabla_y", "nabla_z")
 #: state names of the 15-state model, in order
@@ -74,8 +96,9 @@ def _axes(name: str, value, positive: bool = False) -> Vec3:
     except ValueError:
         raise ValueError(f"{name} must be a scalar or three values, got {value!r}") from None
     if not np.all(np.isfinite(a)) or np.any(a < 0.0) or (positive and np.any(a == 0.0)):
-        raise ValueError(f"{name} must be finite and {'> 0' if positive else '≥ 0'} "
-                         f"on every axis, got {value!r}")
+        raise ValueError(
+            f"{name} must be finite and {'> 0' if positive else '≥ 0'} on every axis, got {value!r}"
+        )
     return tuple(float(x) for x in a)
 
 
@@ -114,8 +137,14 @@ class ErrorModelParams:
     states: Literal[18, 15] = 18
 
     def __post_init__(self):
-        for name in ("gyro_psd", "gyro_markov_sigma", "accel_markov_sigma", "accel_psd",
-                     "gyro_bias_rw_psd", "accel_bias_rw_psd"):
+        for name in (
+            "gyro_psd",
+            "gyro_markov_sigma",
+            "accel_markov_sigma",
+            "accel_psd",
+            "gyro_bias_rw_psd",
+            "accel_bias_rw_psd",
+        ):
             object.__setattr__(self, name, _axes(name, getattr(self, name)))
         for name in ("gyro_markov_tau", "accel_markov_tau"):
             object.__setattr__(self, name, _axes(name, getattr(self, name), positive=True))
@@ -210,8 +239,9 @@ def _nav_blocks(L, h, v, f_n):
     z = np.zeros(batch)
     F_av = _mat([[z, -1.0 / RMh, z], [1.0 / RNh, z, z], [t / RNh, z, z]], batch)
     M1 = _mat([[z, z, z], [-OMEGA_IE * s, z, z], [OMEGA_IE * c, z, z]], batch)
-    M2 = _mat([[z, z, vN / RMh**2], [z, z, -vE / RNh**2],
-               [vE / (RNh * c**2), z, -vE * t / RNh**2]], batch)
+    M2 = _mat(
+        [[z, z, vN / RMh**2], [z, z, -vE / RNh**2], [vE / (RNh * c**2), z, -vE * t / RNh**2]], batch
+    )
     dgdL, dgdh = gravity_gradient(L, h)
     F_g = _mat([[z, z, z], [z, z, z], [-dgdL, z, -dgdh]], batch)
     Vx = skew(v)
@@ -222,10 +252,10 @@ def _nav_blocks(L, h, v, f_n):
     F[..., 3:6, 0:3] = skew(f_n)
     F[..., 3:6, 3:6] = Vx @ F_av - skew(2.0 * w_ie + w_en)
     F[..., 3:6, 6:9] = Vx @ (2.0 * M1 + M2) + F_g
-    F[..., 6:9, 3:6] = _mat([[z, 1.0 / RMh, z], [1.0 / (RNh * c), z, z], [z, z, z + 1.0]],
-                            batch)
-    F[..., 6:9, 6:9] = _mat([[z, z, -vN / RMh**2],
-                             [vE * t / (RNh * c), z, -vE / (RNh**2 * c)], [z, z, z]], batch)
+    F[..., 6:9, 3:6] = _mat([[z, 1.0 / RMh, z], [1.0 / (RNh * c), z, z], [z, z, z + 1.0]], batch)
+    F[..., 6:9, 6:9] = _mat(
+        [[z, z, -vN / RMh**2], [vE * t / (RNh * c), z, -vE / (RNh**2 * c)], [z, z, z]], batch
+    )
     return F
 
 
@@ -236,11 +266,12 @@ def _nav_inputs(L, h, v_enu, f_b, C_bn):
     if h.shape == batch and v.shape == f_b.shape == batch + (3,) and C.shape == batch + (3, 3):
         return L, h, v, f_b, C, batch  # one batch shape already: nothing to broadcast
     if v.shape[-1:] != (3,) or f_b.shape[-1:] != (3,) or C.shape[-2:] != (3, 3):
-        raise ValueError(f"v_enu and f_b must be (..., 3) and C_bn (..., 3, 3); got "
-                         f"{v.shape}, {f_b.shape}, {C.shape}")
+        raise ValueError(
+            f"v_enu and f_b must be (..., 3) and C_bn (..., 3, 3); got "
+            f"{v.shape}, {f_b.shape}, {C.shape}"
+        )
     try:
-        batch = np.broadcast_shapes(L.shape, h.shape, v.shape[:-1], f_b.shape[:-1],
-                                    C.shape[:-2])
+        batch = np.broadcast_shapes(L.shape, h.shape, v.shape[:-1], f_b.shape[:-1], C.shape[:-2])
     except ValueError as err:
         raise ValueError(f"navigation inputs do not broadcast: {err}") from None
     L, h = np.broadcast_to(L, batch), np.broadcast_to(h, batch)
@@ -281,18 +312,26 @@ def continuous_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams) -> C
     n = params.n
     M = int(np.prod(batch))
     F, G = np.zeros((M, n, n)), np.zeros((M, n, 12))
-    _model_rows(*_flat_inputs(L, h, v, f_b, C, M), params.bias_frame == "body", n,
-                np.asarray(params.gyro_markov_tau, float),
-                np.asarray(params.accel_markov_tau, float), F, G)
-    return ContinuousModel(F.reshape(batch + (n, n)), G.reshape(batch + (n, 12)),
-                           params.noise_psd)
+    _model_rows(
+        *_flat_inputs(L, h, v, f_b, C, M),
+        params.bias_frame == "body",
+        n,
+        np.asarray(params.gyro_markov_tau, float),
+        np.asarray(params.accel_markov_tau, float),
+        F,
+        G,
+    )
+    return ContinuousModel(F.reshape(batch + (n, n)), G.reshape(batch + (n, 12)), params.noise_psd)
 
 
 def _flat_inputs(L, h, v, f_b, C, M):
-    return (np.ascontiguousarray(L, float).reshape(M), np.ascontiguousarray(h, float).reshape(M),
-            np.ascontiguousarray(v, float).reshape(M, 3),
-            np.ascontiguousarray(f_b, float).reshape(M, 3),
-            np.ascontiguousarray(C, float).reshape(M, 3, 3))
+    return (
+        np.ascontiguousarray(L, float).reshape(M),
+        np.ascontiguousarray(h, float).reshape(M),
+        np.ascontiguousarray(v, float).reshape(M, 3),
+        np.ascontiguousarray(f_b, float).reshape(M, 3),
+        np.ascontiguousarray(C, float).reshape(M, 3, 3),
+    )
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -357,8 +396,7 @@ def _model_row(L, h, v, f_b, C, body, n, tau_g, tau_a, F, G):  # pragma: no cove
             F[3 + i, 6 + j] = Fvp[i, j]
     _skew_into(F, 0, 0, -1.0, wie[0] + wen[0], wie[1] + wen[1], wie[2] + wen[2])
     _skew_into(F, 3, 0, 1.0, fn[0], fn[1], fn[2])
-    _skew_into(F, 3, 3, -1.0, 2.0 * wie[0] + wen[0], 2.0 * wie[1] + wen[1],
-               2.0 * wie[2] + wen[2])
+    _skew_into(F, 3, 3, -1.0, 2.0 * wie[0] + wen[0], 2.0 * wie[1] + wen[1], 2.0 * wie[2] + wen[2])
     F[6, 4] = 1.0 / RMh
     F[7, 3] = 1.0 / (RNh * c)
     F[8, 5] = 1.0
@@ -392,8 +430,9 @@ def _model_rows(L, h, v, f_b, C, body, n, tau_g, tau_a, F, G):  # pragma: no cov
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _discrete_rows(L, h, v, f_b, C, body, n, tau_g, tau_a, q, T, order, Phi,
-                   Q):  # pragma: no cover - compiled
+def _discrete_rows(
+    L, h, v, f_b, C, body, n, tau_g, tau_a, q, T, order, Phi, Q
+):  # pragma: no cover - compiled
     """Φ, Q (M, n, n) of :func:`discrete_model` with ``method="series"``, one loop."""
     F, G, GQGt = np.empty((n, n)), np.empty((n, 12)), np.empty((n, n))
     X, nxt, Mj, FM = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
@@ -411,8 +450,9 @@ def _discrete_rows(L, h, v, f_b, C, body, n, tau_g, tau_a, q, T, order, Phi,
         series_row(F, GQGt, T, order, Phi[b], Q[b], X, nxt, Mj, FM)
 
 
-def continuous_model_reference(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams
-                               ) -> ContinuousModel:
+def continuous_model_reference(
+    L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams
+) -> ContinuousModel:
     """Plain NumPy form of :func:`continuous_model` (the compiled kernel's test oracle)."""
     L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
     n = params.n
@@ -442,9 +482,18 @@ def continuous_model_reference(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelPa
 Method = Literal["van-loan", "series"]
 
 
-def discrete_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams, T: float,
-                   method: Method = "van-loan", order: int = 5
-                   ) -> tuple[np.ndarray, np.ndarray]:
+def discrete_model(
+    L,
+    lam,
+    h,
+    v_enu,
+    f_b,
+    C_bn,
+    params: ErrorModelParams,
+    T: float,
+    method: Method = "van-loan",
+    order: int = 5,
+) -> tuple[np.ndarray, np.ndarray]:
     """Discrete SINS error model ``(Φ_k, Q_k)`` over a step T (spec §8.3, §8.4).
 
     F is held at the given INS solution over the step; ``method="van-loan"`` is exact
@@ -475,10 +524,18 @@ def discrete_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams, T: flo
     L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
     n, M = params.n, int(np.prod(batch))
     Phi, Q = np.empty((M, n, n)), np.empty((M, n, n))
-    _discrete_rows(*_flat_inputs(L, h, v, f_b, C, M), params.bias_frame == "body", n,
-                   np.asarray(params.gyro_markov_tau, float),
-                   np.asarray(params.accel_markov_tau, float), params.noise_psd, float(T),
-                   int(order), Phi, Q)
+    _discrete_rows(
+        *_flat_inputs(L, h, v, f_b, C, M),
+        params.bias_frame == "body",
+        n,
+        np.asarray(params.gyro_markov_tau, float),
+        np.asarray(params.accel_markov_tau, float),
+        params.noise_psd,
+        float(T),
+        int(order),
+        Phi,
+        Q,
+    )
     return Phi.reshape(batch + (n, n)), Q.reshape(batch + (n, n))
 
 

@@ -36,8 +36,16 @@ import numpy as np
 from ftnav.nav import attitude
 from ftnav.nav.earth import OMEGA_IE, gravity_nb, radii_nb
 
-__all__ = ["InsState", "NavSolution", "ALGORITHMS", "init_state", "integrate",
-           "apply_correction", "feedback", "navigation_errors"]
+__all__ = [
+    "InsState",
+    "NavSolution",
+    "ALGORITHMS",
+    "init_state",
+    "integrate",
+    "apply_correction",
+    "feedback",
+    "navigation_errors",
+]
 
 ALGORITHMS = {"single-sample": 1, "two-sample": 2}
 
@@ -72,8 +80,9 @@ class NavSolution(NamedTuple):
         return attitude.quat_to_euler(self.q)
 
 
-def init_state(p: np.ndarray, v: np.ndarray, euler: np.ndarray, batch: int | None = None
-               ) -> InsState:
+def init_state(
+    p: np.ndarray, v: np.ndarray, euler: np.ndarray, batch: int | None = None
+) -> InsState:
     """Initial state from position ``[L, λ, h]``, ENU velocity and ``[θ, γ, ψ]``.
 
     Inputs of shape (3,) are broadcast to ``batch`` runs (default 1); (B, 3) inputs
@@ -90,12 +99,15 @@ def init_state(p: np.ndarray, v: np.ndarray, euler: np.ndarray, batch: int | Non
 
 # ----------------------------------------------------------------------------- kernel
 
+
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):  # pragma: no cover - compiled
-    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+    return (
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -126,8 +138,9 @@ def _qrot(q0, q1, q2, q3, x, y, z):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _run(b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out
-         ):  # pragma: no cover - compiled
+def _run(
+    b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out
+):  # pragma: no cover - compiled
     """Integrate run b over all its samples (sequential); writes the state back."""
     K = dtheta.shape[1]
     ns = 2 if alg == 2 else 1
@@ -145,12 +158,18 @@ def _run(b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out
         tx, ty, tz = dtheta[b, k, 0] - gx, dtheta[b, k, 1] - gy, dtheta[b, k, 2] - gz
         wx, wy, wz = dv[b, k, 0] - fx, dv[b, k, 1] - fy, dv[b, k, 2] - fz
         if alg == 2:
-            sx, sy, sz = dtheta[b, k + 1, 0] - gx, dtheta[b, k + 1, 1] - gy, \
-                dtheta[b, k + 1, 2] - gz
+            sx, sy, sz = (
+                dtheta[b, k + 1, 0] - gx,
+                dtheta[b, k + 1, 1] - gy,
+                dtheta[b, k + 1, 2] - gz,
+            )
             rx, ry, rz = dv[b, k + 1, 0] - fx, dv[b, k + 1, 1] - fy, dv[b, k + 1, 2] - fz
             c0, c1, c2 = _cross(tx, ty, tz, sx, sy, sz)
-            phx, phy, phz = tx + sx + 2.0 / 3.0 * c0, ty + sy + 2.0 / 3.0 * c1, \
-                tz + sz + 2.0 / 3.0 * c2
+            phx, phy, phz = (
+                tx + sx + 2.0 / 3.0 * c0,
+                ty + sy + 2.0 / 3.0 * c1,
+                tz + sz + 2.0 / 3.0 * c2,
+            )
             Tx, Ty, Tz = tx + sx, ty + sy, tz + sz
             Vx, Vy, Vz = wx + rx, wy + ry, wz + rz
             r0, r1, r2 = _cross(Tx, Ty, Tz, Vx, Vy, Vz)
@@ -209,13 +228,15 @@ def _run(b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _integrate_serial(q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out,
-                      p_out):  # pragma: no cover - compiled
+def _integrate_serial(
+    q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out
+):  # pragma: no cover - compiled
     for b in range(q.shape[0]):
         _run(b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out)
 
 
 # ----------------------------------------------------------------------------- API
+
 
 def integrate(
     state: InsState,
@@ -258,28 +279,48 @@ def integrate(
     dtheta = np.asarray(dtheta, dtype=float)
     dv = np.asarray(dv, dtype=float)
     if dtheta.shape != dv.shape or dtheta.shape[-1] != 3 or dtheta.ndim not in (2, 3):
-        raise ValueError(f"dtheta, dv: expected equal shapes (B, K, 3) or (K, 3), got "
-                         f"{dtheta.shape} and {dv.shape}")
+        raise ValueError(
+            f"dtheta, dv: expected equal shapes (B, K, 3) or (K, 3), got "
+            f"{dtheta.shape} and {dv.shape}"
+        )
     K = dtheta.shape[-2]
     if alg == 2 and K % 2:
-        raise ValueError(f"dtheta: the two-sample algorithm needs an even number of samples, "
-                         f"got {K}")
+        raise ValueError(
+            f"dtheta: the two-sample algorithm needs an even number of samples, got {K}"
+        )
     dtheta = np.ascontiguousarray(np.broadcast_to(dtheta, (B, K, 3)))
     dv = np.ascontiguousarray(np.broadcast_to(dv, (B, K, 3)))
-    gb = np.ascontiguousarray(np.broadcast_to(0.0 if gyro_bias is None else gyro_bias, (B, 3)),
-                              dtype=float)
-    ab = np.ascontiguousarray(np.broadcast_to(0.0 if accel_bias is None else accel_bias,
-                                              (B, 3)), dtype=float)
+    gb = np.ascontiguousarray(
+        np.broadcast_to(0.0 if gyro_bias is None else gyro_bias, (B, 3)), dtype=float
+    )
+    ab = np.ascontiguousarray(
+        np.broadcast_to(0.0 if accel_bias is None else accel_bias, (B, 3)), dtype=float
+    )
     new = InsState(*(np.array(x, dtype=float, copy=True) for x in state))
     n_out = K // (2 if alg == 2 else 1) // output_every
     q_out, v_out, p_out = np.empty((B, n_out, 4)), np.empty((B, n_out, 3)), np.empty((B, n_out, 3))
-    _integrate_serial(new.q, new.v, new.p, new.a, dtheta, dv, float(dt), alg,
-           gb, ab, int(output_every), q_out, v_out, p_out)
+    _integrate_serial(
+        new.q,
+        new.v,
+        new.p,
+        new.a,
+        dtheta,
+        dv,
+        float(dt),
+        alg,
+        gb,
+        ab,
+        int(output_every),
+        q_out,
+        v_out,
+        p_out,
+    )
     return new, NavSolution(q_out, v_out, p_out)
 
 
-def apply_correction(q: np.ndarray, v: np.ndarray, p: np.ndarray, phi: np.ndarray,
-                     dv: np.ndarray, dp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def apply_correction(
+    q: np.ndarray, v: np.ndarray, p: np.ndarray, phi: np.ndarray, dv: np.ndarray, dp: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Remove estimated errors from a navigation solution (spec §8.5).
 
     ``q ← q(φ̂) ⊗ q̃`` (i.e. ``C ← exp([φ̂×]) C̃ ≈ (I + [φ̂×]) C̃``), ``v ← ṽ − δv̂``,
@@ -306,8 +347,14 @@ def _correct_rows(q, phi, out):  # pragma: no cover - compiled
         out[b, 0], out[b, 1], out[b, 2], out[b, 3] = c0 / n, c1 / n, c2 / n, c3 / n
 
 
-def navigation_errors(q: np.ndarray, v: np.ndarray, p: np.ndarray, q_true: np.ndarray,
-                      v_true: np.ndarray, p_true: np.ndarray) -> np.ndarray:
+def navigation_errors(
+    q: np.ndarray,
+    v: np.ndarray,
+    p: np.ndarray,
+    q_true: np.ndarray,
+    v_true: np.ndarray,
+    p_true: np.ndarray,
+) -> np.ndarray:
     """(B, 9) true navigation error states ``[φ, δv, δL δλ δh]`` (spec §8.3 order).
 
     ``φ`` is :func:`ftnav.nav.attitude.quat_attitude_error` (the rotation vector of
@@ -316,9 +363,15 @@ def navigation_errors(q: np.ndarray, v: np.ndarray, p: np.ndarray, q_true: np.nd
     """
     q = np.ascontiguousarray(q, dtype=float)
     out = np.empty((q.shape[0], 9))
-    _errors_rows(q, np.ascontiguousarray(v, dtype=float), np.ascontiguousarray(p, dtype=float),
-                 np.asarray(q_true, float), np.asarray(v_true, float),
-                 np.asarray(p_true, float), out)
+    _errors_rows(
+        q,
+        np.ascontiguousarray(v, dtype=float),
+        np.ascontiguousarray(p, dtype=float),
+        np.asarray(q_true, float),
+        np.asarray(v_true, float),
+        np.asarray(p_true, float),
+        out,
+    )
     return out
 
 
@@ -326,8 +379,7 @@ def navigation_errors(q: np.ndarray, v: np.ndarray, p: np.ndarray, q_true: np.nd
 def _errors_rows(q, v, p, qt, vt, pt, out):  # pragma: no cover - compiled
     for b in range(q.shape[0]):
         # q_true ⊗ q̃*, sign fixed to a non-negative scalar part
-        e0, e1, e2, e3 = _qmul(qt[0], qt[1], qt[2], qt[3], q[b, 0], -q[b, 1], -q[b, 2],
-                               -q[b, 3])
+        e0, e1, e2, e3 = _qmul(qt[0], qt[1], qt[2], qt[3], q[b, 0], -q[b, 1], -q[b, 2], -q[b, 3])
         n = np.sqrt(e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3)
         sg = 1.0 / n if e0 >= 0.0 else -1.0 / n
         e0, e1, e2, e3 = e0 * sg, e1 * sg, e2 * sg, e3 * sg
@@ -350,5 +402,3 @@ def feedback(state: InsState, phi: np.ndarray, dv: np.ndarray, dp: np.ndarray) -
     """
     q, v, p = apply_correction(state.q, state.v, state.p, phi, dv, dp)
     return state._replace(q=q, v=v, p=p)
-
-

@@ -38,13 +38,37 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 __all__ = [
-    "STANDARD_GRAVITY", "FAMILIES",
-    "deg_per_h", "deg_per_s", "deg_per_sqrt_h", "deg_per_h_per_sqrt_hz",
-    "standard_g", "milli_g", "micro_g", "micro_g_per_sqrt_hz", "m_per_s_per_sqrt_h",
-    "ppm", "percent", "arcsec", "arcmin", "m_per_h", "hours",
-    "to_deg_per_h", "to_deg_per_s", "to_deg_per_sqrt_h", "to_milli_g", "to_micro_g",
-    "to_m_per_s_per_sqrt_h", "to_ppm", "to_arcsec", "to_arcmin", "to_m_per_h",
-    "psd_to_sigma", "sigma_to_psd", "markov_q", "parse_quantity",
+    "STANDARD_GRAVITY",
+    "FAMILIES",
+    "deg_per_h",
+    "deg_per_s",
+    "deg_per_sqrt_h",
+    "deg_per_h_per_sqrt_hz",
+    "standard_g",
+    "milli_g",
+    "micro_g",
+    "micro_g_per_sqrt_hz",
+    "m_per_s_per_sqrt_h",
+    "ppm",
+    "percent",
+    "arcsec",
+    "arcmin",
+    "m_per_h",
+    "hours",
+    "to_deg_per_h",
+    "to_deg_per_s",
+    "to_deg_per_sqrt_h",
+    "to_milli_g",
+    "to_micro_g",
+    "to_m_per_s_per_sqrt_h",
+    "to_ppm",
+    "to_arcsec",
+    "to_arcmin",
+    "to_m_per_h",
+    "psd_to_sigma",
+    "sigma_to_psd",
+    "markov_q",
+    "parse_quantity",
 ]
 
 STANDARD_GRAVITY = 9.80665  #: standard gravity g₀ (m/s²), the unit "g" of datasheets
@@ -252,8 +276,15 @@ def markov_q(sigma: ArrayLike, tau: ArrayLike):
 # ---- quantity parser ------------------------------------------------------------------------
 
 Family = Literal[
-    "angular_rate", "angle_random_walk", "acceleration", "velocity_random_walk",
-    "dimensionless", "angle", "time", "length", "velocity",
+    "angular_rate",
+    "angle_random_walk",
+    "acceleration",
+    "velocity_random_walk",
+    "dimensionless",
+    "angle",
+    "time",
+    "length",
+    "velocity",
 ]
 
 #: family -> (description, example)
@@ -408,18 +439,19 @@ def parse_quantity(
     4.84813681...e-07
     """
     if family not in FAMILIES:
-        raise ValueError(f"{field}: unknown unit family {family!r} "
-                         f"(valid: {', '.join(FAMILIES)})")
+        raise ValueError(f"{field}: unknown unit family {family!r} (valid: {', '.join(FAMILIES)})")
     what, example = FAMILIES[family]
     if isinstance(text, bool) or not isinstance(text, str | numbers.Real):
-        raise ValueError(f"{field}: expected {what} as a string with a unit "
-                         f"(e.g. '{example}'), got {text!r}")
+        raise ValueError(
+            f"{field}: expected {what} as a string with a unit (e.g. '{example}'), got {text!r}"
+        )
     shown = text if isinstance(text, str) else repr(text)
     if isinstance(text, str):
         match = _NUMBER.match(text)
         if match is None:
-            raise ValueError(f"{field}: cannot read a number in {text!r}; expected {what} "
-                             f"(e.g. '{example}')")
+            raise ValueError(
+                f"{field}: cannot read a number in {text!r}; expected {what} (e.g. '{example}')"
+            )
         number, unit = float(match.group(1)), match.group(2)
     else:
         number, unit = float(text), ""
@@ -428,14 +460,14 @@ def parse_quantity(
     key = _normalize(unit)
     if key not in _UNITS:
         accepted = ", ".join(u for u, (f, _) in _UNITS.items() if f == family and u)
-        raise ValueError(f"{field}: unknown unit {unit!r} in '{shown}'; {what} takes one of: "
-                         f"{accepted}")
+        raise ValueError(
+            f"{field}: unknown unit {unit!r} in '{shown}'; {what} takes one of: {accepted}"
+        )
     unit_family, factor = _UNITS[key]
     if key == "" and number == 0.0:
         unit_family = family
     if unit_family != family:
-        hint = ("no unit" if key == "" else
-                f"which is {FAMILIES[unit_family][0]}")
+        hint = "no unit" if key == "" else f"which is {FAMILIES[unit_family][0]}"
         raise ValueError(f"{field}: expected {what} (e.g. '{example}'), got '{shown}' ({hint})")
     value = number * factor
     if constraint == "nonnegative" and value < 0.0:

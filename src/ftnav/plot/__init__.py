@@ -15,8 +15,15 @@ method_groups, save_all
 
 from __future__ import annotations
 
-__all__ = ["default_figures", "draw_figure", "error_figure", "fault_flag_figure",
-           "method_groups", "save_all", "sharing_figure"]
+__all__ = [
+    "default_figures",
+    "draw_figure",
+    "error_figure",
+    "fault_flag_figure",
+    "method_groups",
+    "save_all",
+    "sharing_figure",
+]
 
 
 def __getattr__(name: str):

@@ -39,8 +39,15 @@ from ftnav.eval.montecarlo import MethodResult, ScenarioResult
 from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
 from ftnav.sim.scenario import MAX_FIGURE_METHODS, FigureSpec, Scenario
 
-__all__ = ["default_figures", "draw_figure", "error_figure", "fault_flag_figure",
-           "method_groups", "save_all", "sharing_figure"]
+__all__ = [
+    "default_figures",
+    "draw_figure",
+    "error_figure",
+    "fault_flag_figure",
+    "method_groups",
+    "save_all",
+    "sharing_figure",
+]
 
 #: Long names of common one-letter state names, for titles.
 _STATE_NAMES = {
@@ -105,8 +112,9 @@ def _fault_label(fault) -> str:
     return f"fault: {fault.sensor} {fault.kind} [{fault.start:g}, {fault.end:g}) s"
 
 
-def _shade_faults(ax: Axes, scenario: Scenario, injected: bool = True,
-                  sensor: str | None = None) -> list:
+def _shade_faults(
+    ax: Axes, scenario: Scenario, injected: bool = True, sensor: str | None = None
+) -> list:
     """Shade each fault window on ``ax`` (of ``sensor`` only, if given); one handle per fault.
 
     With ``injected=False`` the windows are only outlined (hatched), for runs in
@@ -121,8 +129,7 @@ def _shade_faults(ax: Axes, scenario: Scenario, injected: bool = True,
             kw = {"facecolor": c, "alpha": 0.15, "edgecolor": "none"}
             label = _fault_label(f)
         else:
-            kw = {"facecolor": "none", "edgecolor": c, "alpha": 0.3, "hatch": "/",
-                  "linewidth": 0.0}
+            kw = {"facecolor": "none", "edgecolor": c, "alpha": 0.3, "hatch": "/", "linewidth": 0.0}
             label = _fault_label(f) + " (not injected)"
         ax.axvspan(f.start, f.end, zorder=0, **kw)
         handles.append(Patch(label=label, **kw))
@@ -139,8 +146,9 @@ def _select(pool: dict[str, MethodResult], methods: Sequence[str] | None) -> lis
     return list(methods)
 
 
-def _new_axes(n: int, axes: Sequence[Axes] | None, ncols: int, *, figsize, sharex=True,
-              sharey=False) -> tuple[Figure, list[Axes]]:
+def _new_axes(
+    n: int, axes: Sequence[Axes] | None, ncols: int, *, figsize, sharex=True, sharey=False
+) -> tuple[Figure, list[Axes]]:
     """A grid of ``n`` axes in a new constrained-layout figure, or the given ``axes``."""
     if axes is not None:
         axes = list(np.ravel(axes))
@@ -188,7 +196,6 @@ def _grid_cols(n: int) -> int:
     return 1 if n == 1 else 2 if n <= 4 else 3
 
 
-
 def _state_label(name: str) -> str:
     """Readable state name: ``s (displacement)``, ``North position``, ``3-D position``."""
     stem, unit = split_unit(name)
@@ -208,8 +215,7 @@ def _unit_label(name: str) -> str:
 def _states(scenario, states: Sequence[str | int] | None) -> list[str]:
     """State names to draw (default: every state), from names or indices, checked."""
     known = list(scenario.model.states)
-    plottable = known + (list(POSITION_NORMS) if all(s in known for s in METRIC_STATES[:3])
-                         else [])
+    plottable = known + (list(POSITION_NORMS) if all(s in known for s in METRIC_STATES[:3]) else [])
     if states is None:
         return known
     out = []
@@ -226,8 +232,9 @@ def _states(scenario, states: Sequence[str | int] | None) -> list[str]:
     return out
 
 
-def _state_error(res: MethodResult, truth: np.ndarray, states: Sequence[str],
-                 name: str) -> np.ndarray:
+def _state_error(
+    res: MethodResult, truth: np.ndarray, states: Sequence[str], name: str
+) -> np.ndarray:
     """(B, K) error ``x̂ − x`` of one state, or a position norm (horizontal, 3-D)."""
     states = list(states)
     if name in POSITION_NORMS:
@@ -241,11 +248,19 @@ def _pool(result: ScenarioResult, fault_free: bool):
     """Results, simulation, whether faults are shaded as injected, and the condition's words."""
     sc = result.scenario
     if fault_free and result.fault_free:
-        return (result.fault_free, result.fault_free_simulation, False,
-                "fault-free twin (same noise, faults removed)")
+        return (
+            result.fault_free,
+            result.fault_free_simulation,
+            False,
+            "fault-free twin (same noise, faults removed)",
+        )
     if fault_free and sc.faults:
-        return (result.results, result.simulation, True,
-                "fault-free twin not computed: run WITH the faults")
+        return (
+            result.results,
+            result.simulation,
+            True,
+            "fault-free twin not computed: run WITH the faults",
+        )
     if sc.faults:
         return result.results, result.simulation, True, "with the faults (shaded)"
     return result.results, result.simulation, False, "no fault in the scenario"
@@ -253,16 +268,22 @@ def _pool(result: ScenarioResult, fault_free: bool):
 
 def _check_count(names: Sequence[str], what: str = "methods") -> None:
     if len(names) > MAX_FIGURE_METHODS:
-        raise ValueError(f"{what}: at most {MAX_FIGURE_METHODS} methods per figure (one line "
-                         f"each per axes), got {len(names)}; split them over several figures "
-                         "(see default_figures)")
+        raise ValueError(
+            f"{what}: at most {MAX_FIGURE_METHODS} methods per figure (one line "
+            f"each per axes), got {len(names)}; split them over several figures "
+            "(see default_figures)"
+        )
 
 
 def _reference(scenario, names: Sequence[str]) -> str | None:
     """The centralized reference among ``names``: no detector, no adaptive noise."""
     for m in scenario.methods:
-        if m.name in names and m.architecture == "centralized" and m.detector == "none" \
-                and m.adaptive_noise == "none":
+        if (
+            m.name in names
+            and m.architecture == "centralized"
+            and m.detector == "none"
+            and m.adaptive_noise == "none"
+        ):
             return m.name
     return None
 
@@ -277,7 +298,7 @@ def method_groups(scenario, names: Sequence[str]) -> list[tuple[str, ...]]:
     ref = _reference(scenario, names)
     others = [n for n in names if n != ref]
     size = MAX_FIGURE_METHODS - (ref is not None)
-    chunks = [others[i:i + size] for i in range(0, len(others), size)] or [[]]
+    chunks = [others[i : i + size] for i in range(0, len(others), size)] or [[]]
     head = [ref] if ref is not None else []
     return [tuple(head + c) for c in chunks if head or c]
 
@@ -344,8 +365,9 @@ def error_figure(
     sc = result.scenario
     names_st = _states(sc, states)
     pool, sim, injected, condition = _pool(result, fault_free)
-    names = (_select(pool, methods) if methods is not None
-             else list(method_groups(sc, list(pool))[0]))
+    names = (
+        _select(pool, methods) if methods is not None else list(method_groups(sc, list(pool))[0])
+    )
     _check_count(names)
     styles = _method_styles(names)
     t = sc.times
@@ -353,8 +375,9 @@ def error_figure(
     n = per_state * len(names_st)
     ncols = 2 if run0 else (1 if len(names_st) <= 4 else 3)
     nrows = math.ceil(n / ncols)
-    fig, axs = _new_axes(n, axes, ncols,
-                         figsize=_grid_size(ncols, nrows, width=8.5 if ncols == 1 else 5.0))
+    fig, axs = _new_axes(
+        n, axes, ncols, figsize=_grid_size(ncols, nrows, width=8.5 if ncols == 1 else 5.0)
+    )
     truth = sim.truth
     # earlier methods are drawn wider, so methods giving identical curves (common
     # without faults) show as nested bands instead of hiding each other
@@ -380,24 +403,35 @@ def error_figure(
             ax_run.set_ylabel(f"error {unit}")
         ax_rms.set_yscale("log")
         ax_rms.yaxis.set_major_formatter(_PlainLogFormatter(labelOnlyBase=False))
-        ax_rms.yaxis.set_minor_formatter(_PlainLogFormatter(labelOnlyBase=False,
-                                                            minor_thresholds=(1.2, 0.5)))
+        ax_rms.yaxis.set_minor_formatter(
+            _PlainLogFormatter(labelOnlyBase=False, minor_thresholds=(1.2, 0.5))
+        )
         ax_rms.grid(True, which="minor", axis="y", lw=0.3, alpha=0.3)
         ax_rms.set_title(f"{label}: RMS error over {result.runs} runs", fontsize="medium")
         ax_rms.set_ylabel(f"RMS error {unit}")
     for ax in axs:
         spec = ax.get_subplotspec()
-        if axes is not None or spec is None or spec.is_last_row() or \
-                not _below_is_filled(ax, axs):
+        if axes is not None or spec is None or spec.is_last_row() or not _below_is_filled(ax, axs):
             ax.set_xlabel("time [s]")
     handles, labels = axs[0].get_legend_handles_labels()
     handles += fault_handles
     if axes is None:
-        _titles(fig, sc, title, f"scenario '{sc.name}': estimation error per state, "
-                f"{condition}; {result.runs} runs, seed {result.seed}")
-        fig.legend(handles, labels + [h.get_label() for h in fault_handles],
-                   loc="outside right upper", fontsize="small", title="method",
-                   title_fontsize="small", frameon=False)
+        _titles(
+            fig,
+            sc,
+            title,
+            f"scenario '{sc.name}': estimation error per state, "
+            f"{condition}; {result.runs} runs, seed {result.seed}",
+        )
+        fig.legend(
+            handles,
+            labels + [h.get_label() for h in fault_handles],
+            loc="outside right upper",
+            fontsize="small",
+            title="method",
+            title_fontsize="small",
+            frameon=False,
+        )
     else:
         axs[0].legend(handles=handles, fontsize="x-small")
     return fig
@@ -405,8 +439,9 @@ def error_figure(
 
 def _method_grid(result, methods, field: str, axes, empty_message: str):
     """Methods whose result has ``field`` (not None) and a grid of axes, one per method."""
-    names = [m for m in _select(result.results, methods)
-             if getattr(result.results[m], field) is not None]
+    names = [
+        m for m in _select(result.results, methods) if getattr(result.results[m], field) is not None
+    ]
     if not names:
         raise ValueError(empty_message)
     ncols = _grid_cols(len(names))
@@ -444,9 +479,13 @@ def sharing_figure(
         If no selected method has sharing coefficients.
     """
     sc = result.scenario
-    names, fig, axs = _method_grid(result, methods, "beta", axes,
-                                   "sharing_figure: no selected method has sharing "
-                                   "coefficients (beta)")
+    names, fig, axs = _method_grid(
+        result,
+        methods,
+        "beta",
+        axes,
+        "sharing_figure: no selected method has sharing coefficients (beta)",
+    )
     t = sc.times
     colours = _sensor_colours(sc.sensor_names)
     fault_handles: list = []
@@ -464,15 +503,18 @@ def sharing_figure(
     for ax in axs:  # after all lines: set_ylim turns autoscaling off
         ax.set_ylim(0.0, 1.05 * top if top > 0.0 else 1.0)
     _label_grid(axs, "sharing coefficient β [-]", every=axes is not None)
-    handles = [Line2D([], [], color=colours[s], lw=w, label=f"{s} (mean over runs)")
-               for s, w in zip(sc.sensor_names, widths, strict=True)]
+    handles = [
+        Line2D([], [], color=colours[s], lw=w, label=f"{s} (mean over runs)")
+        for s, w in zip(sc.sensor_names, widths, strict=True)
+    ]
     handles.append(Line2D([], [], color="0.3", lw=0.9, ls=":", label="run 0"))
     handles += fault_handles
     if axes is None:
-        fig.suptitle(f"Federated sharing coefficients β_i per sensor\n"
-                     f"scenario '{sc.name}', {result.runs} runs")
-        fig.legend(handles=handles, loc="outside right upper", fontsize="small",
-                   frameon=False)
+        fig.suptitle(
+            f"Federated sharing coefficients β_i per sensor\n"
+            f"scenario '{sc.name}', {result.runs} runs"
+        )
+        fig.legend(handles=handles, loc="outside right upper", fontsize="small", frameon=False)
     else:
         axs[0].legend(handles=handles, fontsize="x-small")
     return fig
@@ -508,8 +550,9 @@ def fault_flag_figure(
         If no selected method has fault flags.
     """
     sc = result.scenario
-    names, fig, axs = _method_grid(result, methods, "flag", axes,
-                                   "fault_flag_figure: no selected method has fault flags")
+    names, fig, axs = _method_grid(
+        result, methods, "flag", axes, "fault_flag_figure: no selected method has fault flags"
+    )
     t = sc.times
     colours = _sensor_colours(sc.sensor_names)
     detectable = [f for f in sc.faults if f.kind != "outage"]
@@ -518,10 +561,10 @@ def fault_flag_figure(
     for ax, name in zip(axs, names, strict=True):
         frac = result.results[name].flag.mean(axis=0)  # (K, N)
         for f in detectable:
-            ax.axvspan(f.start, f.end, ymax=1.0, color=colours[f.sensor], alpha=0.13,
-                       lw=0.0, zorder=0)
-            ax.hlines(1.0, f.start, f.end, color=colours[f.sensor], lw=3.0, alpha=0.5,
-                      zorder=1)
+            ax.axvspan(
+                f.start, f.end, ymax=1.0, color=colours[f.sensor], alpha=0.13, lw=0.0, zorder=0
+            )
+            ax.hlines(1.0, f.start, f.end, color=colours[f.sensor], lw=3.0, alpha=0.5, zorder=1)
         for i, s in enumerate(sc.sensor_names):
             ax.step(t, frac[:, i], where="mid", color=colours[s], lw=widths[i], zorder=2)
         ax.set_title(name, fontsize="medium")
@@ -529,15 +572,19 @@ def fault_flag_figure(
         ax.set_ylim(-0.03, 1.05)
         ax.grid(True, lw=0.4, alpha=0.6)
     _label_grid(axs, "fraction of runs flagging [-]", every=axes is not None)
-    handles = [Line2D([], [], color=colours[s], lw=w, label=f"{s}: fraction flagged")
-               for s, w in zip(sc.sensor_names, widths, strict=True)]
-    handles += [Patch(facecolor=colours[s], alpha=0.3, label=f"{s}: true fault window")
-                for s in faulty]
+    handles = [
+        Line2D([], [], color=colours[s], lw=w, label=f"{s}: fraction flagged")
+        for s, w in zip(sc.sensor_names, widths, strict=True)
+    ]
+    handles += [
+        Patch(facecolor=colours[s], alpha=0.3, label=f"{s}: true fault window") for s in faulty
+    ]
     if axes is None:
-        fig.suptitle(f"Fault flags (after hysteresis): fraction of runs flagging each sensor\n"
-                     f"scenario '{sc.name}', {result.runs} runs")
-        fig.legend(handles=handles, loc="outside right upper", fontsize="small",
-                   frameon=False)
+        fig.suptitle(
+            f"Fault flags (after hysteresis): fraction of runs flagging each sensor\n"
+            f"scenario '{sc.name}', {result.runs} runs"
+        )
+        fig.legend(handles=handles, loc="outside right upper", fontsize="small", frameon=False)
     else:
         axs[0].legend(handles=handles, fontsize="x-small")
     return fig
@@ -559,8 +606,9 @@ def default_figures(result: ScenarioResult) -> tuple[FigureSpec, ...]:
         suffix = "" if g == 1 else f"_{g}"
         title = base if len(groups) == 1 else f"{base} (methods, part {g} of {len(groups)})"
         if result.fault_free or not sc.faults:
-            specs.append(FigureSpec(f"error_no_fault{suffix}", title, names,
-                                    condition="fault-free"))
+            specs.append(
+                FigureSpec(f"error_no_fault{suffix}", title, names, condition="fault-free")
+            )
         if sc.faults:
             specs.append(FigureSpec(f"error_fault{suffix}", title, names))
     return tuple(specs)
@@ -569,11 +617,17 @@ def default_figures(result: ScenarioResult) -> tuple[FigureSpec, ...]:
 def draw_figure(result: ScenarioResult, spec: FigureSpec) -> Figure:
     """The figure ``spec`` asks for (kind ``errors``: :func:`error_figure`)."""
     if spec.kind != "errors":
-        raise ValueError(f"figure {spec.name!r}: kind {spec.kind!r} needs an integrated run "
-                         "(ftnav.plot.integrated)")
-    return error_figure(result, fault_free=spec.condition == "fault-free",
-                        states=spec.states or None, methods=spec.methods,
-                        title=spec.title or None)
+        raise ValueError(
+            f"figure {spec.name!r}: kind {spec.kind!r} needs an integrated run "
+            "(ftnav.plot.integrated)"
+        )
+    return error_figure(
+        result,
+        fault_free=spec.condition == "fault-free",
+        states=spec.states or None,
+        methods=spec.methods,
+        title=spec.title or None,
+    )
 
 
 def save_all(result: ScenarioResult, out_dir: str | pathlib.Path) -> list[pathlib.Path]:
@@ -598,8 +652,7 @@ def save_all(result: ScenarioResult, out_dir: str | pathlib.Path) -> list[pathli
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     specs = result.scenario.figures or default_figures(result)
-    figures: list[tuple[str, Figure]] = [(f"{s.name}.png", draw_figure(result, s))
-                                         for s in specs]
+    figures: list[tuple[str, Figure]] = [(f"{s.name}.png", draw_figure(result, s)) for s in specs]
     if any(r.beta is not None for r in result.results.values()):
         figures.append(("sharing.png", sharing_figure(result)))
     if any(r.flag is not None for r in result.results.values()):

@@ -42,12 +42,21 @@ from ftnav.sim.ins_data import fault_profiles
 from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
 from ftnav.sim.scenario import FigureSpec
 
-__all__ = ["local_fused_figure", "method_error_figure", "vb_noise_figure", "default_figures",
-           "draw_figure", "save_integrated"]
+__all__ = [
+    "local_fused_figure",
+    "method_error_figure",
+    "vb_noise_figure",
+    "default_figures",
+    "draw_figure",
+    "save_integrated",
+]
 
 #: The states of each quantity's figure; the position figure adds the horizontal error.
-QUANTITIES = {"position": (*METRIC_STATES[0:3], POSITION_NORMS[0]),
-              "velocity": METRIC_STATES[3:6], "attitude": METRIC_STATES[6:9]}
+QUANTITIES = {
+    "position": (*METRIC_STATES[0:3], POSITION_NORMS[0]),
+    "velocity": METRIC_STATES[3:6],
+    "attitude": METRIC_STATES[6:9],
+}
 
 _DPI = 110
 
@@ -56,9 +65,14 @@ def _names(methods: str | Sequence[str]) -> list[str]:
     return [methods] if isinstance(methods, str) else list(methods)
 
 
-def method_error_figure(sr, methods: Sequence[str], quantity: str = "position",
-                        fault_free: bool = False, states: Sequence[str] | None = None,
-                        title: str | None = None) -> Figure:
+def method_error_figure(
+    sr,
+    methods: Sequence[str],
+    quantity: str = "position",
+    fault_free: bool = False,
+    states: Sequence[str] | None = None,
+    title: str | None = None,
+) -> Figure:
     """Paper 002 Fig. 2, 4: RMS over runs of the output errors of a few methods.
 
     ``states`` default to the ``quantity``'s (:data:`QUANTITIES`); at most
@@ -66,13 +80,24 @@ def method_error_figure(sr, methods: Sequence[str], quantity: str = "position",
     """
     if quantity not in QUANTITIES:
         raise ValueError(f"quantity: expected one of {list(QUANTITIES)}, got {quantity!r}")
-    return error_figure(sr, fault_free=fault_free, states=states or QUANTITIES[quantity],
-                        methods=methods, title=title, run0=False)
+    return error_figure(
+        sr,
+        fault_free=fault_free,
+        states=states or QUANTITIES[quantity],
+        methods=methods,
+        title=title,
+        run0=False,
+    )
 
 
-def local_fused_figure(ir, method: str | Sequence[str], fault_free: bool = False,
-                       run: int = 0, states: Sequence[str] = ("pos_N_m", "pos_E_m"),
-                       title: str | None = None) -> Figure:
+def local_fused_figure(
+    ir,
+    method: str | Sequence[str],
+    fault_free: bool = False,
+    run: int = 0,
+    states: Sequence[str] = ("pos_N_m", "pos_E_m"),
+    title: str | None = None,
+) -> Figure:
     """Paper 001 Fig. 4 (``fault_free=True``) / Fig. 5: local and fused position errors.
 
     Parameters
@@ -113,12 +138,23 @@ def local_fused_figure(ir, method: str | Sequence[str], fault_free: bool = False
         j = METRIC_STATES.index(s)
         if loc is not None:
             for i, name in enumerate(sc.sensor_names):
-                ax.plot(t, loc.pos[run, :, i, j], lw=0.8, color=sensors[name], alpha=0.8,
-                        label=f"SINS/{name} local ({names[0]})")
+                ax.plot(
+                    t,
+                    loc.pos[run, :, i, j],
+                    lw=0.8,
+                    color=sensors[name],
+                    alpha=0.8,
+                    label=f"SINS/{name} local ({names[0]})",
+                )
         for k, name in enumerate(names):
-            ax.plot(t, pool[name].x[run, :, j], lw=1.6 if k == 0 else 1.1,
-                    color=colours[k],
-                    linestyle="-" if k == 0 else "--", label=f"fused ({name})")
+            ax.plot(
+                t,
+                pool[name].x[run, :, j],
+                lw=1.6 if k == 0 else 1.1,
+                color=colours[k],
+                linestyle="-" if k == 0 else "--",
+                label=f"fused ({name})",
+            )
         fault_handles = _shade_faults(ax, sc, injected)
         ax.set_title(f"{_state_label(s)} error, run {run}", fontsize="medium")
         ax.set_ylabel("error [m]")
@@ -126,11 +162,21 @@ def local_fused_figure(ir, method: str | Sequence[str], fault_free: bool = False
         ax.set_xlim(0.0, t[-1])
     axs[-1].set_xlabel("time [s]")
     what = "" if loc is not None else f" ({names[0]} has no local filters)"
-    _titles(fig, sc, title, f"scenario '{sc.name}': local and fused position errors{what}, "
-            f"{condition}; run {run} of {sr.runs}")
+    _titles(
+        fig,
+        sc,
+        title,
+        f"scenario '{sc.name}': local and fused position errors{what}, "
+        f"{condition}; run {run} of {sr.runs}",
+    )
     handles, labels = axs[0].get_legend_handles_labels()
-    fig.legend(handles + fault_handles, labels + [h.get_label() for h in fault_handles],
-               loc="outside right upper", fontsize="small", frameon=False)
+    fig.legend(
+        handles + fault_handles,
+        labels + [h.get_label() for h in fault_handles],
+        loc="outside right upper",
+        fontsize="small",
+        frameon=False,
+    )
     return fig
 
 
@@ -139,13 +185,18 @@ def _true_sigma(aid, sc, sensor: str) -> np.ndarray | None:
     if not hasattr(aid, "pos_white_sigma_m"):
         return None
     _, scale = fault_profiles(sc.faults, sensor, sc.times, aid.dim)
-    white = np.concatenate([np.broadcast_to(np.asarray(aid.pos_white_sigma_m, float), (3,)),
-                            np.broadcast_to(np.asarray(aid.vel_white_sigma_m_s, float), (3,))])
+    white = np.concatenate(
+        [
+            np.broadcast_to(np.asarray(aid.pos_white_sigma_m, float), (3,)),
+            np.broadcast_to(np.asarray(aid.vel_white_sigma_m_s, float), (3,)),
+        ]
+    )
     return white[: aid.dim] * np.asarray(scale, float).reshape(-1, 1)
 
 
-def vb_noise_figure(sr, method: str | Sequence[str], sensor: str = "gnss",
-                    title: str | None = None) -> Figure:
+def vb_noise_figure(
+    sr, method: str | Sequence[str], sensor: str = "gnss", title: str | None = None
+) -> Figure:
     """Paper 002 Fig. 3, 5: VB estimate of the noise σ of each measurement vs the truth.
 
     One panel per measurement component of ``sensor``: the mean over runs of each
@@ -170,8 +221,13 @@ def vb_noise_figure(sr, method: str | Sequence[str], sensor: str = "gnss",
     fault_handles: list = []
     for j, (ax, comp) in enumerate(zip(axs, comps, strict=True)):
         for name in names:
-            ax.plot(t, np.sqrt(sr.results[name].R_hat[i][:, :, j]).mean(0), lw=1.0,
-                    label=f"VB σ̂ ({name})", **styles[name])
+            ax.plot(
+                t,
+                np.sqrt(sr.results[name].R_hat[i][:, :, j]).mean(0),
+                lw=1.0,
+                label=f"VB σ̂ ({name})",
+                **styles[name],
+            )
         if truth is not None:
             ax.plot(t, truth[:, j], "k--", lw=1.0, label="true σ")
         fault_handles = _shade_faults(ax, sc, sensor=sensor)
@@ -183,11 +239,20 @@ def vb_noise_figure(sr, method: str | Sequence[str], sensor: str = "gnss",
             ax.set_ylabel("noise σ [measurement units]")
         if spec.is_last_row() or j + ncols >= len(comps):
             ax.set_xlabel("time [s]")
-    _titles(fig, sc, title, f"scenario '{sc.name}': VB estimate of the {sensor} noise σ, mean "
-            f"over {sr.runs} runs")
+    _titles(
+        fig,
+        sc,
+        title,
+        f"scenario '{sc.name}': VB estimate of the {sensor} noise σ, mean over {sr.runs} runs",
+    )
     handles, labels = axs[0].get_legend_handles_labels()
-    fig.legend(handles + fault_handles, labels + [h.get_label() for h in fault_handles],
-               loc="outside right upper", fontsize="small", frameon=False)
+    fig.legend(
+        handles + fault_handles,
+        labels + [h.get_label() for h in fault_handles],
+        loc="outside right upper",
+        fontsize="small",
+        frameon=False,
+    )
     return fig
 
 
@@ -208,22 +273,34 @@ def default_figures(ir) -> tuple[FigureSpec, ...]:
     for g, names in enumerate(groups, 1):
         suffix = "" if g == 1 else f"_{g}"
         title = base if len(groups) == 1 else f"{base} (methods, part {g} of {len(groups)})"
-        specs += [FigureSpec(f"errors_{q}{suffix}", title, names, states)
-                  for q, states in QUANTITIES.items()]
+        specs += [
+            FigureSpec(f"errors_{q}{suffix}", title, names, states)
+            for q, states in QUANTITIES.items()
+        ]
     for name in sr.results:
         if ir.local.get(name) is None:
             continue
-        specs.append(FigureSpec(f"local_fused_{name}", base, (name,), ("pos_N_m", "pos_E_m"),
-                                "local-fused"))
+        specs.append(
+            FigureSpec(f"local_fused_{name}", base, (name,), ("pos_N_m", "pos_E_m"), "local-fused")
+        )
         if sr.fault_free:
-            specs.append(FigureSpec(f"local_fused_{name}_fault_free", base, (name,),
-                                    ("pos_N_m", "pos_E_m"), "local-fused", "fault-free"))
+            specs.append(
+                FigureSpec(
+                    f"local_fused_{name}_fault_free",
+                    base,
+                    (name,),
+                    ("pos_N_m", "pos_E_m"),
+                    "local-fused",
+                    "fault-free",
+                )
+            )
     for m in sc.methods:
         if m.adaptive_noise == "none" or m.name not in sr.results:
             continue
         for s in m.vb_sensors or sc.sensor_names:
-            specs.append(FigureSpec(f"vb_noise_{m.name}_{s}", base, (m.name,), (), "vb-noise",
-                                    sensor=s))
+            specs.append(
+                FigureSpec(f"vb_noise_{m.name}_{s}", base, (m.name,), (), "vb-noise", sensor=s)
+            )
     return tuple(specs)
 
 
@@ -232,12 +309,19 @@ def draw_figure(ir, spec: FigureSpec) -> Figure:
     title = spec.title or None
     fault_free = spec.condition == "fault-free"
     if spec.kind == "local-fused":
-        return local_fused_figure(ir, spec.methods, fault_free,
-                                  states=spec.states or ("pos_N_m", "pos_E_m"), title=title)
+        return local_fused_figure(
+            ir, spec.methods, fault_free, states=spec.states or ("pos_N_m", "pos_E_m"), title=title
+        )
     if spec.kind == "vb-noise":
         return vb_noise_figure(ir.result, spec.methods, spec.sensor, title=title)
-    return error_figure(ir.result, fault_free=fault_free, states=spec.states or None,
-                        methods=spec.methods, title=title, run0=False)
+    return error_figure(
+        ir.result,
+        fault_free=fault_free,
+        states=spec.states or None,
+        methods=spec.methods,
+        title=title,
+        run0=False,
+    )
 
 
 def save_integrated(ir, out_dir) -> list[pathlib.Path]:

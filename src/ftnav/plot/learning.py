@@ -47,8 +47,15 @@ def detector_figure(report, title: str = ""):
         frac = cm / np.maximum(cm.sum(1, keepdims=True), 1)
         ax.imshow(frac, cmap="Blues", vmin=0, vmax=1)
         for (a, b), v in np.ndenumerate(cm):
-            ax.text(b, a, f"{v}\n({frac[a, b]:.1%})", ha="center", va="center",
-                    color="white" if frac[a, b] > 0.6 else "black", fontsize=9)
+            ax.text(
+                b,
+                a,
+                f"{v}\n({frac[a, b]:.1%})",
+                ha="center",
+                va="center",
+                color="white" if frac[a, b] > 0.6 else "black",
+                fontsize=9,
+            )
         ax.set_xticks([0, 1], ["no alarm", "alarm"])
         ax.set_yticks([0, 1], ["healthy", "faulty"])
         ax.set_title(f"{s}: RBF flags (after hysteresis)")
@@ -87,8 +94,15 @@ def fusion_figure(model, report, title: str = ""):
         W = model.weights[:, j]
         ax.imshow(W, cmap="viridis", vmin=0, vmax=1, aspect="auto")
         for (a, b), v in np.ndenumerate(W):
-            ax.text(b, a, f"{v:.2f}", ha="center", va="center",
-                    color="black" if v > 0.6 else "white", fontsize=9)
+            ax.text(
+                b,
+                a,
+                f"{v:.2f}",
+                ha="center",
+                va="center",
+                color="black" if v > 0.6 else "white",
+                fontsize=9,
+            )
         ax.set_xticks(range(len(model.inputs)), model.inputs)
         ax.set_yticks(range(len(configs)), configs)
         ax.set_xlabel("input")

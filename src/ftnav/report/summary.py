@@ -31,8 +31,15 @@ from ftnav.eval.evaluate import MethodMetrics, split_unit
 from ftnav.eval.montecarlo import ScenarioResult
 from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
 
-__all__ = ["Column", "Table", "summary_tables", "fault_states", "results_table",
-           "detector_table", "markdown_report"]
+__all__ = [
+    "Column",
+    "Table",
+    "summary_tables",
+    "fault_states",
+    "results_table",
+    "detector_table",
+    "markdown_report",
+]
 
 #: Terminal tables wider than this are split into column blocks.
 WIDTH = 100
@@ -72,13 +79,16 @@ def _state_column(name: str) -> Column:
     prefix, _, component = stem.rpartition("_")
     markdown = f"{stem} [{unit}]"
     if prefix:
-        return Column(name, f"{_QUANTITIES.get(prefix, prefix)} [{unit}]",
-                      _COMPONENTS.get(component, component), markdown)
+        return Column(
+            name,
+            f"{_QUANTITIES.get(prefix, prefix)} [{unit}]",
+            _COMPONENTS.get(component, component),
+            markdown,
+        )
     return Column(name, f"[{unit}]", stem, markdown)
 
 
-def _state_columns(result: ScenarioResult, metrics: dict[str, MethodMetrics]
-                   ) -> tuple[Column, ...]:
+def _state_columns(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> tuple[Column, ...]:
     """Every state in model order; the horizontal and 3-D error after the position states."""
     states = list(result.scenario.model.states)
     keys = set().union(*(m.rmse for m in metrics.values())) if metrics else set()
@@ -137,32 +147,58 @@ def summary_tables(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
     """
     sc = result.scenario
     cols = _state_columns(result, metrics)
-    units = ("in the scenario's state units" if not any(c.group != "state" for c in cols)
-             else "units in brackets")
-    tables = [Table(f"RMSE over the evaluation window (mean over runs of each run's RMSE; "
-                    f"{units})", cols,
-                    tuple((n, _values(m.rmse, cols)) for n, m in metrics.items()))]
+    units = (
+        "in the scenario's state units"
+        if not any(c.group != "state" for c in cols)
+        else "units in brackets"
+    )
+    tables = [
+        Table(
+            f"RMSE over the evaluation window (mean over runs of each run's RMSE; {units})",
+            cols,
+            tuple((n, _values(m.rmse, cols)) for n, m in metrics.items()),
+        )
+    ]
     if any(m.rmse_fault for m in metrics.values()):
         by_state: dict[str, list[str]] = {}
         for sensor, key in fault_states(sc).items():
             by_state.setdefault(key, []).append(sensor)
-        acts = "; ".join(f"{_state_column(k).markdown} ({', '.join(v)})"
-                         for k, v in by_state.items())
+        acts = "; ".join(
+            f"{_state_column(k).markdown} ({', '.join(v)})" for k, v in by_state.items()
+        )
         note = f"The faults act on: {acts}." if acts else ""
         inside = {n: _values(m.rmse_fault, cols) for n, m in metrics.items()}
-        tables.append(Table("RMSE inside the fault windows, with the faults", cols,
-                            tuple(inside.items()), note))
-        twin = {n: _values(m.fault_free and m.fault_free["rmse_fault_window"], cols)
-                for n, m in metrics.items()}
+        tables.append(
+            Table(
+                "RMSE inside the fault windows, with the faults", cols, tuple(inside.items()), note
+            )
+        )
+        twin = {
+            n: _values(m.fault_free and m.fault_free["rmse_fault_window"], cols)
+            for n, m in metrics.items()
+        }
         if any(v is not None for row in twin.values() for v in row):
-            tables.append(Table("RMSE on the same epochs of the fault-free twin (identical "
-                                "noise, faults removed)", cols, tuple(twin.items())))
-            ratio = tuple((n, tuple(_ratio(a, b) for a, b in zip(inside[n], twin[n],
-                                                                  strict=True)))
-                          for n in metrics)
-            tables.append(Table("Ratio in fault / fault-free twin, per state (1 = the fault "
-                                "does not reach the state)",
-                                tuple(c._replace(fmt="ratio") for c in cols), ratio, note))
+            tables.append(
+                Table(
+                    "RMSE on the same epochs of the fault-free twin (identical "
+                    "noise, faults removed)",
+                    cols,
+                    tuple(twin.items()),
+                )
+            )
+            ratio = tuple(
+                (n, tuple(_ratio(a, b) for a, b in zip(inside[n], twin[n], strict=True)))
+                for n in metrics
+            )
+            tables.append(
+                Table(
+                    "Ratio in fault / fault-free twin, per state (1 = the fault "
+                    "does not reach the state)",
+                    tuple(c._replace(fmt="ratio") for c in cols),
+                    ratio,
+                    note,
+                )
+            )
     tables.append(_detection_table(result, metrics))
     return tables
 
@@ -174,11 +210,13 @@ def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) 
     faulty = list(fault_states(sc))
     if any(m.detection for m in metrics.values()):
         for s in faulty:
-            cols += [Column(f"{s}:rate", f"sensor {s}", "Pd", f"{s} Pd", "rate"),
-                     Column(f"{s}:mean_delay_s", f"sensor {s}", "delay [s]",
-                            f"{s} delay [s]", "delay")]
-        cols.append(Column("false_alarm_rate", "all sensors", "false alarms",
-                           "false alarms (max)", "small"))
+            cols += [
+                Column(f"{s}:rate", f"sensor {s}", "Pd", f"{s} Pd", "rate"),
+                Column(f"{s}:mean_delay_s", f"sensor {s}", "delay [s]", f"{s} delay [s]", "delay"),
+            ]
+        cols.append(
+            Column("false_alarm_rate", "all sensors", "false alarms", "false alarms (max)", "small")
+        )
     rows = []
     for name, m in metrics.items():
         values: list[float | None] = [m.anees]
@@ -187,13 +225,16 @@ def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) 
             for s in faulty:
                 d = det.get(s) or {}
                 values += [d.get("rate"), d.get("mean_delay_s")]
-            fas = [d["false_alarm_rate"] for d in det.values()
-                   if d["false_alarm_rate"] is not None]
+            fas = [d["false_alarm_rate"] for d in det.values() if d["false_alarm_rate"] is not None]
             values.append(max(fas) if fas else None)
         rows.append((name, tuple(values)))
-    return Table(f"Consistency (ANEES, {n} for a consistent filter) and detection of each "
-                 "faulty sensor (Pd per epoch, mean delay; false alarms per clean epoch, "
-                 "largest over sensors)", tuple(cols), tuple(rows))
+    return Table(
+        f"Consistency (ANEES, {n} for a consistent filter) and detection of each "
+        "faulty sensor (Pd per epoch, mean delay; false alarms per clean epoch, "
+        "largest over sensors)",
+        tuple(cols),
+        tuple(rows),
+    )
 
 
 # ---------------------------------------------------------------------------
@@ -242,17 +283,18 @@ def _render(table: Table, width: int = WIDTH) -> str:
     """Fixed-width text: title, group and label header lines, rows; split if too wide."""
     names = ["method"] + [r[0] for r in table.rows]
     name_w = max(len(s) for s in names)
-    cells = [[_format(v, c.fmt) for v, c in zip(vals, table.columns, strict=True)]
-             for _, vals in table.rows]
+    cells = [
+        [_format(v, c.fmt) for v, c in zip(vals, table.columns, strict=True)]
+        for _, vals in table.rows
+    ]
     groups = [c.group for c in table.columns]
-    widths = [max([len(c.label)] + [len(r[j]) for r in cells])
-              for j, c in enumerate(table.columns)]
+    widths = [max([len(c.label)] + [len(r[j]) for r in cells]) for j, c in enumerate(table.columns)]
     j = 0
     while j < len(groups):  # widen a group's last column until its label fits
         k = j
         while k + 1 < len(groups) and groups[k + 1] == groups[j]:
             k += 1
-        span = sum(widths[j:k + 1]) + 2 * (k - j)
+        span = sum(widths[j : k + 1]) + 2 * (k - j)
         widths[k] += max(0, len(groups[j]) - span)
         j = k + 1
     out = textwrap.wrap(table.title, width)
@@ -265,14 +307,16 @@ def _render(table: Table, width: int = WIDTH) -> str:
             k = j
             while k + 1 < block.stop and groups[k + 1] == groups[j]:
                 k += 1
-            span = sum(widths[j:k + 1]) + 2 * (k - j)
+            span = sum(widths[j : k + 1]) + 2 * (k - j)
             line_g += "  " + groups[j].ljust(span)
             j = k + 1
         for j in block:
             line_l += "  " + table.columns[j].label.ljust(widths[j])
         rule = "-" * name_w + "".join("  " + "-" * widths[j] for j in block)
-        rows = [name.ljust(name_w) + "".join("  " + r[j].ljust(widths[j]) for j in block)
-                for (name, _), r in zip(table.rows, cells, strict=True)]
+        rows = [
+            name.ljust(name_w) + "".join("  " + r[j].ljust(widths[j]) for j in block)
+            for (name, _), r in zip(table.rows, cells, strict=True)
+        ]
         out += [line_g.rstrip(), line_l.rstrip(), rule, *(r.rstrip() for r in rows)]
         if block.stop < len(widths):
             out.append("")
@@ -285,9 +329,12 @@ def _markdown(table: Table) -> list[str]:
     if table.note:
         md += [table.note, ""]
     md += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    md += ["| " + " | ".join([name] + [_format(v, c.fmt) for v, c in
-                                       zip(vals, table.columns, strict=True)]) + " |"
-           for name, vals in table.rows]
+    md += [
+        "| "
+        + " | ".join([name] + [_format(v, c.fmt) for v, c in zip(vals, table.columns, strict=True)])
+        + " |"
+        for name, vals in table.rows
+    ]
     return md
 
 
@@ -303,8 +350,19 @@ def _detector_rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
     """
     sc = result.scenario
     dt = sc.dt
-    header = ["method", "detector", "sensor", "Pd", "events", "false alarms", "median delay [ep]",
-              "recovery [s]", "RMSE of", "in fault", "out of fault"]
+    header = [
+        "method",
+        "detector",
+        "sensor",
+        "Pd",
+        "events",
+        "false alarms",
+        "median delay [ep]",
+        "recovery [s]",
+        "RMSE of",
+        "in fault",
+        "out of fault",
+    ]
     rows = []
     own = fault_states(sc)
     detectors = {m.name: m.detector for m in sc.methods}
@@ -314,13 +372,21 @@ def _detector_rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
         for s, key in own.items():
             d = m.detection[s]
             delay = None if d["median_delay_s"] is None else d["median_delay_s"] / dt
-            rows.append([name, detectors.get(name, ""), s, _format(d["rate"], "rate"),
-                         _format(d["event_rate"], "ratio"),
-                         _format(d["false_alarm_rate"], "small"), _format(delay, "delay"),
-                         _format(d["mean_recovery_s"], "delay"),
-                         _state_column(key).markdown,
-                         _format(m.rmse_fault and m.rmse_fault.get(key)),
-                         _format(m.rmse_nofault and m.rmse_nofault.get(key))])
+            rows.append(
+                [
+                    name,
+                    detectors.get(name, ""),
+                    s,
+                    _format(d["rate"], "rate"),
+                    _format(d["event_rate"], "ratio"),
+                    _format(d["false_alarm_rate"], "small"),
+                    _format(delay, "delay"),
+                    _format(d["mean_recovery_s"], "delay"),
+                    _state_column(key).markdown,
+                    _format(m.rmse_fault and m.rmse_fault.get(key)),
+                    _format(m.rmse_nofault and m.rmse_nofault.get(key)),
+                ]
+            )
     return header, rows
 
 
@@ -328,8 +394,9 @@ def _fixed(header, rows) -> str:
     widths = [max(len(str(r[c])) for r in [header] + rows) for c in range(len(header))]
     line = "  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True))
     out = [line.rstrip(), "-" * len(line.rstrip())]
-    out += ["  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
-            for r in rows]
+    out += [
+        "  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows
+    ]
     return "\n".join(out)
 
 
@@ -339,8 +406,9 @@ def detector_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
     return _fixed(header, rows) if rows else ""
 
 
-def results_table(result: ScenarioResult, metrics: dict[str, MethodMetrics],
-                  width: int = WIDTH) -> str:
+def results_table(
+    result: ScenarioResult, metrics: dict[str, MethodMetrics], width: int = WIDTH
+) -> str:
     """The tables of :func:`summary_tables` as fixed-width text, at most ``width`` wide.
 
     A table with more columns than fit is printed in blocks of columns, each with the
@@ -349,37 +417,57 @@ def results_table(result: ScenarioResult, metrics: dict[str, MethodMetrics],
     return "\n\n".join(_render(t, width) for t in summary_tables(result, metrics))
 
 
-def markdown_report(result: ScenarioResult, metrics: dict[str, MethodMetrics],
-                    claims: list[dict], figures: list[str]) -> str:
+def markdown_report(
+    result: ScenarioResult,
+    metrics: dict[str, MethodMetrics],
+    claims: list[dict],
+    figures: list[str],
+) -> str:
     """The run's report: settings, tables, claims with measured numbers, figures."""
     sc = result.scenario
-    md = [f"# ftnav run: {sc.name}", "", sc.description, "",
-          f"{result.runs} Monte Carlo runs, root seed {result.seed}, {sc.steps} epochs of "
-          f"{sc.dt} s. One column per state; 'in the fault windows' = epochs inside a fault "
-          "window; 'fault-free twin' = the same epochs of a twin run on identical noise with "
-          "the faults removed; the ratio is their quotient per state, so a fault shows in "
-          "the state it reaches. Linear states are in the scenario's own units; states whose "
-          "name ends in a unit carry it in brackets. Pd, false alarms (per epoch) and delay "
-          "refer to each faulty sensor under each method's own detector.", ""]
+    md = [
+        f"# ftnav run: {sc.name}",
+        "",
+        sc.description,
+        "",
+        f"{result.runs} Monte Carlo runs, root seed {result.seed}, {sc.steps} epochs of "
+        f"{sc.dt} s. One column per state; 'in the fault windows' = epochs inside a fault "
+        "window; 'fault-free twin' = the same epochs of a twin run on identical noise with "
+        "the faults removed; the ratio is their quotient per state, so a fault shows in "
+        "the state it reaches. Linear states are in the scenario's own units; states whose "
+        "name ends in a unit carry it in brackets. Pd, false alarms (per epoch) and delay "
+        "refer to each faulty sensor under each method's own detector.",
+        "",
+    ]
     for t in summary_tables(result, metrics):
         md += _markdown(t) + [""]
     dh, drows = _detector_rows(result, metrics)
     if drows:
-        md += ["## Detectors side by side", "",
-               "Per method with a detector and per faulty sensor: per-epoch detection rate, "
-               "detected events, false alarms per clean epoch, median delay in epochs, mean "
-               "time to clear after the fault, and the RMSE of the state the sensor's fault "
-               "acts on inside and outside the fault windows.", "",
-               "| " + " | ".join(dh) + " |", "|" + "---|" * len(dh)]
+        md += [
+            "## Detectors side by side",
+            "",
+            "Per method with a detector and per faulty sensor: per-epoch detection rate, "
+            "detected events, false alarms per clean epoch, median delay in epochs, mean "
+            "time to clear after the fault, and the RMSE of the state the sensor's fault "
+            "acts on inside and outside the fault windows.",
+            "",
+            "| " + " | ".join(dh) + " |",
+            "|" + "---|" * len(dh),
+        ]
         md += ["| " + " | ".join(r) + " |" for r in drows]
         md.append("")
     if claims:
         md += ["## Claims checked", ""]
         for c in claims:
-            verdict = {True: "holds", False: "does NOT hold", None: "not decided"}[c["holds"]] \
-                if c.get("checked", True) else "not checked"
-            md.append(f"- **{c['source']}** — {c['claim']}: **{verdict}**."
-                      + (f" {c['note']}." if c["note"] else ""))
+            verdict = (
+                {True: "holds", False: "does NOT hold", None: "not decided"}[c["holds"]]
+                if c.get("checked", True)
+                else "not checked"
+            )
+            md.append(
+                f"- **{c['source']}** — {c['claim']}: **{verdict}**."
+                + (f" {c['note']}." if c["note"] else "")
+            )
             md.append(f"  Measured: `{_compact(c['measured'])}`")
         md.append("")
     if figures:

@@ -10,8 +10,9 @@ __all__ = ["builtin_names", "builtin_path", "builtin_profile_names", "builtin_pr
 
 def builtin_names() -> list[str]:
     """Names of the built-in scenarios."""
-    return sorted(p.name[:-5] for p in resources.files(__package__).iterdir()
-                  if p.name.endswith(".toml"))
+    return sorted(
+        p.name[:-5] for p in resources.files(__package__).iterdir() if p.name.endswith(".toml")
+    )
 
 
 def builtin_path(name: str) -> Path:
@@ -21,8 +22,11 @@ def builtin_path(name: str) -> Path:
 
 def builtin_profile_names() -> list[str]:
     """Names of the built-in flight profiles (``profiles/*.toml``)."""
-    return sorted(p.name[:-5] for p in (resources.files(__package__) / "profiles").iterdir()
-                  if p.name.endswith(".toml"))
+    return sorted(
+        p.name[:-5]
+        for p in (resources.files(__package__) / "profiles").iterdir()
+        if p.name.endswith(".toml")
+    )
 
 
 def builtin_profile_path(name: str) -> Path:

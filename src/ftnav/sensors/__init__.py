@@ -29,7 +29,18 @@ from ftnav.sensors.tan import Tan
 from ftnav.sensors.terrain import AnalyticTerrain, GridDem, Terrain
 
 __all__ = [
-    "AidTruth", "AidErrors", "Linearized", "AidingSensor", "run_generator", "markov_errors",
-    "Gnss", "Tan", "Doppler", "StarTracker", "Barometer", "AnalyticTerrain", "GridDem",
+    "AidTruth",
+    "AidErrors",
+    "Linearized",
+    "AidingSensor",
+    "run_generator",
+    "markov_errors",
+    "Gnss",
+    "Tan",
+    "Doppler",
+    "StarTracker",
+    "Barometer",
+    "AnalyticTerrain",
+    "GridDem",
     "Terrain",
 ]

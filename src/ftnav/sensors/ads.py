@@ -72,10 +72,14 @@ class Barometer:
     def __post_init__(self):
         check_common(self, ("assumed_sigma_m",))
         for field in ("sigma_m", "bias_sigma_m"):
-            object.__setattr__(self, field, check_float(self.name, field, getattr(self, field),
-                                                        low=0.0))
-        object.__setattr__(self, "bias_tau_s", check_float(
-            self.name, "bias_tau_s", self.bias_tau_s, low=0.0, strict=True))
+            object.__setattr__(
+                self, field, check_float(self.name, field, getattr(self, field), low=0.0)
+            )
+        object.__setattr__(
+            self,
+            "bias_tau_s",
+            check_float(self.name, "bias_tau_s", self.bias_tau_s, low=0.0, strict=True),
+        )
         check_bool(self.name, "bias_state", self.bias_state)
 
     @property
@@ -97,27 +101,39 @@ class Barometer:
         """The Markov bias state (``H = −1``) when ``bias_state``, else None."""
         if not self.bias_state:
             return None
-        return markov_private(("b_baro",), np.array([self.bias_sigma_m]),
-                              np.array([self.bias_tau_s]), self.dt, -np.ones((1, 1)))
+        return markov_private(
+            ("b_baro",),
+            np.array([self.bias_sigma_m]),
+            np.array([self.bias_tau_s]),
+            self.dt,
+            -np.ones((1, 1)),
+        )
 
-    def simulate_errors(self, truth: AidTruth, seed: int, runs: range,
-                        stream: int) -> AidErrors:
+    def simulate_errors(self, truth: AidTruth, seed: int, runs: range, stream: int) -> AidErrors:
         """``coloured = b``, ``white = n`` (B, K, 1) in m."""
         K = check_truth(truth, self.dt, self.name)
-        bias = markov_errors(seed, runs, stream, 0, K, np.array([self.bias_sigma_m]),
-                             np.array([self.bias_tau_s]), self.dt)
+        bias = markov_errors(
+            seed,
+            runs,
+            stream,
+            0,
+            K,
+            np.array([self.bias_sigma_m]),
+            np.array([self.bias_tau_s]),
+            self.dt,
+        )
         white = standard_normals(seed, runs, stream, 1, (K, 1)) * self.sigma_m
         return AidErrors(bias, white, np.zeros((len(runs), 0)))
 
-    def output(self, truth: AidTruth, errors_metric: np.ndarray,
-               constants: np.ndarray) -> np.ndarray:
+    def output(
+        self, truth: AidTruth, errors_metric: np.ndarray, constants: np.ndarray
+    ) -> np.ndarray:
         """Barometric altitude (B, K) m: ``h_baro = h + e``."""
         K = check_truth(truth, self.dt, self.name)
         e, _ = check_errors_metric(errors_metric, constants, (None, K, 1), 0)
         return np.asarray(truth.p, dtype=float)[:, 2] + e[..., 0]
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray,
-                raw_k: np.ndarray) -> Linearized:
+    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
         """``z = h̃ − h_baro`` (B, 1), ``H`` (B, 1, 18) with 1 on δh.
 
         Parameters

@@ -42,8 +42,17 @@ from ftnav.sim.imu import gauss_markov
 from ftnav.sim.scenario import PrivateStates
 
 __all__ = [
-    "N_STATES", "SENSOR_STREAM_OFFSET", "AidTruth", "AidErrors", "Linearized", "AidingSensor",
-    "run_generator", "standard_normals", "markov_errors", "markov_private", "check_truth",
+    "N_STATES",
+    "SENSOR_STREAM_OFFSET",
+    "AidTruth",
+    "AidErrors",
+    "Linearized",
+    "AidingSensor",
+    "run_generator",
+    "standard_normals",
+    "markov_errors",
+    "markov_private",
+    "check_truth",
     "check_errors_metric",
 ]
 
@@ -126,14 +135,17 @@ class AidingSensor(Protocol):
     @property
     def private(self) -> PrivateStates | None: ...
 
-    def simulate_errors(self, truth: AidTruth, seed: int, runs: range,
-                        stream: int) -> AidErrors: ...
+    def simulate_errors(
+        self, truth: AidTruth, seed: int, runs: range, stream: int
+    ) -> AidErrors: ...
 
-    def output(self, truth: AidTruth, errors_metric: np.ndarray,
-               constants: np.ndarray) -> np.ndarray: ...
+    def output(
+        self, truth: AidTruth, errors_metric: np.ndarray, constants: np.ndarray
+    ) -> np.ndarray: ...
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray,
-                raw_k: np.ndarray) -> Linearized: ...
+    def measure(
+        self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray
+    ) -> Linearized: ...
 
 
 def run_generator(seed: int, run: int, sensor_stream: int, component: int) -> np.random.Generator:
@@ -141,8 +153,11 @@ def run_generator(seed: int, run: int, sensor_stream: int, component: int) -> np
 
     ``Generator(SeedSequence(seed, spawn_key=(run, 1000 + sensor_stream, component)))``.
     """
-    return np.random.default_rng(np.random.SeedSequence(
-        seed, spawn_key=(run, SENSOR_STREAM_OFFSET + sensor_stream, component)))
+    return np.random.default_rng(
+        np.random.SeedSequence(
+            seed, spawn_key=(run, SENSOR_STREAM_OFFSET + sensor_stream, component)
+        )
+    )
 
 
 def _check_runs(seed, runs, stream) -> None:
@@ -153,8 +168,9 @@ def _check_runs(seed, runs, stream) -> None:
         raise ValueError(f"runs: expected a non-empty range of run indices >= 0, got {runs!r}")
 
 
-def standard_normals(seed: int, runs: range, stream: int, component: int,
-                     shape: tuple[int, ...]) -> np.ndarray:
+def standard_normals(
+    seed: int, runs: range, stream: int, component: int, shape: tuple[int, ...]
+) -> np.ndarray:
     """(B, *shape) standard normals; run ``runs[b]``'s block drawn in one call from its stream."""
     _check_runs(seed, runs, stream)
     out = np.empty((len(runs),) + tuple(shape))
@@ -163,8 +179,16 @@ def standard_normals(seed: int, runs: range, stream: int, component: int,
     return out
 
 
-def markov_errors(seed: int, runs: range, stream: int, component: int, K: int,
-                  sigma: np.ndarray, tau: np.ndarray, dt: float) -> np.ndarray:
+def markov_errors(
+    seed: int,
+    runs: range,
+    stream: int,
+    component: int,
+    K: int,
+    sigma: np.ndarray,
+    tau: np.ndarray,
+    dt: float,
+) -> np.ndarray:
     """(B, K, n) stationary first-order Gauss-Markov sequences (spec §8.4).
 
     Exact discrete form ``b_{k+1} = e^{−dt/τ} b_k + w_k``, ``var(w_k) = σ²(1 − e^{−2dt/τ})``,
@@ -181,8 +205,9 @@ def markov_errors(seed: int, runs: range, stream: int, component: int, K: int,
     return gauss_markov(white, sigma, tau, dt)
 
 
-def markov_private(names: tuple[str, ...], sigma: np.ndarray, tau: np.ndarray, dt: float,
-                   H: np.ndarray) -> PrivateStates:
+def markov_private(
+    names: tuple[str, ...], sigma: np.ndarray, tau: np.ndarray, dt: float, H: np.ndarray
+) -> PrivateStates:
     """Private first-order Gauss-Markov states: ``F = diag(e^{−dt/τ})``,
     ``Q = diag(σ²(1 − e^{−2dt/τ}))``, ``x0 = 0``, ``P0 = diag(σ²)`` (spec §8.4, §1.7)."""
     sigma = np.asarray(sigma, dtype=float)
@@ -214,8 +239,9 @@ def check_truth(truth: AidTruth, dt: float, prefix: str) -> int:
     return K
 
 
-def check_errors_metric(errors_metric, constants, B_K_m: tuple[int | None, int, int],
-                        c: int) -> tuple[np.ndarray, np.ndarray]:
+def check_errors_metric(
+    errors_metric, constants, B_K_m: tuple[int | None, int, int], c: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Validate ``errors_metric`` (B, K, m) and ``constants`` (B, c); return them as float."""
     e = np.asarray(errors_metric, dtype=float)
     _, K, m = B_K_m
@@ -229,8 +255,16 @@ def check_errors_metric(errors_metric, constants, B_K_m: tuple[int | None, int, 
 
 # ----------------------------------------------------------------------------- validation
 
-def check_float(prefix: str, name: str, value, *, low: float | None = None,
-                strict: bool = False, n: int | None = None):
+
+def check_float(
+    prefix: str,
+    name: str,
+    value,
+    *,
+    low: float | None = None,
+    strict: bool = False,
+    n: int | None = None,
+):
     """Validate a finite number (or ``n`` numbers) with an optional lower bound.
 
     Returns a float, or a tuple of ``n`` floats when ``n`` is given (a scalar is
@@ -259,8 +293,9 @@ def check_float(prefix: str, name: str, value, *, low: float | None = None,
 def check_choice(prefix: str, name: str, value, choices: tuple) -> None:
     """Raise ``ValueError("<prefix>.<name>: ...")`` unless ``value`` is one of ``choices``."""
     if value not in choices or isinstance(value, bool):
-        raise ValueError(f"{prefix}.{name}: expected one of {', '.join(map(repr, choices))}, "
-                         f"got {value!r}")
+        raise ValueError(
+            f"{prefix}.{name}: expected one of {', '.join(map(repr, choices))}, got {value!r}"
+        )
 
 
 def check_bool(prefix: str, name: str, value) -> None:
@@ -297,4 +332,3 @@ def as_batch(a, n: tuple[int, ...], name: str, B: int | None = None) -> np.ndarr
 def finite_or_zero(a: np.ndarray) -> np.ndarray:
     """``a`` with non-finite entries replaced by 0 (gated entries of :class:`Linearized`)."""
     return np.where(np.isfinite(a), a, 0.0)
-

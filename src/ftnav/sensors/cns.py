@@ -78,11 +78,14 @@ def dcm_n_to_e(L, lam) -> np.ndarray:
     L, lam = np.broadcast_arrays(np.asarray(L, dtype=float), np.asarray(lam, dtype=float))
     sL, cL, sl, cl = np.sin(L), np.cos(L), np.sin(lam), np.cos(lam)
     z = np.zeros_like(L)
-    return np.stack([
-        np.stack([-sl, -sL * cl, cL * cl], -1),
-        np.stack([cl, -sL * sl, cL * sl], -1),
-        np.stack([z, cL, sL], -1),
-    ], -2)
+    return np.stack(
+        [
+            np.stack([-sl, -sL * cl, cL * cl], -1),
+            np.stack([cl, -sL * sl, cL * sl], -1),
+            np.stack([z, cL, sL], -1),
+        ],
+        -2,
+    )
 
 
 def euler_jacobian(a: np.ndarray) -> np.ndarray:
@@ -133,8 +136,9 @@ class StarTracker:
 
     def __post_init__(self):
         check_common(self, ("assumed_sigma_arcsec",))
-        object.__setattr__(self, "sigma_arcsec",
-                           check_float(self.name, "sigma_arcsec", self.sigma_arcsec, low=0.0))
+        object.__setattr__(
+            self, "sigma_arcsec", check_float(self.name, "sigma_arcsec", self.sigma_arcsec, low=0.0)
+        )
         check_choice(self.name, "form", self.form, ("dcm", "euler"))
         check_bool(self.name, "position_coupling", self.position_coupling)
 
@@ -159,16 +163,16 @@ class StarTracker:
         """No private states."""
         return None
 
-    def simulate_errors(self, truth: AidTruth, seed: int, runs: range,
-                        stream: int) -> AidErrors:
+    def simulate_errors(self, truth: AidTruth, seed: int, runs: range, stream: int) -> AidErrors:
         """White metric error (B, K, 3) rad with σ = ``sigma_arcsec``."""
         K = check_truth(truth, self.dt, self.name)
         white = standard_normals(seed, runs, stream, 0, (K, 3)) * (self.sigma_arcsec * ARCSEC)
         B = len(runs)
         return AidErrors(np.zeros((B, K, 3)), white, np.zeros((B, 0)))
 
-    def output(self, truth: AidTruth, errors_metric: np.ndarray,
-               constants: np.ndarray) -> np.ndarray:
+    def output(
+        self, truth: AidTruth, errors_metric: np.ndarray, constants: np.ndarray
+    ) -> np.ndarray:
         """Device attitude quaternion (B, K, 4): ``q_b^n`` of C_CNS, or ``q_b^e`` with
         position coupling (module docstring)."""
         K = check_truth(truth, self.dt, self.name)
@@ -183,8 +187,7 @@ class StarTracker:
             C_cns = dcm_n_to_e(p[:, 0], p[:, 1]) @ C_cns
         return dcm_to_quat(C_cns)
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray,
-                raw_k: np.ndarray) -> Linearized:
+    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
         """``z`` (B, 3) rad and ``H`` (B, 3, 18) at the INS solution (module docstring).
 
         Parameters

@@ -105,12 +105,21 @@ class Doppler:
 
     def __post_init__(self):
         check_common(self, ("sigma_m_s",))
-        for field in ("scale_sigma", "markov_sigma_m_s", "white_sigma_m_s", "min_speed_m_s",
-                      "nominal_speed_m_s"):
-            object.__setattr__(self, field, check_float(self.name, field, getattr(self, field),
-                                                        low=0.0))
-        object.__setattr__(self, "markov_tau_s", check_float(
-            self.name, "markov_tau_s", self.markov_tau_s, low=0.0, strict=True))
+        for field in (
+            "scale_sigma",
+            "markov_sigma_m_s",
+            "white_sigma_m_s",
+            "min_speed_m_s",
+            "nominal_speed_m_s",
+        ):
+            object.__setattr__(
+                self, field, check_float(self.name, field, getattr(self, field), low=0.0)
+            )
+        object.__setattr__(
+            self,
+            "markov_tau_s",
+            check_float(self.name, "markov_tau_s", self.markov_tau_s, low=0.0, strict=True),
+        )
         check_bool(self.name, "attitude_coupling", self.attitude_coupling)
         check_choice(self.name, "states", self.states, ("white", "augment"))
 
@@ -127,8 +136,11 @@ class Doppler:
         elif self.states == "augment":
             var = self.white_sigma_m_s**2
         else:
-            var = (self.markov_sigma_m_s**2 + self.white_sigma_m_s**2
-                   + (self.scale_sigma * self.nominal_speed_m_s) ** 2)
+            var = (
+                self.markov_sigma_m_s**2
+                + self.white_sigma_m_s**2
+                + (self.scale_sigma * self.nominal_speed_m_s) ** 2
+            )
         return var * np.eye(2)
 
     @property
@@ -144,26 +156,35 @@ class Doppler:
         return PrivateStates(
             names=("dK", "dV_D"),
             F=np.diag([1.0, a]),
-            Q=np.diag([0.0, self.markov_sigma_m_s**2 * -np.expm1(-2.0 * self.dt
-                                                                / self.markov_tau_s)]),
+            Q=np.diag(
+                [0.0, self.markov_sigma_m_s**2 * -np.expm1(-2.0 * self.dt / self.markov_tau_s)]
+            ),
             x0=np.zeros(2),
             P0=np.diag([self.scale_sigma**2, self.markov_sigma_m_s**2]),
             H=np.array([[0.0, 0.0], [-self.nominal_speed_m_s, -1.0]]),
         )
 
-    def simulate_errors(self, truth: AidTruth, seed: int, runs: range,
-                        stream: int) -> AidErrors:
+    def simulate_errors(self, truth: AidTruth, seed: int, runs: range, stream: int) -> AidErrors:
         """``coloured = δV_D u_t``, ``white = n_D`` (B, K, 2), ``constants = δK`` (B, 1)."""
         K = check_truth(truth, self.dt, self.name)
         u, _ = _along_track(np.asarray(truth.v, dtype=float))
-        dvd = markov_errors(seed, runs, stream, 0, K, np.array([self.markov_sigma_m_s]),
-                            np.array([self.markov_tau_s]), self.dt)
+        dvd = markov_errors(
+            seed,
+            runs,
+            stream,
+            0,
+            K,
+            np.array([self.markov_sigma_m_s]),
+            np.array([self.markov_tau_s]),
+            self.dt,
+        )
         white = standard_normals(seed, runs, stream, 1, (K, 2)) * self.white_sigma_m_s
         dK = standard_normals(seed, runs, stream, 2, (1,)) * self.scale_sigma
         return AidErrors(dvd * u, white, dK)
 
-    def output(self, truth: AidTruth, errors_metric: np.ndarray,
-               constants: np.ndarray) -> np.ndarray:
+    def output(
+        self, truth: AidTruth, errors_metric: np.ndarray, constants: np.ndarray
+    ) -> np.ndarray:
         """Body-frame Doppler velocity (B, K, 3) m/s: ``C_n^b [(1 + δK) v_h + e; v_U]``."""
         K = check_truth(truth, self.dt, self.name)
         e, dK = check_errors_metric(errors_metric, constants, (None, K, 2), 1)
@@ -174,8 +195,7 @@ class Doppler:
         C = quat_to_dcm(truth.q)  # (K, 3, 3) C_b^n
         return np.einsum("kji,bkj->bki", C, vn)
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray,
-                raw_k: np.ndarray) -> Linearized:
+    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
         """``z = ṽ_h − (C̃_b^n v_D^b)_h`` (B, 2) and ``H`` at the INS solution.
 
         Parameters

@@ -113,18 +113,25 @@ class Gnss:
     dt: float = 1.0
 
     z_per_error: ClassVar[int] = -1
-    components: ClassVar[tuple[str, ...]] = ("pos_E", "pos_N", "pos_U", "vel_E", "vel_N",
-                                             "vel_U")
+    components: ClassVar[tuple[str, ...]] = ("pos_E", "pos_N", "pos_U", "vel_E", "vel_N", "vel_U")
 
     def __post_init__(self):
         check_common(self, ("pos_sigma_m", "vel_sigma_m_s"))
-        for field in ("pos_markov_sigma_m", "vel_markov_sigma_m_s", "pos_white_sigma_m",
-                      "vel_white_sigma_m_s"):
-            object.__setattr__(self, field, check_float(self.name, field, getattr(self, field),
-                                                        low=0.0, n=3))
+        for field in (
+            "pos_markov_sigma_m",
+            "vel_markov_sigma_m_s",
+            "pos_white_sigma_m",
+            "vel_white_sigma_m_s",
+        ):
+            object.__setattr__(
+                self, field, check_float(self.name, field, getattr(self, field), low=0.0, n=3)
+            )
         for field in ("pos_markov_tau_s", "vel_markov_tau_s"):
-            object.__setattr__(self, field, check_float(self.name, field, getattr(self, field),
-                                                        low=0.0, strict=True, n=3))
+            object.__setattr__(
+                self,
+                field,
+                check_float(self.name, field, getattr(self, field), low=0.0, strict=True, n=3),
+            )
         check_choice(self.name, "markov", self.markov, ("white", "augment", "difference"))
 
     @property
@@ -178,25 +185,46 @@ class Gnss:
         """
         if not self._augmented:
             return None
-        return markov_private(tuple(f"b_{c}" for c in self.components), self._markov_sigma,
-                              self._markov_tau, self.dt, -np.eye(6))
+        return markov_private(
+            tuple(f"b_{c}" for c in self.components),
+            self._markov_sigma,
+            self._markov_tau,
+            self.dt,
+            -np.eye(6),
+        )
 
-    def simulate_errors(self, truth: AidTruth, seed: int, runs: range,
-                        stream: int) -> AidErrors:
+    def simulate_errors(self, truth: AidTruth, seed: int, runs: range, stream: int) -> AidErrors:
         """Metric errors ``e = b + n`` (B, K, 6) of runs ``runs`` (module docstring)."""
         K = check_truth(truth, self.dt, self.name)
         # position draws in N, E, U order (module docstring), rows E, N, U
-        pos = markov_errors(seed, runs, stream, 0, K, np.array(self.pos_markov_sigma_m)[_EN],
-                            np.array(self.pos_markov_tau_s)[_EN], self.dt)[..., _EN]
-        vel = markov_errors(seed, runs, stream, 1, K, np.array(self.vel_markov_sigma_m_s),
-                            np.array(self.vel_markov_tau_s), self.dt)
+        pos = markov_errors(
+            seed,
+            runs,
+            stream,
+            0,
+            K,
+            np.array(self.pos_markov_sigma_m)[_EN],
+            np.array(self.pos_markov_tau_s)[_EN],
+            self.dt,
+        )[..., _EN]
+        vel = markov_errors(
+            seed,
+            runs,
+            stream,
+            1,
+            K,
+            np.array(self.vel_markov_sigma_m_s),
+            np.array(self.vel_markov_tau_s),
+            self.dt,
+        )
         white = standard_normals(seed, runs, stream, 2, (K, 6))
         white[..., :3] = white[..., _EN]
         white *= np.array(self.pos_white_sigma_m + self.vel_white_sigma_m_s)
         return AidErrors(np.concatenate([pos, vel], -1), white, np.zeros((len(runs), 0)))
 
-    def output(self, truth: AidTruth, errors_metric: np.ndarray,
-               constants: np.ndarray) -> np.ndarray:
+    def output(
+        self, truth: AidTruth, errors_metric: np.ndarray, constants: np.ndarray
+    ) -> np.ndarray:
         """Receiver output (B, K, 6) ``[L, λ, h (rad, rad, m), v_E, v_N, v_U (m/s)]``.
 
         ``p_GNSS = p + D_p(p)⁻¹ e_pos`` (``e_pos`` in E, N, U metres), ``v_GNSS = v + e_vel``.
@@ -207,8 +235,7 @@ class Gnss:
         dp = e[..., _EN] / d  # δL = δN/R_Mh, δλ = δE/(R_Nh cos L), δh = δU
         return np.concatenate([truth.p + dp, truth.v + e[..., 3:]], -1)
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray,
-                raw_k: np.ndarray) -> Linearized:
+    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
         """``z = [D_p(p̃)(p̃ − p_GNSS); ṽ − v_GNSS]`` (B, 6) and ``H`` at the INS solution.
 
         Parameters

@@ -90,13 +90,21 @@ class Tan:
     def __post_init__(self):
         check_common(self, ("sigma_m",))
         if not isinstance(self.terrain, Terrain):
-            raise ValueError(f"{self.name}.terrain: expected an AnalyticTerrain or GridDem, "
-                             f"got {type(self.terrain).__name__}")
-        for field in ("altimeter_sigma_m", "map_sigma_m", "min_slope", "min_clearance_m",
-                      "min_speed_m_s"):
+            raise ValueError(
+                f"{self.name}.terrain: expected an AnalyticTerrain or GridDem, "
+                f"got {type(self.terrain).__name__}"
+            )
+        for field in (
+            "altimeter_sigma_m",
+            "map_sigma_m",
+            "min_slope",
+            "min_clearance_m",
+            "min_speed_m_s",
+        ):
             low = None if field == "min_clearance_m" else 0.0
-            object.__setattr__(self, field, check_float(self.name, field, getattr(self, field),
-                                                        low=low))
+            object.__setattr__(
+                self, field, check_float(self.name, field, getattr(self, field), low=low)
+            )
 
     @property
     def dim(self) -> int:
@@ -115,8 +123,7 @@ class Tan:
         """No private states."""
         return None
 
-    def simulate_errors(self, truth: AidTruth, seed: int, runs: range,
-                        stream: int) -> AidErrors:
+    def simulate_errors(self, truth: AidTruth, seed: int, runs: range, stream: int) -> AidErrors:
         """White metric error (B, K, 1) with σ = √(σ_m² + σ_r²); no coloured part."""
         K = check_truth(truth, self.dt, self.name)
         white = standard_normals(seed, runs, stream, 0, (K, 1))
@@ -124,8 +131,9 @@ class Tan:
         B = len(runs)
         return AidErrors(np.zeros((B, K, 1)), white, np.zeros((B, 0)))
 
-    def output(self, truth: AidTruth, errors_metric: np.ndarray,
-               constants: np.ndarray) -> np.ndarray:
+    def output(
+        self, truth: AidTruth, errors_metric: np.ndarray, constants: np.ndarray
+    ) -> np.ndarray:
         """Measured clearance (B, K) in m: ``c_m = h − h_T(L, λ) + e``."""
         K = check_truth(truth, self.dt, self.name)
         e, _ = check_errors_metric(errors_metric, constants, (None, K, 1), 0)
@@ -133,8 +141,7 @@ class Tan:
         h_T = self.terrain.height_and_gradient(p[:, 0], p[:, 1])[0]
         return (p[:, 2] - h_T) + e[..., 0]
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray,
-                raw_k: np.ndarray) -> Linearized:
+    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
         """``z = ĉ − c_m`` (B, 1) and ``H`` (B, 1, 18) at the INS solution, with gating.
 
         Parameters
@@ -159,8 +166,12 @@ class Tan:
         H[:, 0, 7] = -glam
         H[:, 0, 8] = 1.0
         with np.errstate(invalid="ignore"):
-            valid = (np.isfinite(z[:, 0]) & np.isfinite(gL) & np.isfinite(glam)
-                     & (slope >= self.min_slope)
-                     & (c_hat >= self.min_clearance_m)
-                     & (np.hypot(v[:, 0], v[:, 1]) >= self.min_speed_m_s))
+            valid = (
+                np.isfinite(z[:, 0])
+                & np.isfinite(gL)
+                & np.isfinite(glam)
+                & (slope >= self.min_slope)
+                & (c_hat >= self.min_clearance_m)
+                & (np.hypot(v[:, 0], v[:, 1]) >= self.min_speed_m_s)
+            )
         return Linearized(finite_or_zero(z), finite_or_zero(H), np.zeros((B, 1, 0)), valid)

@@ -48,8 +48,9 @@ def _tuple(prefix: str, name: str, value, *, positive: bool = False) -> tuple[fl
     except (TypeError, ValueError):
         raise ValueError(f"{prefix}.{name}: expected a list of numbers, got {value!r}") from None
     if a.ndim != 1 or a.size < 1 or not np.all(np.isfinite(a)):
-        raise ValueError(f"{prefix}.{name}: expected a non-empty list of finite numbers, "
-                         f"got {value!r}")
+        raise ValueError(
+            f"{prefix}.{name}: expected a non-empty list of finite numbers, got {value!r}"
+        )
     if positive and np.any(a <= 0.0):
         raise ValueError(f"{prefix}.{name}: must be > 0, got {value!r}")
     return tuple(float(x) for x in a)
@@ -88,24 +89,29 @@ class AnalyticTerrain:
         if abs(lat) >= 89.0:
             raise ValueError(f"{p}.origin_lat_deg: must be within ±89°, got {lat!r}")
         object.__setattr__(self, "origin_lat_deg", lat)
-        object.__setattr__(self, "origin_lon_deg",
-                           check_float(p, "origin_lon_deg", self.origin_lon_deg))
+        object.__setattr__(
+            self, "origin_lon_deg", check_float(p, "origin_lon_deg", self.origin_lon_deg)
+        )
         object.__setattr__(self, "h0_m", check_float(p, "h0_m", self.h0_m))
         n = None
-        for name in ("amplitudes_m", "wavelengths_e_m", "wavelengths_n_m", "phases_e",
-                     "phases_n"):
+        for name in ("amplitudes_m", "wavelengths_e_m", "wavelengths_n_m", "phases_e", "phases_n"):
             t = _tuple(p, name, getattr(self, name), positive=name.startswith("wave"))
             if n is not None and len(t) != n:
-                raise ValueError(f"{p}.{name}: expected {n} values like amplitudes_m, "
-                                 f"got {len(t)}")
+                raise ValueError(f"{p}.{name}: expected {n} values like amplitudes_m, got {len(t)}")
             n = len(t)
             object.__setattr__(self, name, t)
 
     @classmethod
-    def random(cls, rng: np.random.Generator, origin_lat_deg: float, origin_lon_deg: float,
-               n_waves: int = 6, h0_m: float = 300.0,
-               amplitude_range_m: tuple[float, float] = (10.0, 80.0),
-               wavelength_range_m: tuple[float, float] = (500.0, 5000.0)) -> AnalyticTerrain:
+    def random(
+        cls,
+        rng: np.random.Generator,
+        origin_lat_deg: float,
+        origin_lon_deg: float,
+        n_waves: int = 6,
+        h0_m: float = 300.0,
+        amplitude_range_m: tuple[float, float] = (10.0, 80.0),
+        wavelength_range_m: tuple[float, float] = (500.0, 5000.0),
+    ) -> AnalyticTerrain:
         """A random surface (spec §9.2): A_k, λ_Ek, λ_Nk uniform in the ranges, phases
         uniform in [0, 2π)."""
         if not isinstance(n_waves, int) or n_waves < 1:
@@ -113,14 +119,19 @@ class AnalyticTerrain:
         a_lo, a_hi = amplitude_range_m
         w_lo, w_hi = wavelength_range_m
         if not (0.0 < w_lo <= w_hi):
-            raise ValueError(f"terrain.wavelength_range_m: expected 0 < low <= high, "
-                             f"got {wavelength_range_m!r}")
-        return cls(origin_lat_deg, origin_lon_deg, h0_m,
-                   tuple(rng.uniform(a_lo, a_hi, n_waves)),
-                   tuple(rng.uniform(w_lo, w_hi, n_waves)),
-                   tuple(rng.uniform(w_lo, w_hi, n_waves)),
-                   tuple(rng.uniform(0.0, 2.0 * np.pi, n_waves)),
-                   tuple(rng.uniform(0.0, 2.0 * np.pi, n_waves)))
+            raise ValueError(
+                f"terrain.wavelength_range_m: expected 0 < low <= high, got {wavelength_range_m!r}"
+            )
+        return cls(
+            origin_lat_deg,
+            origin_lon_deg,
+            h0_m,
+            tuple(rng.uniform(a_lo, a_hi, n_waves)),
+            tuple(rng.uniform(w_lo, w_hi, n_waves)),
+            tuple(rng.uniform(w_lo, w_hi, n_waves)),
+            tuple(rng.uniform(0.0, 2.0 * np.pi, n_waves)),
+            tuple(rng.uniform(0.0, 2.0 * np.pi, n_waves)),
+        )
 
     @property
     def metres_per_rad(self) -> tuple[float, float]:
@@ -133,7 +144,8 @@ class AnalyticTerrain:
         """Flat-earth ``(E, N)`` in metres about the origin (class docstring)."""
         mN, mE = self.metres_per_rad
         dlam = (np.asarray(lam, dtype=float) - self.origin_lon_deg * _DEG + np.pi) % (
-            2.0 * np.pi) - np.pi
+            2.0 * np.pi
+        ) - np.pi
         return dlam * mE, (np.asarray(L, dtype=float) - self.origin_lat_deg * _DEG) * mN
 
     def _height_and_slope_en(self, L, lam):
@@ -164,8 +176,12 @@ class AnalyticTerrain:
         A = np.array(self.amplitudes_m)
         a = 2.0 * np.pi / np.array(self.wavelengths_e_m)
         b = 2.0 * np.pi / np.array(self.wavelengths_n_m)
-        return (float(np.sum(A * a**2)), float(np.sum(A * b**2)), float(np.sum(A * a**3)),
-                float(np.sum(A * b**3)))
+        return (
+            float(np.sum(A * a**2)),
+            float(np.sum(A * b**2)),
+            float(np.sum(A * a**3)),
+            float(np.sum(A * b**3)),
+        )
 
 
 def _readonly(a) -> np.ndarray:
@@ -216,11 +232,11 @@ class GridDem:
             if np.any(np.diff(a) <= 0.0):
                 raise ValueError(f"{p}.{name}: must be strictly increasing")
         if h.shape != (lat.size, lon.size):
-            raise ValueError(f"{p}.height_m: expected shape ({lat.size}, {lon.size}), "
-                             f"got {h.shape}")
+            raise ValueError(
+                f"{p}.height_m: expected shape ({lat.size}, {lon.size}), got {h.shape}"
+            )
         check_choice(p, "slope", self.slope, ("central", "plane_fit"))
-        radius = check_float(p, "plane_fit_radius_m", self.plane_fit_radius_m, low=0.0,
-                             strict=True)
+        radius = check_float(p, "plane_fit_radius_m", self.plane_fit_radius_m, low=0.0, strict=True)
         object.__setattr__(self, "lat_deg", lat)
         object.__setattr__(self, "lon_deg", lon)
         object.__setattr__(self, "height_m", h)
@@ -228,8 +244,9 @@ class GridDem:
         # plane-fit pattern: offsets (dE, dN) in metres spaced by the finest grid spacing
         Lm = 0.5 * (lat[0] + lat[-1]) * _DEG
         RM, RN = radii(Lm, 0.0)
-        step = min(np.min(np.diff(lat)) * _DEG * RM,
-                   np.min(np.diff(lon)) * _DEG * RN * math.cos(Lm))
+        step = min(
+            np.min(np.diff(lat)) * _DEG * RM, np.min(np.diff(lon)) * _DEG * RN * math.cos(Lm)
+        )
         k = max(1, math.ceil(radius / step))
         g = np.linspace(-radius, radius, 2 * k + 1)
         dE, dN = np.meshgrid(g, g, indexing="xy")
@@ -291,8 +308,14 @@ class GridDem:
         return cls(lat, lon, z, **options)
 
     @classmethod
-    def sample(cls, terrain: Terrain, lat_deg: tuple[float, float],
-               lon_deg: tuple[float, float], spacing_m: float = 30.0, **options) -> GridDem:
+    def sample(
+        cls,
+        terrain: Terrain,
+        lat_deg: tuple[float, float],
+        lon_deg: tuple[float, float],
+        spacing_m: float = 30.0,
+        **options,
+    ) -> GridDem:
         """Sample a surface on a regular grid of ``spacing_m`` metres (at the mid latitude).
 
         The grid starts at the low corner and covers the extent (last node ≥ high end).
@@ -322,8 +345,9 @@ class GridDem:
         j = np.clip(np.searchsorted(go, lon, side="right") - 1, 0, go.size - 2)
         ty = (lat - gl[i]) / (gl[i + 1] - gl[i])
         tx = (lon - go[j]) / (go[j + 1] - go[j])
-        h = ((1 - ty) * ((1 - tx) * z[i, j] + tx * z[i, j + 1])
-             + ty * ((1 - tx) * z[i + 1, j] + tx * z[i + 1, j + 1]))
+        h = (1 - ty) * ((1 - tx) * z[i, j] + tx * z[i, j + 1]) + ty * (
+            (1 - tx) * z[i + 1, j] + tx * z[i + 1, j + 1]
+        )
         inside = (lat >= gl[0]) & (lat <= gl[-1]) & (lon >= go[0]) & (lon <= go[-1])
         return np.where(inside, h, np.nan)
 
@@ -331,8 +355,12 @@ class GridDem:
         """Boolean mask of the points (rad) inside the grid."""
         lat = np.asarray(L, dtype=float) / _DEG
         lon = np.asarray(lam, dtype=float) / _DEG
-        return ((lat >= self.lat_deg[0]) & (lat <= self.lat_deg[-1])
-                & (lon >= self.lon_deg[0]) & (lon <= self.lon_deg[-1]))
+        return (
+            (lat >= self.lat_deg[0])
+            & (lat <= self.lat_deg[-1])
+            & (lon >= self.lon_deg[0])
+            & (lon <= self.lon_deg[-1])
+        )
 
     def _central(self, L, lam):
         lat = L / _DEG

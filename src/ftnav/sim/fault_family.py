@@ -22,8 +22,14 @@ import numpy as np
 from ftnav.sim.linear import Simulation, concat_simulations, simulate
 from ftnav.sim.scenario import Fault, Scenario
 
-__all__ = ["FaultFamily", "FaultVariant", "fault_variants", "simulate_variants",
-           "window_masks", "HOLDOUT_OFFSET"]
+__all__ = [
+    "FaultFamily",
+    "FaultVariant",
+    "fault_variants",
+    "simulate_variants",
+    "window_masks",
+    "HOLDOUT_OFFSET",
+]
 
 #: Held-out runs use run indices from here on, so they never share a random
 #: stream with training runs (whole runs are held out, spec §4.2).
@@ -79,8 +85,12 @@ class FaultVariant:
     faults: tuple[Fault, ...]
 
 
-def fault_variants(scenario: Scenario, family: FaultFamily, rng: np.random.Generator,
-                   sensors: tuple[str, ...] | None = None) -> list[FaultVariant]:
+def fault_variants(
+    scenario: Scenario,
+    family: FaultFamily,
+    rng: np.random.Generator,
+    sensors: tuple[str, ...] | None = None,
+) -> list[FaultVariant]:
     """One variant per (sensor, fault) of the family, plus the fault-free ones.
 
     Parameters
@@ -91,8 +101,9 @@ def fault_variants(scenario: Scenario, family: FaultFamily, rng: np.random.Gener
     sensors : restrict to these sensors (default all).
     """
     T = scenario.steps * scenario.dt
-    out = [FaultVariant(f"fault-free {j + 1}", None, None, None, ())
-           for j in range(family.fault_free)]
+    out = [
+        FaultVariant(f"fault-free {j + 1}", None, None, None, ()) for j in range(family.fault_free)
+    ]
     names = scenario.sensor_names if sensors is None else sensors
 
     def window():
@@ -109,24 +120,43 @@ def fault_variants(scenario: Scenario, family: FaultFamily, rng: np.random.Gener
         for size in family.step_sizes:
             for sign in family.signs:
                 a, b = window()
-                out.append(FaultVariant(f"{s.name} bias {sign * size:+g}σ", s.name, "bias",
-                                        float(size),
-                                        (Fault(s.name, "bias", a, b, sign * size * sigma),)))
+                out.append(
+                    FaultVariant(
+                        f"{s.name} bias {sign * size:+g}σ",
+                        s.name,
+                        "bias",
+                        float(size),
+                        (Fault(s.name, "bias", a, b, sign * size * sigma),),
+                    )
+                )
         for size in family.ramp_sizes:
             a, b = window()
-            out.append(FaultVariant(f"{s.name} ramp {size:g}σ", s.name, "ramp", float(size),
-                                    (Fault(s.name, "ramp", a, b, size * sigma),)))
+            out.append(
+                FaultVariant(
+                    f"{s.name} ramp {size:g}σ",
+                    s.name,
+                    "ramp",
+                    float(size),
+                    (Fault(s.name, "ramp", a, b, size * sigma),),
+                )
+            )
         for scale in family.noise_scales:
             a, b = window()
-            out.append(FaultVariant(f"{s.name} noise x{scale:g}", s.name, "noise-scale",
-                                    float(scale),
-                                    (Fault(s.name, "noise-scale", a, b,
-                                           np.full(s.dim, float(scale))),)))
+            out.append(
+                FaultVariant(
+                    f"{s.name} noise x{scale:g}",
+                    s.name,
+                    "noise-scale",
+                    float(scale),
+                    (Fault(s.name, "noise-scale", a, b, np.full(s.dim, float(scale))),),
+                )
+            )
     return out
 
 
-def simulate_variants(scenario: Scenario, variants: list[FaultVariant], runs: int, seed: int,
-                      first_run: int = 0) -> tuple[Simulation, np.ndarray]:
+def simulate_variants(
+    scenario: Scenario, variants: list[FaultVariant], runs: int, seed: int, first_run: int = 0
+) -> tuple[Simulation, np.ndarray]:
     """Simulate ``runs`` runs of every variant as one batch.
 
     Variant ``v`` uses the run indices ``first_run + v·runs + r``, so every run of
@@ -140,13 +170,16 @@ def simulate_variants(scenario: Scenario, variants: list[FaultVariant], runs: in
     """
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
-    sims = [simulate(replace(scenario, faults=v.faults), runs, seed, first_run + j * runs)
-            for j, v in enumerate(variants)]
+    sims = [
+        simulate(replace(scenario, faults=v.faults), runs, seed, first_run + j * runs)
+        for j, v in enumerate(variants)
+    ]
     return concat_simulations(*sims), np.repeat(np.arange(len(variants)), runs)
 
 
-def window_masks(scenario: Scenario, variants: list[FaultVariant], runs: int,
-                 grace: float = 0.0) -> np.ndarray:
+def window_masks(
+    scenario: Scenario, variants: list[FaultVariant], runs: int, grace: float = 0.0
+) -> np.ndarray:
     """(B, K, N) bool: epoch inside ``[start, end + grace)`` of a fault of sensor i.
 
     Runs are ordered as :func:`simulate_variants` orders them (``runs`` per variant).

@@ -66,8 +66,15 @@ from ftnav.nav.units import (
 from ftnav.parallel import default_workers
 
 __all__ = [
-    "DATASHEET_KEYS", "IMU_PRESETS", "IMU_STREAM_KEY", "ImuErrorTruth", "ImuErrors",
-    "ImuSimulation", "gauss_markov", "imu_preset", "simulate_imu_errors",
+    "DATASHEET_KEYS",
+    "IMU_PRESETS",
+    "IMU_STREAM_KEY",
+    "ImuErrorTruth",
+    "ImuErrors",
+    "ImuSimulation",
+    "gauss_markov",
+    "imu_preset",
+    "simulate_imu_errors",
 ]
 
 IMU_STREAM_KEY = 0x494D55  #: second spawn-key element of the IMU streams ("IMU" in ASCII)
@@ -108,7 +115,8 @@ def _axes(value, name: str, constraint: str) -> np.ndarray:
     except (TypeError, ValueError):
         raise ValueError(
             f"{name}: expected a number in SI units (strings with units go through "
-            f"ImuErrors.from_datasheet), got {value!r}") from None
+            f"ImuErrors.from_datasheet), got {value!r}"
+        ) from None
     if a.shape not in ((), (3,)):
         raise ValueError(f"{name}: expected a scalar or 3 values (x, y, z), got shape {a.shape}")
     if not np.all(np.isfinite(a)):
@@ -214,8 +222,10 @@ class ImuErrors:
             unknown unit, NaN/inf, negative σ, τ ≤ 0, not 1 or 3 values.
         """
         if not isinstance(table, Mapping):
-            raise ValueError(f"{field}: expected a table of '<number> <unit>' strings, "
-                             f"got {type(table).__name__}")
+            raise ValueError(
+                f"{field}: expected a table of '<number> <unit>' strings, "
+                f"got {type(table).__name__}"
+            )
         values = {}
         for key, raw in table.items():
             path = f"{field}.{key}"
@@ -224,10 +234,11 @@ class ImuErrors:
             family, constraint = _SPEC[key]
             if isinstance(raw, Sequence) and not isinstance(raw, str):
                 if len(raw) != 3:
-                    raise ValueError(f"{path}: expected one value or 3 (x, y, z), "
-                                     f"got {len(raw)}")
-                values[key] = [parse_quantity(v, family, f"{path}[{i}]", constraint=constraint)
-                               for i, v in enumerate(raw)]
+                    raise ValueError(f"{path}: expected one value or 3 (x, y, z), got {len(raw)}")
+                values[key] = [
+                    parse_quantity(v, family, f"{path}[{i}]", constraint=constraint)
+                    for i, v in enumerate(raw)
+                ]
             else:
                 values[key] = parse_quantity(raw, family, path, constraint=constraint)
         if base is not None:
@@ -290,8 +301,9 @@ def imu_preset(name: str) -> ImuErrors:
     try:
         return IMU_PRESETS[name]
     except (KeyError, TypeError):
-        raise ValueError(f"imu.preset: unknown preset {name!r}; valid: "
-                         f"{', '.join(IMU_PRESETS)}") from None
+        raise ValueError(
+            f"imu.preset: unknown preset {name!r}; valid: {', '.join(IMU_PRESETS)}"
+        ) from None
 
 
 class ImuErrorTruth(NamedTuple):
@@ -395,7 +407,8 @@ def _check_dt(dt) -> float:
 
 def _generator(seed: int, run: int, component: int) -> np.random.Generator:
     return np.random.default_rng(
-        np.random.SeedSequence(seed, spawn_key=(run, IMU_STREAM_KEY, component)))
+        np.random.SeedSequence(seed, spawn_key=(run, IMU_STREAM_KEY, component))
+    )
 
 
 def _normal_blocks(seed: int, runs: range, component: int, K: int) -> np.ndarray:
@@ -507,15 +520,15 @@ def simulate_imu_errors(
     for name, value, low in (("seed", seed, 0), ("first_run", first_run, 0)):
         if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
             raise ValueError(f"{name}: expected an integer >= {low}, got {value!r}")
-    if runs is not None and (isinstance(runs, bool) or not isinstance(runs, int | np.integer)
-                             or runs < 1):
+    if runs is not None and (
+        isinstance(runs, bool) or not isinstance(runs, int | np.integer) or runs < 1
+    ):
         raise ValueError(f"runs: expected an integer >= 1, got {runs!r}")
     single = dtheta.ndim == 2 and runs is None
     K = dtheta.shape[-2]
     if dtheta.ndim == 3:
         if runs is not None and runs != dtheta.shape[0]:
-            raise ValueError(f"runs: {runs} does not match the batch axis of dtheta "
-                             f"{dtheta.shape}")
+            raise ValueError(f"runs: {runs} does not match the batch axis of dtheta {dtheta.shape}")
         B = dtheta.shape[0]
     else:
         B = 1 if runs is None else int(runs)
@@ -537,16 +550,24 @@ def simulate_imu_errors(
         return _markov_inplace(_normal_blocks(seed, run_ids, component, K), sd, tau, dt)
 
     gyro_markov = markov(e.gyro_markov_sd, e.gyro_markov_tau, 1)
-    out_theta = _corrupt(dtheta, gyro_scale, gyro_mis, gyro_bias, gyro_markov, e.gyro_arw,
-                         seed, run_ids, 2, dt, K)
+    out_theta = _corrupt(
+        dtheta, gyro_scale, gyro_mis, gyro_bias, gyro_markov, e.gyro_arw, seed, run_ids, 2, dt, K
+    )
     accel_markov = markov(e.accel_markov_sd, e.accel_markov_tau, 3)
-    out_v = _corrupt(dv, accel_scale, accel_mis, accel_bias, accel_markov, e.accel_vrw,
-                     seed, run_ids, 4, dt, K)
+    out_v = _corrupt(
+        dv, accel_scale, accel_mis, accel_bias, accel_markov, e.accel_vrw, seed, run_ids, 4, dt, K
+    )
 
     zeros = np.broadcast_to(np.zeros(()), (B, K, 3))
     truth = ImuErrorTruth(
-        gyro_bias, zeros if gyro_markov is None else gyro_markov, gyro_scale, gyro_mis,
-        accel_bias, zeros if accel_markov is None else accel_markov, accel_scale, accel_mis,
+        gyro_bias,
+        zeros if gyro_markov is None else gyro_markov,
+        gyro_scale,
+        gyro_mis,
+        accel_bias,
+        zeros if accel_markov is None else accel_markov,
+        accel_scale,
+        accel_mis,
     )
     if single:
         truth = ImuErrorTruth(*(a[0] for a in truth))

@@ -103,16 +103,18 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
     K = sc.steps
     n_imu = n * K
     if n_imu > traj.dtheta.shape[0]:
-        raise ValueError(f"steps: {K} epochs of {sc.dt} s exceed the profile's "
-                         f"{traj.t[-1]:.0f} s")
+        raise ValueError(f"steps: {K} epochs of {sc.dt} s exceed the profile's {traj.t[-1]:.0f} s")
     B = len(runs)
-    imu = simulate_imu_errors(traj.dtheta[:n_imu], traj.dv[:n_imu], traj.dt, sc.imu, seed,
-                              runs.start, runs=B)
+    imu = simulate_imu_errors(
+        traj.dtheta[:n_imu], traj.dv[:n_imu], traj.dt, sc.imu, seed, runs.start, runs=B
+    )
     dtheta, dv = imu.dtheta, imu.dv  # fresh arrays of this call: faults are added in place
     # the Markov truth at the filter epochs only (the last IMU interval of each epoch):
     # the IMU-rate arrays would double the memory of a batch
-    imu_truth = imu.truth._replace(gyro_markov=imu.truth.gyro_markov[:, n - 1::n].copy(),
-                                   accel_markov=imu.truth.accel_markov[:, n - 1::n].copy())
+    imu_truth = imu.truth._replace(
+        gyro_markov=imu.truth.gyro_markov[:, n - 1 :: n].copy(),
+        accel_markov=imu.truth.accel_markov[:, n - 1 :: n].copy(),
+    )
     del imu
     t_imu = traj.dt * np.arange(1, n_imu + 1)  # end time of each IMU interval
     for f in sc.faults:
@@ -120,11 +122,22 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
             dtheta[:, _window(t_imu, f)] += np.asarray(f.magnitude) * traj.dt
     truth = epoch_truth(traj, n, K)
     n_states = sc.initial_sigma.shape[0]  # 18 or 15: the first 9 draws are the same
-    init = np.stack([np.random.default_rng(np.random.SeedSequence(
-        seed, spawn_key=(r, _INIT_STREAM))).standard_normal(18)[:n_states] for r in runs]) * \
-        sc.initial_sigma
-    raws, avail, oracle = [], np.zeros((B, K, len(sc.aids)), bool), np.zeros((K, len(sc.aids)),
-                                                                             bool)
+    init = (
+        np.stack(
+            [
+                np.random.default_rng(
+                    np.random.SeedSequence(seed, spawn_key=(r, _INIT_STREAM))
+                ).standard_normal(18)[:n_states]
+                for r in runs
+            ]
+        )
+        * sc.initial_sigma
+    )
+    raws, avail, oracle = (
+        [],
+        np.zeros((B, K, len(sc.aids)), bool),
+        np.zeros((K, len(sc.aids)), bool),
+    )
     for i, aid in enumerate(sc.aids):
         s = aid.sensor
         err = s.simulate_errors(truth, seed, runs, i)
@@ -141,7 +154,7 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
             elif f.kind == "stuck":
                 first = int(np.argmax(w))
                 if w.any() and first > 0:
-                    raw[:, w] = raw[:, first - 1: first]
+                    raw[:, w] = raw[:, first - 1 : first]
             if f.kind != "outage":
                 oracle[:, i] |= w
         raw[~ok] = np.nan

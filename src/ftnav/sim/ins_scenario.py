@@ -28,12 +28,29 @@ from ftnav.sim.imu import ImuErrors
 from ftnav.sim.scenario import Evaluation, FigureSpec, Method, fault_window_mask
 from ftnav.sim.trajectory import Profile
 
-__all__ = ["InsFault", "AidSpec", "InsScenario", "METRIC_STATES", "POSITION_NORMS", "SINS",
-           "INS_FAULT_KINDS", "StateNames"]
+__all__ = [
+    "InsFault",
+    "AidSpec",
+    "InsScenario",
+    "METRIC_STATES",
+    "POSITION_NORMS",
+    "SINS",
+    "INS_FAULT_KINDS",
+    "StateNames",
+]
 
 #: Reported output-error states (spec §11), in this order.
-METRIC_STATES = ("pos_E_m", "pos_N_m", "pos_U_m", "vel_E_m_s", "vel_N_m_s", "vel_U_m_s",
-                 "att_E_arcmin", "att_N_arcmin", "att_U_arcmin")
+METRIC_STATES = (
+    "pos_E_m",
+    "pos_N_m",
+    "pos_U_m",
+    "vel_E_m_s",
+    "vel_N_m_s",
+    "vel_U_m_s",
+    "att_E_arcmin",
+    "att_N_arcmin",
+    "att_U_arcmin",
+)
 
 #: Derived metric quantities (m): horizontal sqrt(E² + N²) and 3-D position error (spec §11).
 POSITION_NORMS = ("pos_horizontal_m", "pos_3d_m")
@@ -41,10 +58,16 @@ POSITION_NORMS = ("pos_horizontal_m", "pos_3d_m")
 #: Name that addresses the inertial system in a fault.
 SINS = "sins"
 
-InsFaultKind = Literal["bias", "ramp", "noise-scale", "noise-ramp", "outage", "stuck",
-                       "gyro-bias"]
-INS_FAULT_KINDS: tuple[str, ...] = ("bias", "ramp", "noise-scale", "noise-ramp", "outage",
-                                    "stuck", "gyro-bias")
+InsFaultKind = Literal["bias", "ramp", "noise-scale", "noise-ramp", "outage", "stuck", "gyro-bias"]
+INS_FAULT_KINDS: tuple[str, ...] = (
+    "bias",
+    "ramp",
+    "noise-scale",
+    "noise-ramp",
+    "outage",
+    "stuck",
+    "gyro-bias",
+)
 Correction = Literal["feedback", "output"]
 
 
@@ -89,11 +112,14 @@ class AidSpec:
         return self.sensor.dim
 
     def __post_init__(self):
-        if getattr(self.sensor, "difference_factor", None) is not None and \
-                (self.every != 1 or self.offset != 0):
-            raise ValueError(f"{self.sensor.name}.markov: 'difference' needs the aid at every "
-                             f"filter epoch (every = 1, offset = 0), got every = {self.every}, "
-                             f"offset = {self.offset}")
+        if getattr(self.sensor, "difference_factor", None) is not None and (
+            self.every != 1 or self.offset != 0
+        ):
+            raise ValueError(
+                f"{self.sensor.name}.markov: 'difference' needs the aid at every "
+                f"filter epoch (every = 1, offset = 0), got every = {self.every}, "
+                f"offset = {self.offset}"
+            )
 
     def available(self, steps: int) -> np.ndarray:
         """(steps,) bool schedule mask of the epochs k = 1..steps."""

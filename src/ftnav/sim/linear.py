@@ -54,8 +54,9 @@ def _cholesky_psd(A: np.ndarray) -> np.ndarray:
     return V * np.sqrt(np.clip(w, 0.0, None))
 
 
-def simulate(scenario: Scenario, runs: int, seed: int, first_run: int = 0,
-             system: LinearSystem | None = None) -> Simulation:
+def simulate(
+    scenario: Scenario, runs: int, seed: int, first_run: int = 0, system: LinearSystem | None = None
+) -> Simulation:
     """Simulate ``runs`` Monte Carlo runs (indices ``first_run ..``) of a scenario.
 
     ``system`` replaces the scenario's constant model, e.g. by a
@@ -72,8 +73,8 @@ def simulate(scenario: Scenario, runs: int, seed: int, first_run: int = 0,
     # einsum keeps a fixed summation order per element, so run i is bit-identical
     # whatever the batch size (BLAS blocking would depend on it)
     x = x0 + np.einsum("ij,bj->bi", _cholesky_psd(P0), draws[:, :n])
-    w = draws[:, n: n + K * n].reshape(B, K, n)
-    v_all = draws[:, n + K * n:].reshape(B, K, sum(dims))
+    w = draws[:, n : n + K * n].reshape(B, K, n)
+    v_all = draws[:, n + K * n :].reshape(B, K, sum(dims))
 
     truth = np.empty((B, K, n))
     for k in range(1, K + 1):
@@ -89,8 +90,9 @@ def simulate(scenario: Scenario, runs: int, seed: int, first_run: int = 0,
     for i, s in enumerate(scenario.sensors):
         H = system.augmented_H(i)
         zi_ideal = np.einsum("ij,bkj->bki", H, truth)
-        noise = np.einsum("ij,bkj->bki", np.linalg.cholesky(s.R_true),
-                          v_all[:, :, start: start + s.dim])
+        noise = np.einsum(
+            "ij,bkj->bki", np.linalg.cholesky(s.R_true), v_all[:, :, start : start + s.dim]
+        )
         start += s.dim
         avail = np.broadcast_to(s.available(K), (B, K)).copy()
         for f in scenario.faults:
@@ -130,9 +132,12 @@ def concat_simulations(*sims: Simulation) -> Simulation:
 
     The oracle becomes per run, ``(K, B_1 + B_2 + ..., N)``.
     """
+
     def per_run(s):
-        return np.broadcast_to(s.oracle[:, None, :] if s.oracle.ndim == 2 else s.oracle,
-                               (s.oracle.shape[0], s.truth.shape[0], s.oracle.shape[-1]))
+        return np.broadcast_to(
+            s.oracle[:, None, :] if s.oracle.ndim == 2 else s.oracle,
+            (s.oracle.shape[0], s.truth.shape[0], s.oracle.shape[-1]),
+        )
 
     return Simulation(
         np.concatenate([s.truth for s in sims]),

@@ -230,13 +230,22 @@ class Scenario:
     def without_faults(self) -> Scenario:
         """The same scenario with no faults (the paper's Fig. 3 condition)."""
         return Scenario(
-            self.name, self.dt, self.steps, self.model, self.sensors, (), self.methods,
-            self.evaluation, self.description, self.figures,
+            self.name,
+            self.dt,
+            self.steps,
+            self.model,
+            self.sensors,
+            (),
+            self.methods,
+            self.evaluation,
+            self.description,
+            self.figures,
         )
 
 
-def fault_window_mask(times: np.ndarray, faults, sensor: str | None = None,
-                      detectable_only: bool = False) -> np.ndarray:
+def fault_window_mask(
+    times: np.ndarray, faults, sensor: str | None = None, detectable_only: bool = False
+) -> np.ndarray:
     """Boolean mask of the ``times`` inside a fault window ``[start, end)``.
 
     ``sensor`` restricts to that sensor's faults; ``detectable_only`` leaves out

@@ -104,40 +104,52 @@ def _check_profile(pr: Profile) -> None:
     if abs(theta) > math.radians(MAX_PITCH_DEG):
         raise ValueError(f"start.pitch_deg: |pitch| must be <= {MAX_PITCH_DEG:g}°")
     if abs(gamma) > math.radians(MAX_BANK_DEG):
-        raise ValueError(f"start.roll_deg: bank angle beyond the {MAX_BANK_DEG:g}° that can be "
-                         "flown")
+        raise ValueError(
+            f"start.roll_deg: bank angle beyond the {MAX_BANK_DEG:g}° that can be flown"
+        )
     for i, s in enumerate(pr.segments):
         where = f"segments[{i}]"
-        rates = (s.pitch_rate, s.roll_rate, s.accel) + (() if s.yaw_rate is None else
-                                                          (s.yaw_rate,))
+        rates = (s.pitch_rate, s.roll_rate, s.accel) + (() if s.yaw_rate is None else (s.yaw_rate,))
         if not (math.isfinite(s.duration) and all(math.isfinite(r) for r in rates)):
             raise ValueError(f"{where}: contains NaN or inf")
         if s.duration <= 0:
             raise ValueError(f"{where}.duration_s: must be > 0, got {s.duration:g}")
         n = s.duration * pr.imu_rate
         if abs(n - round(n)) > 1e-6:
-            raise ValueError(f"{where}.duration_s: must be a whole number of IMU periods "
-                             f"(1/{pr.imu_rate:g} s), got {s.duration:g}")
+            raise ValueError(
+                f"{where}.duration_s: must be a whole number of IMU periods "
+                f"(1/{pr.imu_rate:g} s), got {s.duration:g}"
+            )
         V_end = V + s.accel * s.duration
         if V_end < -1e-9:
-            raise ValueError(f"{where}.accel_m_s2: speed would become negative "
-                             f"({V_end:.3g} m/s at the end of the segment)")
+            raise ValueError(
+                f"{where}.accel_m_s2: speed would become negative "
+                f"({V_end:.3g} m/s at the end of the segment)"
+            )
         theta_end = theta + s.pitch_rate * s.duration
         if abs(theta_end) > math.radians(MAX_PITCH_DEG):
-            raise ValueError(f"{where}.pitch_rate_deg_s: pitch would reach "
-                             f"{math.degrees(theta_end):.1f}°, beyond ±{MAX_PITCH_DEG:g}°")
+            raise ValueError(
+                f"{where}.pitch_rate_deg_s: pitch would reach "
+                f"{math.degrees(theta_end):.1f}°, beyond ±{MAX_PITCH_DEG:g}°"
+            )
         gamma_end = gamma + s.roll_rate * s.duration
         if abs(gamma_end) > math.radians(MAX_BANK_DEG):
-            raise ValueError(f"{where}.roll_rate_deg_s: bank angle would reach "
-                             f"{math.degrees(gamma_end):.1f}°, beyond the {MAX_BANK_DEG:g}° "
-                             "that can be flown")
+            raise ValueError(
+                f"{where}.roll_rate_deg_s: bank angle would reach "
+                f"{math.degrees(gamma_end):.1f}°, beyond the {MAX_BANK_DEG:g}° "
+                "that can be flown"
+            )
         if s.yaw_rate is None:
             if s.roll_rate != 0:
-                raise ValueError(f"{where}.yaw_rate_deg_s: a coordinated turn needs "
-                                 "roll_rate_deg_s = 0 (roll in and out in separate segments)")
+                raise ValueError(
+                    f"{where}.yaw_rate_deg_s: a coordinated turn needs "
+                    "roll_rate_deg_s = 0 (roll in and out in separate segments)"
+                )
             if min(V, V_end) < 1.0:
-                raise ValueError(f"{where}.yaw_rate_deg_s: a coordinated turn needs a speed "
-                                 f"of at least 1 m/s, got {min(V, V_end):.3g} m/s")
+                raise ValueError(
+                    f"{where}.yaw_rate_deg_s: a coordinated turn needs a speed "
+                    f"of at least 1 m/s, got {min(V, V_end):.3g} m/s"
+                )
         V, theta, gamma = max(V_end, 0.0), theta_end, gamma_end
 
 
@@ -179,8 +191,9 @@ class _Kinematics(NamedTuple):
     psi_ddot: np.ndarray
 
 
-def _segment_kinematics(seg: Segment, V0: float, euler0: np.ndarray, g_c: float, tau
-                        ) -> _Kinematics:
+def _segment_kinematics(
+    seg: Segment, V0: float, euler0: np.ndarray, g_c: float, tau
+) -> _Kinematics:
     """Closed-form speed and attitude at local times ``tau`` of a segment."""
     tau = np.asarray(tau, dtype=float)
     V = V0 + seg.accel * tau
@@ -198,10 +211,12 @@ def _segment_kinematics(seg: Segment, V0: float, euler0: np.ndarray, g_c: float,
         psi = euler0[2] + seg.yaw_rate * tau
         psi_dot = np.full_like(tau, seg.yaw_rate)
         psi_ddot = np.zeros_like(tau)
-    rates = np.stack([np.full_like(tau, seg.pitch_rate), np.full_like(tau, seg.roll_rate),
-                      psi_dot], -1)
-    return _Kinematics(V, np.full_like(tau, seg.accel), np.stack([theta, gamma, psi], -1),
-                       rates, psi_ddot)
+    rates = np.stack(
+        [np.full_like(tau, seg.pitch_rate), np.full_like(tau, seg.roll_rate), psi_dot], -1
+    )
+    return _Kinematics(
+        V, np.full_like(tau, seg.accel), np.stack([theta, gamma, psi], -1), rates, psi_ddot
+    )
 
 
 def _velocity(k: _Kinematics) -> tuple[np.ndarray, np.ndarray]:
@@ -211,8 +226,9 @@ def _velocity(k: _Kinematics) -> tuple[np.ndarray, np.ndarray]:
     u = np.stack([-sp * ct, cp * ct, st], -1)
     du_dth = np.stack([sp * st, -cp * st, ct], -1)
     du_dps = np.stack([-cp * ct, -sp * ct, np.zeros_like(st)], -1)
-    vdot = (k.Vdot[..., None] * u
-            + k.V[..., None] * (du_dth * k.rates[..., 0:1] + du_dps * k.rates[..., 2:3]))
+    vdot = k.Vdot[..., None] * u + k.V[..., None] * (
+        du_dth * k.rates[..., 0:1] + du_dps * k.rates[..., 2:3]
+    )
     return k.V[..., None] * u, vdot
 
 
@@ -223,13 +239,15 @@ def _dcm(euler: np.ndarray) -> np.ndarray:
     on the ~10⁶ quadrature nodes of a long profile (generation time halves).
     """
     th, ga, ps = euler[..., 0], euler[..., 1], euler[..., 2]
-    st, ct, sg, cg, sp, cp = np.sin(th), np.cos(th), np.sin(ga), np.cos(ga), np.sin(ps), \
-        np.cos(ps)
-    return np.stack([
-        np.stack([cp * cg - sp * st * sg, -sp * ct, cp * sg + sp * st * cg], -1),
-        np.stack([sp * cg + cp * st * sg, cp * ct, sp * sg - cp * st * cg], -1),
-        np.stack([-ct * sg, st, ct * cg], -1),
-    ], -2)
+    st, ct, sg, cg, sp, cp = np.sin(th), np.cos(th), np.sin(ga), np.cos(ga), np.sin(ps), np.cos(ps)
+    return np.stack(
+        [
+            np.stack([cp * cg - sp * st * sg, -sp * ct, cp * sg + sp * st * cg], -1),
+            np.stack([sp * cg + cp * st * sg, cp * ct, sp * sg - cp * st * cg], -1),
+            np.stack([-ct * sg, st, ct * cg], -1),
+        ],
+        -2,
+    )
 
 
 def _omega_nb_n(euler: np.ndarray, rates: np.ndarray) -> np.ndarray:
@@ -323,10 +341,18 @@ def generate(profile: Profile) -> Trajectory:
         x = 0.5 * (_GL_X + 1.0)  # nodes in (0, 1)
         tn = tau[:-1, None] + T * x[None, :]  # (n, 3)
         # cubic Hermite position at the nodes
-        h00, h10, h01, h11 = (2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x,
-                              -2 * x**3 + 3 * x**2, x**3 - x**2)
-        pn = (h00[None, :, None] * p[:-1, None] + h10[None, :, None] * T * pd[:-1, None]
-              + h01[None, :, None] * p[1:, None] + h11[None, :, None] * T * pd[1:, None])
+        h00, h10, h01, h11 = (
+            2 * x**3 - 3 * x**2 + 1,
+            x**3 - 2 * x**2 + x,
+            -2 * x**3 + 3 * x**2,
+            x**3 - x**2,
+        )
+        pn = (
+            h00[None, :, None] * p[:-1, None]
+            + h10[None, :, None] * T * pd[:-1, None]
+            + h01[None, :, None] * p[1:, None]
+            + h11[None, :, None] * T * pd[1:, None]
+        )
         kn = _segment_kinematics(seg, V0, eul0, g_c, tn)
         vn, vdn = _velocity(kn)
         L, hgt = pn[..., 0], pn[..., 2]
@@ -341,8 +367,8 @@ def generate(profile: Profile) -> Trajectory:
         # C_n^b x = Cᵀ x
         w_ib_b = np.einsum("...ji,...j->...i", C, w_ib_n)
         f_b = np.einsum("...ji,...j->...i", C, f_n)
-        dth[k0:k0 + n] = 0.5 * T * np.einsum("m,nmi->ni", _GL_W, w_ib_b)
-        dvv[k0:k0 + n] = 0.5 * T * np.einsum("m,nmi->ni", _GL_W, f_b)
+        dth[k0 : k0 + n] = 0.5 * T * np.einsum("m,nmi->ni", _GL_W, w_ib_b)
+        dvv[k0 : k0 + n] = 0.5 * T * np.einsum("m,nmi->ni", _GL_W, f_b)
         # next segment starts where this one ends
         p0, V0, eul0 = p[-1].copy(), float(kin.V[-1]), kin.euler[-1].copy()
         k0 += n
