@@ -29,12 +29,12 @@ from filterpy.kalman import KalmanFilter
 
 from ftnav.core.sharing import sharing_coefficients
 from ftnav.eval.montecarlo import build_filter, run_scenario
-from ftnav.fusion.system import LinearSystem
 from ftnav.io.scenario_file import load_scenario
+from ftnav.model.scenario import Method
+from ftnav.model.system import LinearSystem
 from ftnav.parallel import available_cpus
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
-from ftnav.sim.scenario import Method
 
 
 def ftnav_federated(system, method, sim):

@@ -21,8 +21,8 @@ import numpy as np
 
 from ftnav.core.lms import lms_train, project_simplex
 from ftnav.eval.montecarlo import build_filter, run_filter
-from ftnav.fusion.system import LinearSystem
 from ftnav.io.scenario_file import load_scenario
+from ftnav.model.system import LinearSystem
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
 

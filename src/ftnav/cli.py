@@ -132,8 +132,8 @@ def _checking() -> Iterator[None]:
     except (UsageError, KeyboardInterrupt):
         raise
     except ValueError as e:
+        from ftnav.io.common import ScenarioError
         from ftnav.io.model_file import ModelFileError
-        from ftnav.io.scenario_file import ScenarioError
 
         if isinstance(e, ScenarioError | ModelFileError):
             raise
@@ -279,7 +279,7 @@ def _build_filters(sc) -> None:
 
         system = build_ins_system(sc)
     else:
-        from ftnav.fusion.system import LinearSystem
+        from ftnav.model.system import LinearSystem
 
         system = LinearSystem.from_scenario(sc)
     for m in sc.methods:
@@ -603,7 +603,7 @@ def _cmd_trajectory(args) -> int:
         profile = resolve_profile(args.profile)
         errors = None
         if args.imu is not None:
-            from ftnav.sim.imu import imu_preset
+            from ftnav.model.imu import imu_preset
 
             errors = imu_preset(args.imu)
         out = Path(args.out)
@@ -810,8 +810,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``ftnav`` command; returns the exit status (module docstring)."""
+    from ftnav.io.common import ScenarioError
     from ftnav.io.model_file import ModelFileError
-    from ftnav.io.scenario_file import ScenarioError
 
     debug = False
     try:

@@ -176,8 +176,8 @@ def test_console_script_bad_input_has_no_traceback(tmp_path):
 
 def test_nan_measurement_is_missing_and_counted(small):
     from ftnav.eval.montecarlo import build_filter, run_filter
-    from ftnav.fusion.system import LinearSystem
     from ftnav.io.scenario_file import load_scenario
+    from ftnav.model.system import LinearSystem
     from ftnav.sim.linear import simulate
 
     sc = load_scenario(small)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from ftnav.eval.montecarlo import run_scenario
-from ftnav.sim.scenario import MAX_FIGURE_METHODS, Fault, LinearModel, Method, Scenario, Sensor
+from ftnav.model.scenario import MAX_FIGURE_METHODS, Fault, LinearModel, Method, Scenario, Sensor
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -142,8 +142,8 @@ def test_figure_section_names_methods_states_and_title(tmp_path):
 
     from output_problems import north_ramp_run
 
+    from ftnav.model.scenario import FigureSpec
     from ftnav.plot.figures import draw_figure, save_all
-    from ftnav.sim.scenario import FigureSpec
 
     result, _ = north_ramp_run()
     spec = FigureSpec("north", "North channel under the ramp", ("ckf", "fkf-oracle"), ("N",))

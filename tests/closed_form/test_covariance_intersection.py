@@ -16,11 +16,11 @@ import pytest
 from ftnav.core import kalman as kf
 from ftnav.fusion.local import check_prior, with_common
 from ftnav.fusion.neural import NeuralFusion, NeuronModel
-from ftnav.fusion.system import LinearSystem
 from ftnav.io.scenario_file import load_scenario
+from ftnav.model.scenario import Method
+from ftnav.model.system import LinearSystem
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
-from ftnav.sim.scenario import Method
 
 
 def _random_joint(rng, B, N, n):

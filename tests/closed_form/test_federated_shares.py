@@ -13,8 +13,8 @@ import warnings
 import numpy as np
 
 from ftnav.fusion.federated import MIN_SHARE, FederatedFilter
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import LinearModel, Method, Sensor
+from ftnav.model.scenario import LinearModel, Method, Sensor
+from ftnav.model.system import LinearSystem
 
 
 def test_all_faulty_run_beside_a_floored_share_stays_zero_without_warning():

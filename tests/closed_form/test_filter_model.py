@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from ftnav.io.ins_scenario_file import filter_model
+from ftnav.model.imu import ImuErrors, imu_preset
 from ftnav.nav.units import deg_per_h, deg_per_sqrt_h, milli_g, standard_g
-from ftnav.sim.imu import ImuErrors, imu_preset
 
 G = 9.80665
 

@@ -9,11 +9,11 @@ import pytest
 
 from ftnav.core import kalman as kf
 from ftnav.fusion.neural import NeuralFusion, NeuronModel, select_weights
-from ftnav.fusion.system import LinearSystem
 from ftnav.io.scenario_file import load_scenario
+from ftnav.model.scenario import Method
+from ftnav.model.system import LinearSystem
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
-from ftnav.sim.scenario import Method
 
 
 @pytest.fixture(scope="module")

@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from ftnav.io.profile_file import resolve_profile
+from ftnav.model.flight import Profile, Segment, Start
 from ftnav.nav import attitude as at
 from ftnav.nav import earth
 from ftnav.nav import mechanization as mech
-from ftnav.sim.trajectory import Profile, Segment, Start, generate
+from ftnav.sim.trajectory import generate
 
 D = math.radians
 

@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
+from ftnav.model.imu import IMU_PRESETS, ImuErrors, imu_preset
 from ftnav.nav import units as u
-from ftnav.sim.imu import IMU_PRESETS, ImuErrors, imu_preset
 
 D = math.pi / 180.0
 G0 = 9.80665

@@ -11,9 +11,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ftnav.fusion.centralized import CentralizedFilter
-from ftnav.fusion.system import LinearSystem
+from ftnav.model.scenario import Fault, LinearModel, Scenario, Sensor
+from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import Simulation, simulate
-from ftnav.sim.scenario import Fault, LinearModel, Scenario, Sensor
 
 
 def random_spd(rng: np.random.Generator, n: int, scale: float = 1.0) -> np.ndarray:

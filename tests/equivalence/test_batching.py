@@ -14,8 +14,8 @@ import pytest
 from equivalence_problems import assert_identical
 
 from ftnav.eval.montecarlo import build_filter, run_filter, run_scenario
-from ftnav.fusion.system import LinearSystem
 from ftnav.io.scenario_file import load_scenario
+from ftnav.model.system import LinearSystem
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
 

@@ -17,8 +17,8 @@ import pytest
 from equivalence_problems import assert_same, drive, random_scenario, simulate_problem
 
 from ftnav.fusion.federated import FederatedFilter
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import Fault, Method
+from ftnav.model.scenario import Fault, Method
+from ftnav.model.system import LinearSystem
 
 STEPS = 300
 

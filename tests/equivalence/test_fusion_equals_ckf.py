@@ -16,8 +16,8 @@ from ftnav.core.kalman import spd_inverse
 from ftnav.fusion.centralized import CentralizedFilter
 from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import MIN_SHARE, FederatedFilter
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import Method
+from ftnav.model.scenario import Method
+from ftnav.model.system import LinearSystem
 
 STEPS = 400
 SHAPES = {"3x[1,1,1]": (3, [1, 1, 1]), "4x[2,1,3]": (4, [2, 1, 3]), "6x[3,3]": (6, [3, 3])}

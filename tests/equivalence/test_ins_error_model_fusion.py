@@ -2,7 +2,7 @@
 
 Φ_k, Q_k come from :class:`~ftnav.nav.error_model.SinsErrorModel` evaluated along the
 ``seed001`` flight (1 s steps, 300 s from take-off through the climb and a turn) and
-drive a :class:`~ftnav.fusion.system.TimeVaryingSystem` with three aids of paper 002's
+drive a :class:`~ftnav.model.system.TimeVaryingSystem` with three aids of paper 002's
 kind: GNSS velocity (δv), star-tracker attitude (φ) and barometric height (δh).
 Oracle: fusion-reset federated (any β), zero-reset and distributed filters equal the
 centralized filter (spec §1.6, §6) within 1e-9, compared in units of the initial σ.
@@ -17,12 +17,12 @@ from equivalence_problems import drive
 from ftnav.fusion.centralized import CentralizedFilter
 from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import FederatedFilter
-from ftnav.fusion.system import TimeVaryingSystem
 from ftnav.io.profile_file import resolve_profile
+from ftnav.model.scenario import LinearModel, Method, Scenario, Sensor
+from ftnav.model.system import TimeVaryingSystem
 from ftnav.nav import attitude as at
 from ftnav.nav.error_model import STATES_18, ErrorModelParams, NavState, SinsErrorModel
 from ftnav.sim.linear import simulate
-from ftnav.sim.scenario import LinearModel, Method, Scenario, Sensor
 from ftnav.sim.trajectory import generate
 
 SECONDS = 300

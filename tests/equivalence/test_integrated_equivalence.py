@@ -32,9 +32,9 @@ import pytest
 from ftnav.eval.integrated import run_ins_scenario
 from ftnav.io.ins_scenario_file import parse_ins_scenario
 from ftnav.io.scenario_file import load_scenario
+from ftnav.model.ins_scenario import InsFault
+from ftnav.model.scenario import Method
 from ftnav.scenarios import builtin_path
-from ftnav.sim.ins_scenario import InsFault
-from ftnav.sim.scenario import Method
 
 TOL = 1e-6  # metric units: m, m/s, arcmin
 

@@ -21,8 +21,8 @@ from equivalence_problems import (
 from ftnav.fusion.centralized import CentralizedFilter
 from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import FederatedFilter
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import Fault, Method
+from ftnav.model.scenario import Fault, Method
+from ftnav.model.system import LinearSystem
 
 STEPS = 700
 FIRST, END = 300, 500  # flagged steps FIRST..END-1

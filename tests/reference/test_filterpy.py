@@ -13,9 +13,9 @@ import pytest
 from scipy.linalg import block_diag
 
 from ftnav.fusion.centralized import CentralizedFilter
-from ftnav.fusion.system import LinearSystem
+from ftnav.model.scenario import LinearModel, Scenario, Sensor
+from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
-from ftnav.sim.scenario import LinearModel, Scenario, Sensor
 
 filterpy_kalman = pytest.importorskip("filterpy.kalman")
 

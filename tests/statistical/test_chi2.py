@@ -29,9 +29,9 @@ from scipy.stats import chi2
 
 from ftnav.eval.montecarlo import build_filter, run_filter
 from ftnav.fdi.chi2 import state_statistic
-from ftnav.fusion.system import LinearSystem
+from ftnav.model.scenario import LinearModel, Method, Scenario, Sensor
+from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
-from ftnav.sim.scenario import LinearModel, Method, Scenario, Sensor
 
 P_FA = 1e-2
 RUNS, STEPS = 100, 1000  # 1e5 epochs

@@ -24,8 +24,8 @@ import pytest
 from ftnav.eval.integrated import run_ins_scenario
 from ftnav.eval.metrics import chi2_band, nees_stats
 from ftnav.io.ins_scenario_file import ScenarioWarning, parse_ins_scenario
+from ftnav.model.imu import IMU_PRESETS
 from ftnav.scenarios import builtin_path
-from ftnav.sim.imu import IMU_PRESETS
 
 #: a plain datasheet IMU: constant gyro and accelerometer biases, white noise
 DATASHEET = {

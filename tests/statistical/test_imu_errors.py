@@ -23,7 +23,9 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from ftnav.sim.imu import ImuErrors, gauss_markov, imu_preset, simulate_imu_errors
+from ftnav.core.markov import gauss_markov
+from ftnav.model.imu import ImuErrors, imu_preset
+from ftnav.sim.imu import simulate_imu_errors
 from ftnav.sim.linear import run_generator
 
 DT = 1.0

@@ -73,8 +73,8 @@ import pytest
 from ftnav.eval.evaluate import evaluate
 from ftnav.eval.integrated import run_ins_scenario
 from ftnav.io.scenario_file import load_scenario
+from ftnav.model.ins_scenario import SINS
 from ftnav.scenarios import builtin_path
-from ftnav.sim.ins_scenario import SINS
 
 FKF = "fkf-nr-chi2"
 NEURAL = "neural-chi2"

@@ -20,9 +20,9 @@ import pytest
 
 from ftnav.eval.metrics import chi2_band
 from ftnav.eval.montecarlo import build_filter, run_filter
-from ftnav.fusion.system import LinearSystem
+from ftnav.model.scenario import Fault, LinearModel, Method, Scenario, Sensor
+from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
-from ftnav.sim.scenario import Fault, LinearModel, Method, Scenario, Sensor
 
 T = 0.05
 F_CA = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])

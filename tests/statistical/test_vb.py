@@ -26,9 +26,9 @@ from ftnav.core import kalman as kf
 from ftnav.core import vb
 from ftnav.eval.montecarlo import run_filter
 from ftnav.fusion.distributed import DistributedFilter
-from ftnav.fusion.system import LinearSystem
+from ftnav.model.scenario import LinearModel, Method, Scenario, Sensor
+from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
-from ftnav.sim.scenario import LinearModel, Method, Scenario, Sensor
 
 R_TRUE = np.array([4.0, 0.25])
 Q_WALK = 0.05

@@ -13,9 +13,10 @@ from pathlib import Path
 
 import pytest
 
-from ftnav.io.scenario_file import ScenarioError, load_scenario, parse_scenario, scenario_to_dict
+from ftnav.io.common import ScenarioError
+from ftnav.io.scenario_file import load_scenario, parse_scenario, scenario_to_dict
+from ftnav.model.scenario import MAX_FIGURE_METHODS, FigureSpec
 from ftnav.scenarios import builtin_path
-from ftnav.sim.scenario import MAX_FIGURE_METHODS, FigureSpec
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "cli"))
 from output_problems import INTEGRATED, NORTH_RAMP  # noqa: E402

@@ -7,8 +7,10 @@ import re
 import numpy as np
 import pytest
 
+from ftnav.core.markov import gauss_markov
+from ftnav.model.imu import ImuErrors, imu_preset
 from ftnav.nav.units import markov_q, parse_quantity, psd_to_sigma, sigma_to_psd
-from ftnav.sim.imu import ImuErrors, gauss_markov, imu_preset, simulate_imu_errors
+from ftnav.sim.imu import simulate_imu_errors
 
 NAN = float("nan")
 INF = float("inf")

@@ -12,8 +12,9 @@ import tomllib
 import pytest
 
 from ftnav.cli import main
+from ftnav.io.common import ScenarioError
 from ftnav.io.ins_scenario_file import parse_ins_scenario
-from ftnav.io.scenario_file import ScenarioError, load_scenario
+from ftnav.io.scenario_file import load_scenario
 
 GOOD = """
 kind = "integrated"
@@ -181,8 +182,8 @@ def test_console_script_reports_a_bad_file_without_traceback(tmp_path):
 
 
 def test_imu_datasheet_table_and_base_preset_give_the_documented_errors():
+    from ftnav.model.imu import imu_preset
     from ftnav.nav.units import deg_per_h, milli_g
-    from ftnav.sim.imu import imu_preset
 
     text = GOOD.replace(
         'imu = "seed001"',

@@ -7,8 +7,8 @@ import copy
 import pytest
 
 from ftnav.cli import main
+from ftnav.io.common import ScenarioError
 from ftnav.io.profile_file import parse_profile
-from ftnav.io.scenario_file import ScenarioError
 
 GOOD = {
     "name": "p",

@@ -13,14 +13,14 @@ from typing import Any
 import numpy as np
 import pytest
 
+from ftnav.io.common import ScenarioError
 from ftnav.io.scenario_file import (
-    ScenarioError,
     load_scenario,
     parse_scenario,
     scenario_json_schema,
     scenario_to_dict,
 )
-from ftnav.sim.scenario import Method, Scenario
+from ftnav.model.scenario import Method, Scenario
 
 NAN = float("nan")
 INF = float("inf")

@@ -20,11 +20,14 @@ import numpy as np
 from scipy.linalg import expm
 
 from ftnav.core.kalman import mT, symmetrize
+from ftnav.types import Array, ArrayLike, BatchMatrix, BatchScalar, Matrix
 
 __all__ = ["van_loan", "series", "series_reference", "series_row", "markov_discrete"]
 
 
-def _check(F, GQGt, T):
+def _check(
+    F: ArrayLike, GQGt: ArrayLike, T: ArrayLike
+) -> tuple[BatchMatrix, BatchMatrix, Array, tuple[int, ...]]:
     F = np.asarray(F, dtype=float)
     GQGt = np.asarray(GQGt, dtype=float)
     if F.ndim < 2 or F.shape[-1] != F.shape[-2]:
@@ -41,7 +44,7 @@ def _check(F, GQGt, T):
     return F, GQGt, T[..., None, None], batch
 
 
-def van_loan(F: np.ndarray, GQGt: np.ndarray, T) -> tuple[np.ndarray, np.ndarray]:
+def van_loan(F: BatchMatrix, GQGt: BatchMatrix, T: ArrayLike) -> tuple[BatchMatrix, BatchMatrix]:
     """Exact discretization by Van Loan's matrix exponential (spec §8.4).
 
     ``B = expm([[−F, G q Gᵀ], [0, Fᵀ]] T)``, ``Φ = B₂₂ᵀ``, ``Q_k = Φ B₁₂`` (symmetrized).
@@ -70,7 +73,9 @@ def van_loan(F: np.ndarray, GQGt: np.ndarray, T) -> tuple[np.ndarray, np.ndarray
     return Phi, symmetrize(Phi @ B[..., :n, n:])
 
 
-def series(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5) -> tuple[np.ndarray, np.ndarray]:
+def series(
+    F: BatchMatrix, GQGt: BatchMatrix, T: ArrayLike, order: int = 5
+) -> tuple[BatchMatrix, BatchMatrix]:
     """Truncated-series discretization (spec §8.4; PSINS ``kfc2d``).
 
     ``Φ = Σ_{j=0}^{order} (F T)^j / j!`` and ``Q_k = Σ_{j=1}^{order} M_j T^j / j!`` with
@@ -105,7 +110,18 @@ def series(F: np.ndarray, GQGt: np.ndarray, T, order: int = 5) -> tuple[np.ndarr
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def series_row(F, GQGt, T, order, Phi, Q, X, nxt, Mj, FM):  # pragma: no cover - compiled
+def series_row(
+    F: Matrix,
+    GQGt: Matrix,
+    T: float,
+    order: int,
+    Phi: Matrix,
+    Q: Matrix,
+    X: Matrix,
+    nxt: Matrix,
+    Mj: Matrix,
+    FM: Matrix,
+) -> None:  # pragma: no cover - compiled
     """:func:`series` of one model (n, n) into ``Phi``, ``Q``; X … FM are (n, n) scratch.
 
     ``Φ`` by Horner, ``X ← I + (F T / j) X`` for j = order … 1, so every product has
@@ -151,7 +167,9 @@ def series_row(F, GQGt, T, order, Phi, Q, X, nxt, Mj, FM):  # pragma: no cover -
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _series_rows(F, GQGt, T, order, Phi, Q):  # pragma: no cover - compiled
+def _series_rows(
+    F: BatchMatrix, GQGt: BatchMatrix, T: BatchScalar, order: int, Phi: BatchMatrix, Q: BatchMatrix
+) -> None:  # pragma: no cover - compiled
     n = F.shape[1]
     X, nxt, Mj, FM = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
     for b in range(F.shape[0]):
@@ -159,8 +177,8 @@ def _series_rows(F, GQGt, T, order, Phi, Q):  # pragma: no cover - compiled
 
 
 def series_reference(
-    F: np.ndarray, GQGt: np.ndarray, T, order: int = 5
-) -> tuple[np.ndarray, np.ndarray]:
+    F: BatchMatrix, GQGt: BatchMatrix, T: ArrayLike, order: int = 5
+) -> tuple[BatchMatrix, BatchMatrix]:
     """Plain NumPy form of :func:`series` (the compiled kernel's test oracle)."""
     F, GQGt, T, batch = _check(F, GQGt, T)
     if int(order) != order or order < 1:
@@ -181,7 +199,7 @@ def series_reference(
     return Phi, symmetrize(Q)
 
 
-def markov_discrete(sigma, tau, T) -> tuple[np.ndarray, np.ndarray]:
+def markov_discrete(sigma: ArrayLike, tau: ArrayLike, T: ArrayLike) -> tuple[Array, Array]:
     """First-order Gauss-Markov process sampled every T (spec §8.4).
 
     ``b_{k+1} = a b_k + w_k`` with ``a = e^{−T/τ}`` and

@@ -14,7 +14,7 @@ matrix, ``R`` measurement-noise covariance, ``Y = P⁻¹`` information matrix an
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 
@@ -28,6 +28,7 @@ from ftnav.core.linalg import (
     spd_solve,
     update_kernel,
 )
+from ftnav.types import Array, BatchMatrix, BatchScalar, BatchVector, Vector
 
 __all__ = [
     "Gaussian",
@@ -51,8 +52,8 @@ __all__ = [
 class Gaussian(NamedTuple):
     """Mean ``x`` (..., n) and covariance ``P`` (..., n, n)."""
 
-    x: np.ndarray
-    P: np.ndarray
+    x: BatchVector
+    P: BatchMatrix
 
 
 class Update(NamedTuple):
@@ -67,29 +68,29 @@ class Update(NamedTuple):
     nis : (...,) normalized innovation squared ``νᵀ S⁻¹ ν``.
     """
 
-    x: np.ndarray
-    P: np.ndarray
-    innovation: np.ndarray
-    S: np.ndarray
-    nis: np.ndarray
+    x: BatchVector
+    P: BatchMatrix
+    innovation: BatchVector
+    S: BatchMatrix
+    nis: BatchScalar
 
 
-def mT(A: np.ndarray) -> np.ndarray:
+def mT(A: Array) -> Array:
     """Transpose of the last two axes."""
     return np.swapaxes(A, -1, -2)
 
 
-def mv(A: np.ndarray, x: np.ndarray) -> np.ndarray:
+def mv(A: BatchMatrix, x: BatchVector) -> BatchVector:
     """Batched matrix-vector product ``A x`` for ``A (..., m, n)``, ``x (..., n)``."""
     return (A @ x[..., None])[..., 0]
 
 
-def symmetrize(P: np.ndarray) -> np.ndarray:
+def symmetrize(P: BatchMatrix) -> BatchMatrix:
     """Return ``½(P + Pᵀ)`` (spec §0, numerics)."""
     return 0.5 * (P + mT(P))
 
 
-def predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> Gaussian:
+def predict(x: BatchVector, P: BatchMatrix, F: BatchMatrix, Q: BatchMatrix) -> Gaussian:
     """Kalman time update ``x⁻ = F x``, ``P⁻ = F P Fᵀ + Q`` (spec §1.3 step 1).
 
     Parameters
@@ -114,7 +115,7 @@ def predict(x: np.ndarray, P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> Gauss
     return Gaussian(x_out.reshape(batch + (n,)), P_out.reshape(batch + (n, n)))
 
 
-def intersect(x: np.ndarray, P: np.ndarray, omega: np.ndarray | None = None) -> Gaussian:
+def intersect(x: BatchVector, P: BatchMatrix, omega: BatchScalar | None = None) -> Gaussian:
     """Covariance intersection ``P⁻¹ = Σ ω_i P_i⁻¹``, ``P⁻¹ x = Σ ω_i P_i⁻¹ x_i``.
 
     Julier & Uhlmann (ACC 1997): with ``ω_i ≥ 0`` and ``Σ ω_i = 1`` the result is
@@ -137,12 +138,14 @@ def intersect(x: np.ndarray, P: np.ndarray, omega: np.ndarray | None = None) -> 
     return fuse(x, P, omega)
 
 
-def predict_reference(x, P, F, Q) -> Gaussian:
+def predict_reference(x: BatchVector, P: BatchMatrix, F: BatchMatrix, Q: BatchMatrix) -> Gaussian:
     """Plain NumPy form of :func:`predict` (the test oracle of the compiled one)."""
     return Gaussian(mv(F, x), symmetrize(F @ P @ mT(F) + Q))
 
 
-def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray) -> Update:
+def update(
+    x: BatchVector, P: BatchMatrix, z: BatchVector, H: BatchMatrix, R: BatchMatrix
+) -> Update:
     """Kalman measurement update in Joseph form (spec §0).
 
     ``K = P Hᵀ S⁻¹``, ``x⁺ = x + K ν``,
@@ -180,13 +183,16 @@ def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.nda
     )
 
 
-def update_reference(x, P, z, H, R) -> Update:
+def update_reference(
+    x: BatchVector, P: BatchMatrix, z: BatchVector, H: BatchMatrix, R: BatchMatrix
+) -> Update:
     """Plain NumPy form of :func:`update` (LU solves; the compiled kernel's oracle)."""
     nu = z - mv(H, x)
     PHt = P @ mT(H)
     S = symmetrize(H @ PHt + R)
-    # K = P Hᵀ S⁻¹  <=>  Kᵀ = S⁻¹ H P (S and P symmetric)
-    K = mT(np.linalg.solve(S, mT(PHt)))
+    # K = P Hᵀ S⁻¹  <=>  Kᵀ = S⁻¹ H P (S and P symmetric); the casts here and below:
+    # numpy's stubs type LAPACK results as any float, they are float64 for float64 input
+    K = mT(cast(BatchMatrix, np.linalg.solve(S, mT(PHt))))
     x_post = x + mv(K, nu)
     n = x.shape[-1]
     A = np.eye(n) - K @ H
@@ -195,8 +201,8 @@ def update_reference(x, P, z, H, R) -> Update:
 
 
 def prior_nis(
-    x: np.ndarray, P: np.ndarray, z: np.ndarray, H: np.ndarray, R: np.ndarray
-) -> np.ndarray:
+    x: BatchVector, P: BatchMatrix, z: BatchVector, H: BatchMatrix, R: BatchMatrix
+) -> BatchScalar:
     """NIS of ``z`` against the prior ``(x, P)``: ``νᵀ S⁻¹ ν``, ``ν = z − H x``,
     ``S = H P Hᵀ + R`` (spec §3.1), shape (...); one compiled pass, no update.
 
@@ -220,14 +226,14 @@ def prior_nis(
 
 
 def differenced_measurement(
-    z: np.ndarray,
-    H: np.ndarray,
-    z_prev: np.ndarray,
-    H_prev: np.ndarray,
-    Phi: np.ndarray,
-    psi: np.ndarray,
-    shift: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
+    z: BatchVector,
+    H: BatchMatrix,
+    z_prev: BatchVector,
+    H_prev: BatchMatrix,
+    Phi: BatchMatrix,
+    psi: Vector,
+    shift: BatchVector | None = None,
+) -> tuple[BatchVector, BatchMatrix]:
     """Measurement differencing for first-order Markov measurement errors.
 
     Bryson & Henrikson (1968).  With ``z_k = H_k x_k + b_k + n_k``,
@@ -253,35 +259,36 @@ def differenced_measurement(
     psi = np.asarray(psi, dtype=float)
     prev = z_prev if shift is None else z_prev - mv(H_prev, shift)
     # H_{k−1} Φ⁻¹ = (Φ⁻ᵀ H_{k−1}ᵀ)ᵀ: one LU solve per run, no inverse formed
-    HPhi_inv = mT(np.linalg.solve(mT(Phi), mT(H_prev)))
+    HPhi_inv = mT(cast(BatchMatrix, np.linalg.solve(mT(Phi), mT(H_prev))))
     return z - psi * prev, H - psi[:, None] * HPhi_inv
 
 
-def nis(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
+def nis(nu: BatchVector, S: BatchMatrix) -> BatchScalar:
     """Normalized innovation squared ``νᵀ S⁻¹ ν`` (spec §3.1), shape (...)."""
-    return np.einsum("...i,...i->...", nu, spd_solve(S, nu[..., None])[..., 0])
+    q: BatchScalar = np.einsum("...i,...i->...", nu, spd_solve(S, nu[..., None])[..., 0])
+    return q
 
 
-def spd_inverse(P: np.ndarray) -> np.ndarray:
+def spd_inverse(P: BatchMatrix) -> BatchMatrix:
     """Inverse of a symmetric positive-definite matrix, symmetrized."""
     return spd_inv(P)
 
 
-def to_information(x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def to_information(x: BatchVector, P: BatchMatrix) -> tuple[BatchVector, BatchMatrix]:
     """Covariance form to information form: ``Y = P⁻¹``, ``y = P⁻¹ x`` (spec §0)."""
     Y = spd_inverse(P)
     return mv(Y, x), Y
 
 
-def from_information(y: np.ndarray, Y: np.ndarray) -> Gaussian:
+def from_information(y: BatchVector, Y: BatchMatrix) -> Gaussian:
     """Information form to covariance form: ``P = Y⁻¹``, ``x = P y`` (spec §0)."""
     P = spd_inverse(Y)
     return Gaussian(mv(P, y), P)
 
 
 def information_predict(
-    y: np.ndarray, Y: np.ndarray, F: np.ndarray, Q: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+    y: BatchVector, Y: BatchMatrix, F: BatchMatrix, Q: BatchMatrix
+) -> tuple[BatchVector, BatchMatrix]:
     """Information-form time update valid for singular ``Y`` (spec §1.5, ZR note).
 
     With ``M = F⁻ᵀ Y F⁻¹`` the prior information is ``Y⁻ = (I + M Q)⁻¹ M``
@@ -291,21 +298,21 @@ def information_predict(
     continuous-time model.
     """
     n = y.shape[-1]
-    Finv = np.linalg.inv(F)
+    Finv = cast(BatchMatrix, np.linalg.inv(F))
     FinvT = mT(Finv)
     M = FinvT @ Y @ Finv
     A = np.eye(n) + M @ Q
-    Y_prior = symmetrize(np.linalg.solve(A, M))
-    y_prior = np.linalg.solve(A, mv(FinvT, y)[..., None])[..., 0]
+    Y_prior = symmetrize(cast(BatchMatrix, np.linalg.solve(A, M)))
+    y_prior = cast(BatchVector, np.linalg.solve(A, mv(FinvT, y)[..., None])[..., 0])
     return y_prior, Y_prior
 
 
 def fuse(
-    x: np.ndarray,
-    P: np.ndarray,
-    weight: np.ndarray,
-    y0: np.ndarray | None = None,
-    Y0: np.ndarray | None = None,
+    x: BatchVector,
+    P: BatchMatrix,
+    weight: BatchScalar,
+    y0: BatchVector | None = None,
+    Y0: BatchMatrix | None = None,
 ) -> Gaussian:
     """Information fusion ``P_g = (Y0 + Σ w_i P_i⁻¹)⁻¹``, ``x_g = P_g (y0 + Σ w_i P_i⁻¹ x_i)``.
 

@@ -19,8 +19,20 @@ level up, around whole chunks of runs or methods in worker processes
 
 from __future__ import annotations
 
+from typing import Literal, TypedDict
+
 import numba
 import numpy as np
+
+from ftnav.types import (
+    Array,
+    BatchMatrix,
+    BatchScalar,
+    BatchVector,
+    BoolBatch,
+    Matrix,
+    Vector,
+)
 
 __all__ = [
     "spd_solve",
@@ -34,13 +46,25 @@ __all__ = [
     "batch_shape",
 ]
 
+
+class JitOptions(TypedDict, total=False):
+    """Keyword options of ``numba.njit`` that the compiled kernels set (typed for mypy)."""
+
+    cache: bool
+    nogil: bool
+    error_model: Literal["python", "numpy"]
+    fastmath: bool | set[str]
+
+
 #: compile options of every kernel: cached, GIL released, NumPy error model
 #: (no zero-division checks; a failed Cholesky is detected explicitly instead)
-_JIT = dict(cache=True, nogil=True, error_model="numpy", fastmath={"reassoc", "contract"})
+_JIT: JitOptions = dict(
+    cache=True, nogil=True, error_model="numpy", fastmath={"reassoc", "contract"}
+)
 
 
 @numba.njit(**_JIT)
-def _chol(A, L):  # pragma: no cover - compiled
+def _chol(A: Matrix, L: Matrix) -> bool:  # pragma: no cover - compiled
     n = A.shape[0]
     for j in range(n):
         s = A[j, j]
@@ -59,7 +83,9 @@ def _chol(A, L):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _chol_solve_rows(lo, hi, A, B, out, ok):  # pragma: no cover - compiled
+def _chol_solve_rows(
+    lo: int, hi: int, A: BatchMatrix, B: BatchMatrix, out: BatchMatrix, ok: BoolBatch
+) -> None:  # pragma: no cover - compiled
     n = A.shape[1]
     k = B.shape[2]
     L = np.empty((n, n))
@@ -80,14 +106,14 @@ def _chol_solve_rows(lo, hi, A, B, out, ok):  # pragma: no cover - compiled
                 out[b, i, c] = s / L[i, i]
 
 
-def _chol_solve(A, B, out):
+def _chol_solve(A: BatchMatrix, B: BatchMatrix, out: BatchMatrix) -> BoolBatch:
     M = A.shape[0]
     ok = np.ones(M, dtype=np.bool_)
     _chol_solve_rows(0, M, A, B, out, ok)
     return ok
 
 
-def spd_solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+def spd_solve(A: BatchMatrix, B: BatchMatrix) -> BatchMatrix:
     """Solve ``A X = B`` for SPD ``A (..., n, n)`` and ``B (..., n, k)``.
 
     Leading axes broadcast.  Uses a compiled Cholesky solve; any matrix whose
@@ -107,7 +133,7 @@ def spd_solve(A: np.ndarray, B: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(**_JIT)
-def _gram_lower(Li, out):  # pragma: no cover - compiled
+def _gram_lower(Li: Matrix, out: Matrix) -> None:  # pragma: no cover - compiled
     """``out = Liᵀ Li`` for lower-triangular ``Li`` (= A⁻¹ when ``Li = L⁻¹``), mirrored."""
     n = Li.shape[0]
     for i in range(n):
@@ -120,7 +146,9 @@ def _gram_lower(Li, out):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _inv_rows(lo, hi, A, out, ok):  # pragma: no cover - compiled
+def _inv_rows(
+    lo: int, hi: int, A: BatchMatrix, out: BatchMatrix, ok: BoolBatch
+) -> None:  # pragma: no cover - compiled
     n = A.shape[1]
     L = np.empty((n, n))
     Li = np.zeros((n, n))
@@ -132,7 +160,7 @@ def _inv_rows(lo, hi, A, out, ok):  # pragma: no cover - compiled
         _gram_lower(Li, out[b])
 
 
-def spd_inv(A: np.ndarray) -> np.ndarray:
+def spd_inv(A: BatchMatrix) -> BatchMatrix:
     """Inverse of SPD ``A (..., n, n)``, symmetric by construction.
 
     ``A⁻¹ = L⁻ᵀ L⁻¹`` from the compiled Cholesky factor; a matrix whose factorization
@@ -152,7 +180,16 @@ def spd_inv(A: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(**_JIT)
-def _predict_rows(lo, hi, x, P, F, Q, x_out, P_out):  # pragma: no cover - compiled
+def _predict_rows(
+    lo: int,
+    hi: int,
+    x: BatchVector,
+    P: BatchMatrix,
+    F: BatchMatrix,
+    Q: BatchMatrix,
+    x_out: BatchVector,
+    P_out: BatchMatrix,
+) -> None:  # pragma: no cover - compiled
     n = x.shape[1]
     FP = np.empty((n, n))
     for b in range(lo, hi):
@@ -181,7 +218,14 @@ def _predict_rows(lo, hi, x, P, F, Q, x_out, P_out):  # pragma: no cover - compi
                 P_out[b, j, i] = v
 
 
-def predict_kernel(x, P, F, Q, x_out, P_out):
+def predict_kernel(
+    x: BatchVector,
+    P: BatchMatrix,
+    F: BatchMatrix,
+    Q: BatchMatrix,
+    x_out: BatchVector,
+    P_out: BatchMatrix,
+) -> None:
     """``x⁻ = F x``, ``P⁻ = F P Fᵀ + Q`` symmetrized, for flat batches (M, n[, n]).
 
     ``F`` and ``Q`` have a leading axis of M or of 1 (shared by the batch).
@@ -191,7 +235,17 @@ def predict_kernel(x, P, F, Q, x_out, P_out):
 
 
 @numba.njit(**_JIT)
-def _innovation(b, x, P, z, H, R, PHt, nu, S):  # pragma: no cover - compiled
+def _innovation(
+    b: int,
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    R: BatchMatrix,
+    PHt: Matrix,
+    nu: Vector,
+    S: Matrix,
+) -> None:  # pragma: no cover - compiled
     """Row b: ``P Hᵀ`` (n, m), ``ν = z − H x`` (m,) and the symmetrized ``S = H P Hᵀ + R``."""
     n = x.shape[1]
     m = z.shape[1]
@@ -217,7 +271,7 @@ def _innovation(b, x, P, z, H, R, PHt, nu, S):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _whitened_norm(L, nu, w):  # pragma: no cover - compiled
+def _whitened_norm(L: Matrix, nu: Vector, w: Vector) -> float:  # pragma: no cover - compiled
     """``νᵀ S⁻¹ ν = |L⁻¹ ν|²`` for the Cholesky factor L of S (w: (m,) scratch)."""
     q = 0.0
     for r in range(nu.shape[0]):
@@ -231,8 +285,20 @@ def _whitened_norm(L, nu, w):  # pragma: no cover - compiled
 
 @numba.njit(**_JIT)
 def _update_rows(
-    lo, hi, x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out, ok
-):  # pragma: no cover - compiled
+    lo: int,
+    hi: int,
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    R: BatchMatrix,
+    x_out: BatchVector,
+    P_out: BatchMatrix,
+    nu_out: BatchVector,
+    S_out: BatchMatrix,
+    nis_out: BatchScalar,
+    ok: BoolBatch,
+) -> None:  # pragma: no cover - compiled
     n = x.shape[1]
     m = z.shape[1]
     PHt = np.empty((n, m))
@@ -297,7 +363,18 @@ def _update_rows(
                 P_out[b, j, i] = s
 
 
-def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):
+def update_kernel(
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    R: BatchMatrix,
+    x_out: BatchVector,
+    P_out: BatchMatrix,
+    nu_out: BatchVector,
+    S_out: BatchMatrix,
+    nis_out: BatchScalar,
+) -> BoolBatch:
     """Joseph-form update for flat batches; returns False where S is not SPD."""
     M = x.shape[0]
     ok = np.ones(M, dtype=np.bool_)
@@ -306,7 +383,17 @@ def update_kernel(x, P, z, H, R, x_out, P_out, nu_out, S_out, nis_out):
 
 
 @numba.njit(**_JIT)
-def _nis_rows(lo, hi, x, P, z, H, R, nis_out, ok):  # pragma: no cover - compiled
+def _nis_rows(
+    lo: int,
+    hi: int,
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    R: BatchMatrix,
+    nis_out: BatchScalar,
+    ok: BoolBatch,
+) -> None:  # pragma: no cover - compiled
     n = x.shape[1]
     m = z.shape[1]
     PHt = np.empty((n, m))
@@ -322,7 +409,14 @@ def _nis_rows(lo, hi, x, P, z, H, R, nis_out, ok):  # pragma: no cover - compile
         nis_out[b] = _whitened_norm(L, nu, w)
 
 
-def nis_kernel(x, P, z, H, R, nis_out):
+def nis_kernel(
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    R: BatchMatrix,
+    nis_out: BatchScalar,
+) -> BoolBatch:
     """``νᵀ S⁻¹ ν`` with ``ν = z − H x``, ``S = H P Hᵀ + R`` for flat batches.
 
     Returns False where S is not numerically SPD (the caller falls back).
@@ -335,25 +429,25 @@ def nis_kernel(x, P, z, H, R, nis_out):
 
 @numba.njit(**_JIT)
 def _vb_rows(
-    lo,
-    hi,
-    x,
-    P,
-    z,
-    H,
-    alpha_post,
-    beta,
-    iterations,
-    x_out,
-    P_out,
-    nu_out,
-    S_out,
-    nis_out,
-    beta_out,
-    R_out,
-    ok,
-):  # pragma: no cover - compiled
-    M, m = z.shape
+    lo: int,
+    hi: int,
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    alpha_post: BatchVector,
+    beta: BatchVector,
+    iterations: int,
+    x_out: BatchVector,
+    P_out: BatchMatrix,
+    nu_out: BatchVector,
+    S_out: BatchMatrix,
+    nis_out: BatchScalar,
+    beta_out: BatchVector,
+    R_out: BatchMatrix,
+    ok: BoolBatch,
+) -> None:  # pragma: no cover - compiled
+    m = z.shape[1]
     n = x.shape[1]
     for b in range(lo, hi):
         h = b if H.shape[0] > 1 else 0
@@ -379,8 +473,21 @@ def _vb_rows(
 
 
 def vb_kernel(
-    x, P, z, H, alpha_post, beta, iterations, x_out, P_out, nu_out, S_out, nis_out, beta_out, R_out
-):
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    alpha_post: BatchVector,
+    beta: BatchVector,
+    iterations: int,
+    x_out: BatchVector,
+    P_out: BatchMatrix,
+    nu_out: BatchVector,
+    S_out: BatchMatrix,
+    nis_out: BatchScalar,
+    beta_out: BatchVector,
+    R_out: BatchMatrix,
+) -> BoolBatch:
     """Särkkä VB iterations (spec §7.2) for flat batches: each a Joseph update with
     ``R = diag(β/α)`` then ``β = β⁻ + ½ν⁺² + ½ diag(H P⁺ Hᵀ)``; False where S is not SPD."""
     M = x.shape[0]
@@ -416,9 +523,7 @@ def batch_shape(*shapes: tuple[int, ...]) -> tuple[int, ...]:
     return np.broadcast_shapes(*shapes)
 
 
-def flat(
-    a: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...], shared: bool = False
-) -> np.ndarray:
+def flat(a: Array, batch: tuple[int, ...], core: tuple[int, ...], shared: bool = False) -> Array:
     """View ``a`` as ``(prod(batch),) + core`` float64 (broadcasting it to ``batch``).
 
     With ``shared=True`` an ``a`` without batch axes is returned as ``(1,) + core``
@@ -434,7 +539,7 @@ def flat(
 
 
 @numba.njit(**_JIT)
-def _tri_inv(L, out):  # pragma: no cover - compiled
+def _tri_inv(L: Matrix, out: Matrix) -> None:  # pragma: no cover - compiled
     """Inverse of the lower-triangular Cholesky factor ``L`` (lower triangle of ``out``)."""
     n = L.shape[0]
     for j in range(n):
@@ -448,7 +553,9 @@ def _tri_inv(L, out):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _add_inverse(Li, w, x, Y, y, u):  # pragma: no cover - compiled
+def _add_inverse(
+    Li: Matrix, w: float, x: Vector, Y: Matrix, y: Vector, u: Vector
+) -> None:  # pragma: no cover - compiled
     """``Y += w Lᵢᵀ Lᵢ`` (lower triangle) and ``y += w Lᵢᵀ Lᵢ x`` for ``Lᵢ = L⁻¹``.
 
     ``u`` is an (n,) work buffer (no allocation inside the batch loop).
@@ -472,7 +579,18 @@ def _add_inverse(Li, w, x, Y, y, u):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _fuse_rows(lo, hi, x, P, w, Y0, y0, x_out, P_out, ok):  # pragma: no cover - compiled
+def _fuse_rows(
+    lo: int,
+    hi: int,
+    x: BatchVector,
+    P: BatchMatrix,
+    w: BatchVector,
+    Y0: BatchMatrix,
+    y0: BatchVector,
+    x_out: BatchVector,
+    P_out: BatchMatrix,
+    ok: BoolBatch,
+) -> None:  # pragma: no cover - compiled
     N, n = x.shape[1:]
     L = np.empty((n, n))
     Li = np.zeros((n, n))
@@ -509,7 +627,15 @@ def _fuse_rows(lo, hi, x, P, w, Y0, y0, x_out, P_out, ok):  # pragma: no cover -
             x_out[b, i] = s
 
 
-def fuse_kernel(x, P, w, Y0, y0, x_out, P_out):
+def fuse_kernel(
+    x: BatchVector,
+    P: BatchMatrix,
+    w: BatchVector,
+    Y0: BatchMatrix,
+    y0: BatchVector,
+    x_out: BatchVector,
+    P_out: BatchMatrix,
+) -> BoolBatch:
     """``Y = Y0 + Σ w_i P_i⁻¹``, ``y = y0 + Σ w_i P_i⁻¹ x_i``, ``P = Y⁻¹``, ``x = P y``.
 
     Each inverse is ``L⁻ᵀ L⁻¹`` from the Cholesky factor (one triangular

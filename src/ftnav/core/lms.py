@@ -68,6 +68,10 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
+import numpy.typing as npt
+
+from ftnav.core.linalg import JitOptions
+from ftnav.types import ArrayLike, BatchMatrix, BatchScalar, BatchVector, Vector
 
 __all__ = ["LmsResult", "PROJECTIONS", "STEPS", "project_simplex", "clip_renormalize", "lms_train"]
 
@@ -77,7 +81,7 @@ PROJECTIONS = ("simplex", "seed")
 STEPS = ("lms", "nlms")
 
 #: compile options of every kernel (same as :mod:`ftnav.core.linalg`)
-_JIT = dict(cache=True, nogil=True, error_model="numpy")
+_JIT: JitOptions = dict(cache=True, nogil=True, error_model="numpy")
 
 #: regularizer of the normalized-LMS step ``μ / (1e-12 + ‖u‖²)`` (spec §5.3)
 _NLMS_EPS = 1e-12
@@ -104,18 +108,18 @@ class LmsResult(NamedTuple):
         training samples.
     """
 
-    weights: np.ndarray
+    weights: BatchVector
     epochs_run: int
     converged: bool
-    min_weight: np.ndarray
-    max_sum_error: np.ndarray
-    mse: np.ndarray
+    min_weight: BatchScalar
+    max_sum_error: BatchScalar
+    mse: BatchScalar
 
 
 # --------------------------------------------------------------------------- projections
 
 
-def project_simplex(w: np.ndarray) -> np.ndarray:
+def project_simplex(w: ArrayLike) -> BatchVector:
     """Euclidean projection onto the probability simplex ``{w >= 0, Σ w = 1}``.
 
     Sort-based algorithm (Held, Wolfe & Crowder 1974; Duchi et al. 2008): with
@@ -147,10 +151,11 @@ def project_simplex(w: np.ndarray) -> np.ndarray:
     cond = s - cs / k > 0.0
     rho = N - np.argmax(cond[..., ::-1], axis=-1)[..., None]
     theta = np.take_along_axis(cs, rho - 1, axis=-1) / rho
-    return np.maximum(v - theta, 0.0)
+    projected: BatchVector = np.maximum(v - theta, 0.0)
+    return projected
 
 
-def clip_renormalize(w: np.ndarray) -> np.ndarray:
+def clip_renormalize(w: ArrayLike) -> BatchVector:
     """The seed's projection (spec §5.3 ``"seed"``): clip negatives, then renormalize.
 
     ``w ← max(w, 0)``, then ``w ← w / Σ w``; where ``Σ w = 0`` (every entry was
@@ -181,7 +186,9 @@ def clip_renormalize(w: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(**_JIT)
-def _project_simplex_inplace(w, j, s):  # pragma: no cover - compiled
+def _project_simplex_inplace(
+    w: BatchVector, j: int, s: Vector
+) -> None:  # pragma: no cover - compiled
     """Project row ``w[j] (N,)`` onto the simplex in place; ``s (N,)`` is scratch."""
     N = w.shape[1]
     for i in range(N):  # insertion sort, decreasing (N is small)
@@ -205,7 +212,7 @@ def _project_simplex_inplace(w, j, s):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _clip_renormalize_inplace(w, j):  # pragma: no cover - compiled
+def _clip_renormalize_inplace(w: BatchVector, j: int) -> None:  # pragma: no cover - compiled
     """Seed rule in place on row ``w[j] (N,)``: clip at 0, divide by the sum (1/N if 0)."""
     N = w.shape[1]
     tot = 0.0
@@ -222,7 +229,7 @@ def _clip_renormalize_inplace(w, j):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _mean_sq_norm(U):  # pragma: no cover - compiled
+def _mean_sq_norm(U: BatchMatrix) -> BatchScalar:  # pragma: no cover - compiled
     """``tr R_j = (1/M) Σ_m ‖u⁽ᵐ⁾‖²`` for ``U (J, M, N)``, summed in a fixed order per neuron."""
     J, M, N = U.shape
     out = np.empty(J)
@@ -236,7 +243,17 @@ def _mean_sq_norm(U):  # pragma: no cover - compiled
 
 
 @numba.njit(**_JIT)
-def _lms_epoch(U, t, w, eta, order, simplex, nlms, min_w, max_sum_err):  # pragma: no cover
+def _lms_epoch(
+    U: BatchMatrix,
+    t: BatchVector,
+    w: BatchVector,
+    eta: BatchScalar,
+    order: npt.NDArray[np.int64],
+    simplex: bool,
+    nlms: bool,
+    min_w: BatchScalar,
+    max_sum_err: BatchScalar,
+) -> float:  # pragma: no cover
     """One epoch of projected LMS for every neuron; returns ``max |Δw|`` over all of them.
 
     ``U (J, M, N)``, ``t (J, M)``, ``w (J, N)`` updated in place, ``eta (J,)`` the
@@ -293,7 +310,7 @@ def _lms_epoch(U, t, w, eta, order, simplex, nlms, min_w, max_sum_err):  # pragm
 # --------------------------------------------------------------------------- training
 
 
-def _check_scalar(name: str, x, lo: float, hi: float, lo_open: bool, hi_open: bool) -> float:
+def _check_scalar(name: str, x: float, lo: float, hi: float, lo_open: bool, hi_open: bool) -> float:
     try:
         v = float(x)
     except (TypeError, ValueError):
@@ -307,8 +324,8 @@ def _check_scalar(name: str, x, lo: float, hi: float, lo_open: bool, hi_open: bo
 
 
 def lms_train(
-    U: np.ndarray,
-    t: np.ndarray,
+    U: ArrayLike,
+    t: ArrayLike,
     *,
     projection: str = "simplex",
     step: str = "lms",
@@ -316,7 +333,7 @@ def lms_train(
     epochs: int = 200,
     tol: float = 1e-6,
     decay: bool = True,
-    w0: np.ndarray | None = None,
+    w0: ArrayLike | None = None,
     rng: np.random.Generator,
 ) -> LmsResult:
     """Train J linear neurons by projected LMS (spec §5.3).

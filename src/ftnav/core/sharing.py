@@ -9,14 +9,18 @@ All functions are batched: ``P`` is ``(..., N, n, n)``, ``r`` is ``(..., N)``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+
+from ftnav.types import BatchMatrix, BatchScalar, Matrix, Vector
 
 __all__ = ["RULES", "sharing_coefficients", "scaled_trace", "information_content"]
 
 RULES = ("equal", "fixed", "information", "trace", "eigen-trace", "frobenius", "inverse-trace")
 
 
-def scaled_trace(P: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
+def scaled_trace(P: BatchMatrix, scale: Vector | None = None) -> BatchScalar:
     """``tr(W P W)`` with ``W = diag(scale)``; plain ``tr P`` if ``scale`` is None.
 
     Spec §2.6 unit-mixing note: the default scale is ``diag(P0)^(-1/2)`` so the
@@ -25,16 +29,20 @@ def scaled_trace(P: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
     d = np.diagonal(P, axis1=-2, axis2=-1)
     if scale is not None:
         d = d * scale**2
-    return d.sum(axis=-1)
+    tr: BatchScalar = d.sum(axis=-1)
+    return tr
 
 
-def _frobenius(P: np.ndarray, scale: np.ndarray | None) -> np.ndarray:
+def _frobenius(P: BatchMatrix, scale: Vector | None) -> BatchScalar:
     if scale is not None:
         P = P * scale[:, None] * scale[None, :]
-    return np.sqrt(np.einsum("...ij,...ij->...", P, P))
+    norm: BatchScalar = np.sqrt(np.einsum("...ij,...ij->...", P, P))
+    return norm
 
 
-def information_content(H: list[np.ndarray], R: list[np.ndarray], scale=None) -> np.ndarray:
+def information_content(
+    H: Sequence[Matrix], R: Sequence[Matrix], scale: Vector | None = None
+) -> Vector:
     """``tr(W⁻¹ Hᵢᵀ Rᵢ⁻¹ Hᵢ W⁻¹)`` per sensor (spec §2 item 2), shape (N,).
 
     Information is scaled by the inverse of the covariance scaling ``W`` so that
@@ -50,7 +58,7 @@ def information_content(H: list[np.ndarray], R: list[np.ndarray], scale=None) ->
     return np.asarray(out)
 
 
-def _normalize(weights: np.ndarray, r: np.ndarray, master_share: float) -> np.ndarray:
+def _normalize(weights: BatchScalar, r: BatchScalar, master_share: float) -> BatchScalar:
     w = np.where(r > 0, weights, 0.0)
     total = w.sum(axis=-1, keepdims=True)
     safe = np.where(total > 0, total, 1.0)
@@ -59,14 +67,14 @@ def _normalize(weights: np.ndarray, r: np.ndarray, master_share: float) -> np.nd
 
 def sharing_coefficients(
     rule: str,
-    P: np.ndarray,
-    r: np.ndarray,
+    P: BatchMatrix,
+    r: BatchScalar,
     *,
     master_share: float = 0.0,
-    betas: np.ndarray | None = None,
-    info: np.ndarray | None = None,
-    scale: np.ndarray | None = None,
-) -> np.ndarray:
+    betas: Vector | None = None,
+    info: Vector | None = None,
+    scale: Vector | None = None,
+) -> BatchScalar:
     """Sharing coefficients β (..., N) for one of the spec §2 rules.
 
     Parameters

@@ -10,31 +10,35 @@ import numpy as np
 
 from ftnav.core.kalman import Update, mT, mv, update
 from ftnav.core.linalg import batch_shape, flat, vb_kernel
+from ftnav.types import BatchMatrix, BatchVector
 
 __all__ = ["vb_predict", "vb_update", "vb_update_reference", "noise_estimate"]
 
 
-def vb_predict(alpha: np.ndarray, beta: np.ndarray, rho: float) -> tuple[np.ndarray, np.ndarray]:
+def vb_predict(
+    alpha: BatchVector, beta: BatchVector, rho: float
+) -> tuple[BatchVector, BatchVector]:
     """Forgetting of the noise posterior ``α⁻ = ρ α``, ``β⁻ = ρ β`` (spec §7.2)."""
     return rho * alpha, rho * beta
 
 
-def noise_estimate(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
+def noise_estimate(alpha: BatchVector, beta: BatchVector) -> BatchMatrix:
     """Diagonal noise estimate ``R̂ = diag(β / α)`` as a (..., m, m) matrix."""
-    return np.einsum("...i,ij->...ij", beta / alpha, np.eye(alpha.shape[-1]))
+    R: BatchMatrix = np.einsum("...i,ij->...ij", beta / alpha, np.eye(alpha.shape[-1]))
+    return R
 
 
 def vb_update(
-    x: np.ndarray,
-    P: np.ndarray,
-    z: np.ndarray,
-    H: np.ndarray,
-    alpha: np.ndarray,
-    beta: np.ndarray,
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    alpha: BatchVector,
+    beta: BatchVector,
     *,
     iterations: int = 3,
     variant: str = "sarkka",
-) -> tuple[Update, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[Update, BatchVector, BatchVector, BatchMatrix]:
     """VB measurement update (spec §7.2; ``variant="literal"``: paper 002 eq. 30, §7.3).
 
     Parameters
@@ -106,16 +110,16 @@ def vb_update(
 
 
 def vb_update_reference(
-    x: np.ndarray,
-    P: np.ndarray,
-    z: np.ndarray,
-    H: np.ndarray,
-    alpha: np.ndarray,
-    beta: np.ndarray,
+    x: BatchVector,
+    P: BatchMatrix,
+    z: BatchVector,
+    H: BatchMatrix,
+    alpha: BatchVector,
+    beta: BatchVector,
     *,
     iterations: int = 3,
     variant: str = "sarkka",
-) -> tuple[Update, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[Update, BatchVector, BatchVector, BatchMatrix]:
     """Plain NumPy form of :func:`vb_update` (its test oracle; also the fallback)."""
     alpha_post = alpha + 0.5
     if variant == "literal":

@@ -11,7 +11,7 @@ When the states include ``pos_E_m``, ``pos_N_m`` and ``pos_U_m`` (integrated run
 per-state map (``rmse``, ``rmse_fault``, ``rmse_nofault``, ``ensemble_rmse``,
 ``max_abs_error`` and the fault-free ``rmse``, ``rmse_fault_window``) also holds
 ``pos_horizontal_m`` and ``pos_3d_m``: the same statistic of the horizontal
-``sqrt(e_E² + e_N²)`` and 3-D position error (:data:`~ftnav.sim.ins_scenario.POSITION_NORMS`),
+``sqrt(e_E² + e_N²)`` and 3-D position error (:data:`~ftnav.model.ins_scenario.POSITION_NORMS`),
 e.g. the mean over runs of each run's horizontal RMS error.
 """
 
@@ -24,7 +24,7 @@ import numpy as np
 
 from ftnav.eval.metrics import detection_stats, error_stats, nees_stats, position_norms
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
-from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
 
 __all__ = ["MethodMetrics", "evaluate", "metrics_to_json", "split_unit"]
 

@@ -26,9 +26,9 @@ import numpy as np
 from ftnav.core.lms import lms_train
 from ftnav.eval.integrated import build_ins_system, run_ins_methods
 from ftnav.fusion.neural import NeuralFusion, NeuronModel
+from ftnav.model.ins_scenario import SINS, InsFault, InsScenario
+from ftnav.model.scenario import Method
 from ftnav.sim.ins_data import simulate_ins
-from ftnav.sim.ins_scenario import SINS, InsFault, InsScenario
-from ftnav.sim.scenario import Method
 
 __all__ = ["train_ins_fusion", "ins_configurations"]
 

@@ -8,13 +8,13 @@ and a fusion filter over the SINS/aid local error-state filters.  Per filter epo
 2. the SINS integrates the epoch's IMU increments;
 3. each aid's nonlinear measurement ``z = INS − aid`` and its ``H`` are formed at the
    INS solution (:mod:`ftnav.sensors`); gated epochs count as missing;
-4. the filter steps with these per-run matrices (:class:`~ftnav.fusion.system.Linearization`:
+4. the filter steps with these per-run matrices (:class:`~ftnav.model.system.Linearization`:
    every local filter and the centre use the same ones);
 5. with ``correction = "feedback"`` the fused navigation errors are fed back to the
    SINS and every estimate is shifted by the same correction (spec §6.2).
 
 The reported output is the corrected navigation solution; its errors against the
-truth (spec §11) are the metric states of :data:`~ftnav.sim.ins_scenario.METRIC_STATES`.
+truth (spec §11) are the metric states of :data:`~ftnav.model.ins_scenario.METRIC_STATES`.
 The loop over epochs is in Python; everything inside is batched over runs.
 """
 
@@ -29,15 +29,15 @@ from ftnav.core import kalman as kf
 from ftnav.eval.metrics import nees
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult, build_filter, split_result
 from ftnav.fusion.feedback import local_estimates, shift_estimates
-from ftnav.fusion.system import Linearization, LinearSystem
+from ftnav.model.ins_scenario import InsScenario
+from ftnav.model.scenario import LinearModel, Sensor
+from ftnav.model.system import Linearization, LinearSystem
 from ftnav.nav import attitude
 from ftnav.nav.earth import radii
 from ftnav.nav.error_model import discrete_model
 from ftnav.nav.mechanization import InsState, feedback, integrate, navigation_errors
 from ftnav.parallel import run_tasks, split_even
 from ftnav.sim.ins_data import InsData, simulate_ins
-from ftnav.sim.ins_scenario import InsScenario
-from ftnav.sim.scenario import LinearModel, Sensor
 
 __all__ = [
     "build_ins_system",
@@ -67,7 +67,7 @@ class InsSystem(LinearSystem):
     """The local filters' model: 18 SINS error states plus each aid's private states.
 
     Its transition and measurement matrices come from each epoch's
-    :class:`~ftnav.fusion.system.Linearization`; the constant ``H`` of the sensors is a
+    :class:`~ftnav.model.system.Linearization`; the constant ``H`` of the sensors is a
     nominal value (used only by the ``information`` sharing rule).
     """
 

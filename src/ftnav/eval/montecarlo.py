@@ -17,10 +17,10 @@ from ftnav.fusion.centralized import CentralizedFilter
 from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import FederatedFilter
 from ftnav.fusion.neural import NeuralFusion
-from ftnav.fusion.system import LinearSystem
+from ftnav.model.scenario import Method, Scenario
+from ftnav.model.system import LinearSystem
 from ftnav.parallel import run_tasks, split_even
 from ftnav.sim.linear import Simulation, concat_simulations, simulate
-from ftnav.sim.scenario import Method, Scenario
 
 __all__ = [
     "MethodResult",

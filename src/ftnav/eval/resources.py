@@ -234,8 +234,8 @@ def run_memory_bytes(
 
     Parameters
     ----------
-    scenario : :class:`ftnav.sim.scenario.Scenario` or, ``kind == "integrated"``,
-        :class:`ftnav.sim.ins_scenario.InsScenario`.
+    scenario : :class:`ftnav.model.scenario.Scenario` or, ``kind == "integrated"``,
+        :class:`ftnav.model.ins_scenario.InsScenario`.
     runs : number of Monte Carlo runs (>= 1).
     workers : worker processes, each holding one batch of runs at a time (>= 1).
     fault_free : the fault-free twin runs beside the faults (what ``ftnav run`` does).

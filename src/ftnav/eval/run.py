@@ -30,8 +30,8 @@ def run(
 
     Parameters
     ----------
-    scenario : a linear :class:`~ftnav.sim.scenario.Scenario` or an integrated
-        :class:`~ftnav.sim.ins_scenario.InsScenario` (``load_scenario`` returns either).
+    scenario : a linear :class:`~ftnav.model.scenario.Scenario` or an integrated
+        :class:`~ftnav.model.ins_scenario.InsScenario` (``load_scenario`` returns either).
     runs, seed : Monte Carlo runs and root seed (run i is the same in any batch).
     fault_free : also run the fault-free twin on identical noise (when there are faults).
     workers : worker processes (:mod:`ftnav.parallel`); 1 runs in this process.

@@ -32,7 +32,8 @@ import numpy as np
 from ftnav.eval.metrics import detection_stats
 from ftnav.fdi.features import FEATURE_KINDS
 from ftnav.fdi.rbf import RBFModel, RBFNetwork
-from ftnav.fusion.system import LinearSystem
+from ftnav.model.scenario import Method, Scenario
+from ftnav.model.system import LinearSystem
 from ftnav.sim.fault_family import (
     HOLDOUT_OFFSET,
     FaultFamily,
@@ -42,7 +43,6 @@ from ftnav.sim.fault_family import (
     window_masks,
 )
 from ftnav.sim.linear import Simulation
-from ftnav.sim.scenario import Method, Scenario
 
 __all__ = [
     "DetectorTraining",

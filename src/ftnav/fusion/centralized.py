@@ -29,8 +29,8 @@ from ftnav.fusion.local import (
     vb_enabled,
     vb_variant,
 )
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import Method
+from ftnav.model.scenario import Method
+from ftnav.model.system import LinearSystem
 
 __all__ = ["CentralizedFilter", "CentralizedState"]
 
@@ -94,7 +94,7 @@ class CentralizedFilter:
     def step(self, state: CentralizedState, k: int, z, available, oracle, lin=None):
         """Advance one epoch; see :class:`~ftnav.fusion.local.StepOutput`.
 
-        ``lin`` (:class:`~ftnav.fusion.system.Linearization`) supplies the epoch's
+        ``lin`` (:class:`~ftnav.model.system.Linearization`) supplies the epoch's
         per-run matrices of an error-state model linearized at the INS solution.
         """
         m = self.method

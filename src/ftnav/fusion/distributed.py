@@ -44,8 +44,8 @@ from ftnav.fusion.local import (
     vb_enabled,
     vb_variant,
 )
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import Method
+from ftnav.model.scenario import Method
+from ftnav.model.system import LinearSystem
 
 __all__ = ["DistributedFilter", "DistributedState"]
 

@@ -52,8 +52,8 @@ from ftnav.fusion.local import (
     vb_variant,
     with_common,
 )
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import Method
+from ftnav.model.scenario import Method
+from ftnav.model.system import LinearSystem
 
 __all__ = ["FederatedFilter", "FederatedState", "MIN_SHARE"]
 
@@ -227,7 +227,7 @@ class FederatedFilter:
     def step(self, state: FederatedState, k: int, z, available, oracle, lin=None):
         """Advance one epoch (spec §1.3): predict, update, test, fuse, share.
 
-        ``lin`` (:class:`~ftnav.fusion.system.Linearization`) supplies the epoch's
+        ``lin`` (:class:`~ftnav.model.system.Linearization`) supplies the epoch's
         per-run matrices of an error-state model linearized at the INS solution.
         """
         m, nc, N = self.method, self.nc, self.N

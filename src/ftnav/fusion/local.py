@@ -16,7 +16,7 @@ from ftnav.core import kalman as kf
 from ftnav.core import vb as vbk
 from ftnav.fdi.chi2 import ChiSquareDetector, DetectorOutput, DetectorState, state_statistic
 from ftnav.fdi.rbf import RBFDetector, RBFModel
-from ftnav.sim.scenario import Method
+from ftnav.model.scenario import Method
 
 __all__ = [
     "select",

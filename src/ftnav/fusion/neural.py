@@ -67,8 +67,8 @@ from ftnav.fusion.local import (
     valid_measurement,
     with_common,
 )
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import Method
+from ftnav.model.scenario import Method
+from ftnav.model.system import LinearSystem
 
 __all__ = [
     "NeuronModel",

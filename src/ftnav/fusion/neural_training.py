@@ -29,7 +29,8 @@ import numpy as np
 
 from ftnav.core.lms import lms_train
 from ftnav.fusion.neural import FREE_INPUT, NeuralFusion, NeuronModel
-from ftnav.fusion.system import LinearSystem
+from ftnav.model.scenario import Method, Scenario
+from ftnav.model.system import LinearSystem
 from ftnav.sim.fault_family import (
     HOLDOUT_OFFSET,
     FaultFamily,
@@ -37,7 +38,6 @@ from ftnav.sim.fault_family import (
     simulate_variants,
     window_masks,
 )
-from ftnav.sim.scenario import Method, Scenario
 
 __all__ = ["check_training", "FusionTraining", "FusionReport", "train_fusion", "fusion_table"]
 

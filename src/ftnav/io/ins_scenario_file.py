@@ -1,7 +1,7 @@
 """Integrated-navigation scenario files (``kind = "integrated"``), validated with pydantic.
 
 Same conventions as :mod:`ftnav.io.scenario_file`: TOML in, frozen
-:class:`~ftnav.sim.ins_scenario.InsScenario` out, every problem a one-line
+:class:`~ftnav.model.ins_scenario.InsScenario` out, every problem a one-line
 :class:`~ftnav.io.scenario_file.ScenarioError` ``<field path>: <reason>``.  The
 format is documented in ``docs/scenario-format.md`` ("Integrated navigation").
 Units are in the key names; sensor parameters are the fields of the sensor classes
@@ -20,19 +20,16 @@ from typing import Annotated, Any, Literal, NamedTuple
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema, create_model
 
-from ftnav.io.scenario_file import (
+from ftnav.io.common import ScenarioError, format_loc, to_scenario_error
+from ftnav.io.sections import (
     EvaluationFile,
     FigureFile,
     MethodFile,
-    ScenarioError,
-    _build_figures,
-    _build_method,
-    _format_loc,
-    _to_scenario_error,
+    build_figures,
+    build_method,
 )
-from ftnav.nav.error_model import ErrorModelParams
-from ftnav.sim.imu import DATASHEET_KEYS, IMU_PRESETS, ImuErrors, imu_preset
-from ftnav.sim.ins_scenario import (
+from ftnav.model.imu import DATASHEET_KEYS, IMU_PRESETS, ImuErrors, imu_preset
+from ftnav.model.ins_scenario import (
     METRIC_STATES,
     POSITION_NORMS,
     SINS,
@@ -40,7 +37,8 @@ from ftnav.sim.ins_scenario import (
     InsFault,
     InsScenario,
 )
-from ftnav.sim.scenario import Evaluation
+from ftnav.model.scenario import Evaluation
+from ftnav.nav.error_model import ErrorModelParams
 
 __all__ = [
     "parse_ins_scenario",
@@ -53,7 +51,7 @@ __all__ = [
     "initial_sigma",
 ]
 
-_STRICT = ConfigDict(extra="forbid", strict=True)
+STRICT = ConfigDict(extra="forbid", strict=True)
 _DEG = np.pi / 180.0
 _ARCSEC = _DEG / 3600.0
 _DEG_H = _DEG / 3600.0
@@ -80,7 +78,7 @@ def _aid_class(kind: str) -> type:
 class TerrainFile(BaseModel):
     """``[terrain]``: the surface TAN flies over (analytic, or a DEM grid file)."""
 
-    model_config = _STRICT
+    model_config = STRICT
     kind: Literal["analytic", "grid"] = "analytic"
     seed: int = Field(default=7, ge=0, description="analytic: random waves from this seed")
     h0_m: float = -300.0
@@ -102,7 +100,7 @@ class AidFile(BaseModel):
 
 
 class InsFaultFile(BaseModel):
-    model_config = _STRICT
+    model_config = STRICT
     sensor: str
     kind: Literal["bias", "ramp", "noise-scale", "noise-ramp", "outage", "stuck", "gyro-bias"]
     start: float = Field(ge=0.0)
@@ -153,7 +151,7 @@ def imu_errors(spec: str | Mapping[str, Any], field: str, origin: str) -> ImuErr
     try:
         table = ImuTableFile.model_validate(dict(spec)).model_dump(exclude_none=True)
     except ValidationError as exc:
-        inner = _to_scenario_error(exc, origin)
+        inner = to_scenario_error(exc, origin)
         raise _err(f"{field}.{inner.path}", inner.reason, origin) from None
     base = table.pop("base", None)
     try:
@@ -169,7 +167,7 @@ def imu_errors(spec: str | Mapping[str, Any], field: str, origin: str) -> ImuErr
 class InitialFile(BaseModel):
     """``[filter.initial]``: σ of the initial INS errors (S1 Table 1 defaults)."""
 
-    model_config = _STRICT
+    model_config = STRICT
     attitude_arcsec: list[float] = Field(default=[300.0, 300.0, 600.0], min_length=3, max_length=3)
     velocity_m_s: list[float] = Field(default=[0.6, 0.6, 0.6], min_length=3, max_length=3)
     latlon_arcsec: list[float] = Field(default=[30.0, 30.0], min_length=2, max_length=2)
@@ -177,7 +175,7 @@ class InitialFile(BaseModel):
 
 
 class FilterFile(BaseModel):
-    model_config = _STRICT
+    model_config = STRICT
     dt: float = Field(default=1.0, gt=0.0, description="filter period, s")
     duration_s: float = Field(gt=0.0)
     correction: Literal["feedback", "output"] = "feedback"
@@ -402,7 +400,7 @@ def parse_ins_scenario(
     try:
         f = InsScenarioFile.model_validate(dict(data))
     except ValidationError as exc:
-        raise _to_scenario_error(exc, origin) from None
+        raise to_scenario_error(exc, origin) from None
 
     def profile(key: str, value: str):
         try:
@@ -502,16 +500,16 @@ def parse_ins_scenario(
             raise _err(f"methods[{i}].name", f"duplicate method name {me.name!r}", origin)
         seen.add(me.name)
         try:
-            methods.append(_build_method(me, aids, i))
+            methods.append(build_method(me, aids, i))
         except Exception as exc:  # pydantic custom error outside validation
             ctx = getattr(exc, "context", None) or {}
-            path = _format_loc(ctx.get("path", ()))
+            path = format_loc(ctx.get("path", ()))
             raise _err(path or f"methods[{i}]", str(exc), origin) from None
     ev = f.evaluation
     if not ev.skip_initial < steps * fl.dt:
         raise _err("evaluation.skip_initial", "must be less than the duration", origin)
     try:
-        figures = _build_figures(
+        figures = build_figures(
             f.figures,
             states=METRIC_STATES + POSITION_NORMS,
             methods=methods,
@@ -521,7 +519,7 @@ def parse_ins_scenario(
         )
     except Exception as exc:  # pydantic custom error outside validation
         ctx = getattr(exc, "context", None) or {}
-        raise _err(_format_loc(ctx.get("path", ())) or "figures", str(exc), origin) from None
+        raise _err(format_loc(ctx.get("path", ())) or "figures", str(exc), origin) from None
     model = filter_model(assumed, fl.states, fl.bias_frame)
     field = "imu" if f.filter.imu is None else "filter.imu"
     for note in model.notes:

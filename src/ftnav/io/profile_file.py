@@ -12,15 +12,9 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ValidationError
 
-from ftnav.io.scenario_file import (
-    _STRICT,
-    ScenarioError,
-    _num,
-    _to_scenario_error,
-    read_toml,
-)
+from ftnav.io.common import STRICT, ScenarioError, number, read_toml, to_scenario_error
+from ftnav.model.flight import Profile, Segment, Start
 from ftnav.scenarios import builtin_profile_names, builtin_profile_path
-from ftnav.sim.trajectory import Profile, Segment, Start
 
 __all__ = ["load_profile", "parse_profile", "resolve_profile"]
 
@@ -28,34 +22,34 @@ __all__ = ["load_profile", "parse_profile", "resolve_profile"]
 class StartFile(BaseModel):
     """``[start]``: initial position, speed and attitude (degrees, metres, m/s)."""
 
-    model_config = _STRICT
-    lat_deg: float = _num("latitude (deg)", ge=-90.0, le=90.0)
-    lon_deg: float = _num("longitude (deg)")
-    h_m: float = _num("height above the ellipsoid (m)")
-    speed_m_s: float = _num("speed along the velocity direction (m/s)", ge=0.0, default=0.0)
-    pitch_deg: float = _num("pitch θ (deg)", default=0.0)
-    roll_deg: float = _num("roll γ, right wing down positive (deg)", default=0.0)
-    heading_deg: float = _num("heading clockwise from North (deg)", default=0.0)
+    model_config = STRICT
+    lat_deg: float = number("latitude (deg)", ge=-90.0, le=90.0)
+    lon_deg: float = number("longitude (deg)")
+    h_m: float = number("height above the ellipsoid (m)")
+    speed_m_s: float = number("speed along the velocity direction (m/s)", ge=0.0, default=0.0)
+    pitch_deg: float = number("pitch θ (deg)", default=0.0)
+    roll_deg: float = number("roll γ, right wing down positive (deg)", default=0.0)
+    heading_deg: float = number("heading clockwise from North (deg)", default=0.0)
 
 
 class SegmentFile(BaseModel):
     """``[[segments]]``: constant commands for ``duration_s`` seconds."""
 
-    model_config = _STRICT
+    model_config = STRICT
     label: str = ""
-    duration_s: float = _num("duration (s), a whole number of IMU periods", gt=0.0)
-    pitch_rate_deg_s: float = _num("pitch rate θ̇ (deg/s)", default=0.0)
-    roll_rate_deg_s: float = _num("roll rate γ̇ (deg/s)", default=0.0)
+    duration_s: float = number("duration (s), a whole number of IMU periods", gt=0.0)
+    pitch_rate_deg_s: float = number("pitch rate θ̇ (deg/s)", default=0.0)
+    roll_rate_deg_s: float = number("roll rate γ̇ (deg/s)", default=0.0)
     yaw_rate_deg_s: float | Literal["coordinated"] = 0.0
-    accel_m_s2: float = _num("along-track acceleration (m/s²)", default=0.0)
+    accel_m_s2: float = number("along-track acceleration (m/s²)", default=0.0)
 
 
 class ProfileFile(BaseModel):
     """A flight profile: IMU rate, start state and motion segments."""
 
-    model_config = _STRICT
+    model_config = STRICT
     name: str
-    imu_rate_hz: float = _num("IMU sample rate (Hz)", gt=0.0, default=100.0)
+    imu_rate_hz: float = number("IMU sample rate (Hz)", gt=0.0, default=100.0)
     start: StartFile
     segments: list[SegmentFile]
 
@@ -71,7 +65,7 @@ def parse_profile(data: Mapping[str, Any], origin: str = "<profile>") -> Profile
     try:
         f = ProfileFile.model_validate(dict(data))
     except ValidationError as exc:
-        raise _to_scenario_error(exc, origin) from None
+        raise to_scenario_error(exc, origin) from None
     d = math.radians
     for i, s in enumerate(f.segments):
         if isinstance(s.yaw_rate_deg_s, float) and not math.isfinite(s.yaw_rate_deg_s):

@@ -14,6 +14,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from ftnav.types import ArrayLike, BatchVector, FloatOrArray
+
 __all__ = [
     "A",
     "F",
@@ -38,7 +40,7 @@ _K = 0.00193185265241  #: Somigliana constant
 _M = 0.00344978650684  #: ω² a² b / GM
 
 
-def radii(L, h):
+def radii(L: FloatOrArray, h: FloatOrArray | float) -> tuple[FloatOrArray, FloatOrArray]:
     """``(R_Mh, R_Nh)``: meridian and prime-vertical radii plus height (m), spec §8.1.
 
     ``R_M = a(1−e²)/(1−e² sin²L)^{3/2}``, ``R_N = a/(1−e² sin²L)^{1/2}``.
@@ -48,7 +50,7 @@ def radii(L, h):
     return RN * (1.0 - E2) / w + h, RN + h
 
 
-def gravity(L, h):
+def gravity(L: FloatOrArray, h: FloatOrArray | float) -> FloatOrArray:
     """Normal gravity magnitude g(L, h) (m/s², positive), spec §8.1.
 
     ``g = g_e (1 + k sin²L)/√(1 − e² sin²L) · [1 − (2/a)(1 + f + m − 2f sin²L) h + 3h²/a²]``;
@@ -56,10 +58,11 @@ def gravity(L, h):
     """
     s2 = np.sin(L) ** 2
     g0 = _GE * (1.0 + _K * s2) / np.sqrt(1.0 - E2 * s2)
-    return g0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)
+    g: FloatOrArray = g0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)
+    return g
 
 
-def gravity_gradient(L, h):
+def gravity_gradient(L: FloatOrArray, h: FloatOrArray | float) -> tuple[FloatOrArray, FloatOrArray]:
     """``(∂g/∂L, ∂g/∂h)`` of :func:`gravity` (1/s² per rad and per m), for the error model."""
     s = np.sin(L)
     c = np.cos(L)
@@ -75,20 +78,20 @@ def gravity_gradient(L, h):
     return dgdL, dgdh
 
 
-def omega_ie_n(L):
+def omega_ie_n(L: ArrayLike) -> BatchVector:
     """Earth rate in n, ``[0, ω_ie cos L, ω_ie sin L]`` (rad/s), shape ``L.shape + (3,)``."""
     L = np.asarray(L, dtype=float)
     return np.stack([np.zeros_like(L), OMEGA_IE * np.cos(L), OMEGA_IE * np.sin(L)], -1)
 
 
-def omega_en_n(L, h, v):
+def omega_en_n(L: FloatOrArray, h: FloatOrArray | float, v: BatchVector) -> BatchVector:
     """Transport rate ``[−v_N/R_Mh, v_E/R_Nh, v_E tan L/R_Nh]`` (rad/s), spec §8.1."""
     RMh, RNh = radii(L, h)
     vE, vN = v[..., 0], v[..., 1]
     return np.stack([-vN / RMh, vE / RNh, vE * np.tan(L) / RNh], -1)
 
 
-def enu_metres(p_est, p_true):
+def enu_metres(p_est: BatchVector, p_true: BatchVector) -> BatchVector:
     """Position error ``[e_E, e_N, e_U]`` in metres of ``p_est − p_true`` (spec §11).
 
     ``e_N = R_Mh (L̂ − L)``, ``e_E = R_Nh cos L (λ̂ − λ)``, ``e_U = ĥ − h``, with the radii

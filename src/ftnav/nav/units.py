@@ -32,10 +32,11 @@ from __future__ import annotations
 import math
 import numbers
 import re
-from typing import Literal
+from typing import Literal, overload
 
 import numpy as np
-from numpy.typing import ArrayLike
+
+from ftnav.types import Array, ArrayLike, FloatOrArray
 
 __all__ = [
     "STANDARD_GRAVITY",
@@ -79,131 +80,132 @@ _FOOT = 0.3048
 _KNOT = 1852.0 / 3600.0
 
 
-def _scale(x: ArrayLike, factor: float):
-    return np.multiply(x, factor)
+def _scale(x: FloatOrArray, factor: float) -> FloatOrArray:
+    scaled: FloatOrArray = np.multiply(x, factor)
+    return scaled
 
 
-def deg_per_h(x: ArrayLike):
+def deg_per_h(x: FloatOrArray) -> FloatOrArray:
     """Angular rate in °/h → rad/s (× π/180/3600)."""
     return _scale(x, _DEG / _HOUR)
 
 
-def deg_per_s(x: ArrayLike):
+def deg_per_s(x: FloatOrArray) -> FloatOrArray:
     """Angular rate in °/s → rad/s (× π/180)."""
     return _scale(x, _DEG)
 
 
-def deg_per_sqrt_h(x: ArrayLike):
+def deg_per_sqrt_h(x: FloatOrArray) -> FloatOrArray:
     """Angle random walk in °/√h → rad/√s (× π/180/60)."""
     return _scale(x, _DEG / _SQRT_HOUR)
 
 
-def deg_per_h_per_sqrt_hz(x: ArrayLike):
+def deg_per_h_per_sqrt_hz(x: FloatOrArray) -> FloatOrArray:
     """Gyro rate noise density in °/h/√Hz → angle random walk rad/√s (× π/180/3600)."""
     return _scale(x, _DEG / _HOUR)
 
 
-def standard_g(x: ArrayLike):
+def standard_g(x: FloatOrArray) -> FloatOrArray:
     """Acceleration in g (standard gravity) → m/s² (× 9.80665)."""
     return _scale(x, STANDARD_GRAVITY)
 
 
-def milli_g(x: ArrayLike):
+def milli_g(x: FloatOrArray) -> FloatOrArray:
     """Acceleration in mg → m/s² (× 9.80665e-3)."""
     return _scale(x, 1e-3 * STANDARD_GRAVITY)
 
 
-def micro_g(x: ArrayLike):
+def micro_g(x: FloatOrArray) -> FloatOrArray:
     """Acceleration in µg → m/s² (× 9.80665e-6)."""
     return _scale(x, 1e-6 * STANDARD_GRAVITY)
 
 
-def micro_g_per_sqrt_hz(x: ArrayLike):
+def micro_g_per_sqrt_hz(x: FloatOrArray) -> FloatOrArray:
     """Accelerometer noise density in µg/√Hz → velocity random walk m/s/√s (× 9.80665e-6)."""
     return _scale(x, 1e-6 * STANDARD_GRAVITY)
 
 
-def m_per_s_per_sqrt_h(x: ArrayLike):
+def m_per_s_per_sqrt_h(x: FloatOrArray) -> FloatOrArray:
     """Velocity random walk in m/s/√h → m/s/√s (÷ 60)."""
     return _scale(x, 1.0 / _SQRT_HOUR)
 
 
-def ppm(x: ArrayLike):
+def ppm(x: FloatOrArray) -> FloatOrArray:
     """Parts per million → dimensionless (× 1e-6)."""
     return _scale(x, 1e-6)
 
 
-def percent(x: ArrayLike):
+def percent(x: FloatOrArray) -> FloatOrArray:
     """Percent → dimensionless (× 1e-2)."""
     return _scale(x, 1e-2)
 
 
-def arcsec(x: ArrayLike):
+def arcsec(x: FloatOrArray) -> FloatOrArray:
     """Angle in arc seconds → rad (× π/180/3600)."""
     return _scale(x, _DEG / 3600.0)
 
 
-def arcmin(x: ArrayLike):
+def arcmin(x: FloatOrArray) -> FloatOrArray:
     """Angle in arc minutes → rad (× π/180/60)."""
     return _scale(x, _DEG / 60.0)
 
 
-def m_per_h(x: ArrayLike):
+def m_per_h(x: FloatOrArray) -> FloatOrArray:
     """Speed in m/h → m/s (÷ 3600)."""
     return _scale(x, 1.0 / _HOUR)
 
 
-def hours(x: ArrayLike):
+def hours(x: FloatOrArray) -> FloatOrArray:
     """Time in hours → s (× 3600)."""
     return _scale(x, _HOUR)
 
 
-def to_deg_per_h(x: ArrayLike):
+def to_deg_per_h(x: FloatOrArray) -> FloatOrArray:
     """Angular rate in rad/s → °/h."""
     return _scale(x, _HOUR / _DEG)
 
 
-def to_deg_per_s(x: ArrayLike):
+def to_deg_per_s(x: FloatOrArray) -> FloatOrArray:
     """Angular rate in rad/s → °/s."""
     return _scale(x, 1.0 / _DEG)
 
 
-def to_deg_per_sqrt_h(x: ArrayLike):
+def to_deg_per_sqrt_h(x: FloatOrArray) -> FloatOrArray:
     """Angle random walk in rad/√s → °/√h."""
     return _scale(x, _SQRT_HOUR / _DEG)
 
 
-def to_milli_g(x: ArrayLike):
+def to_milli_g(x: FloatOrArray) -> FloatOrArray:
     """Acceleration in m/s² → mg."""
     return _scale(x, 1.0 / (1e-3 * STANDARD_GRAVITY))
 
 
-def to_micro_g(x: ArrayLike):
+def to_micro_g(x: FloatOrArray) -> FloatOrArray:
     """Acceleration in m/s² → µg."""
     return _scale(x, 1.0 / (1e-6 * STANDARD_GRAVITY))
 
 
-def to_m_per_s_per_sqrt_h(x: ArrayLike):
+def to_m_per_s_per_sqrt_h(x: FloatOrArray) -> FloatOrArray:
     """Velocity random walk in m/s/√s → m/s/√h."""
     return _scale(x, _SQRT_HOUR)
 
 
-def to_ppm(x: ArrayLike):
+def to_ppm(x: FloatOrArray) -> FloatOrArray:
     """Dimensionless → parts per million."""
     return _scale(x, 1e6)
 
 
-def to_arcsec(x: ArrayLike):
+def to_arcsec(x: FloatOrArray) -> FloatOrArray:
     """Angle in rad → arc seconds."""
     return _scale(x, 3600.0 / _DEG)
 
 
-def to_arcmin(x: ArrayLike):
+def to_arcmin(x: FloatOrArray) -> FloatOrArray:
     """Angle in rad → arc minutes."""
     return _scale(x, 60.0 / _DEG)
 
 
-def to_m_per_h(x: ArrayLike):
+def to_m_per_h(x: FloatOrArray) -> FloatOrArray:
     """Speed in m/s → m/h."""
     return _scale(x, _HOUR)
 
@@ -215,32 +217,41 @@ def _check_dt(dt: float) -> float:
     return dt
 
 
-def _check_nonnegative(x: ArrayLike, name: str) -> np.ndarray:
+def _check_nonnegative(x: ArrayLike, name: str) -> Array:
     a = np.asarray(x, dtype=float)
     if not np.all(np.isfinite(a)) or np.any(a < 0.0):
         raise ValueError(f"{name}: must be finite and >= 0, got {x!r}")
     return a
 
 
-def psd_to_sigma(psd: ArrayLike, dt: float):
+@overload
+def psd_to_sigma(psd: float, dt: float) -> float: ...
+@overload
+def psd_to_sigma(psd: ArrayLike, dt: float) -> Array: ...
+def psd_to_sigma(psd: ArrayLike, dt: float) -> float | Array:
     """White-noise sample σ = √(q/dt) from the intensity q (two-sided PSD), spec §8.3.
 
     Parameters
     ----------
-    psd : array_like, unit²·s
+    psd : float or array_like, unit²·s
         Intensity ``q`` of the continuous white noise (e.g. rad²/s for ARW²).
     dt : float, s
         Sampling interval (samples are averages over ``dt``).
 
     Returns
     -------
-    sigma : ndarray or float, unit
+    sigma : float (for a float ``psd``) or ndarray, unit
         Standard deviation of one sample.
     """
-    return np.sqrt(_check_nonnegative(psd, "psd") / _check_dt(dt))
+    sigma: float | Array = np.sqrt(_check_nonnegative(psd, "psd") / _check_dt(dt))
+    return sigma
 
 
-def sigma_to_psd(sigma: ArrayLike, dt: float):
+@overload
+def sigma_to_psd(sigma: float, dt: float) -> float: ...
+@overload
+def sigma_to_psd(sigma: ArrayLike, dt: float) -> Array: ...
+def sigma_to_psd(sigma: ArrayLike, dt: float) -> float | Array:
     """Intensity q = σ²·dt of a white noise whose samples over ``dt`` have σ (spec §8.3).
 
     Inverse of :func:`psd_to_sigma`.  With ``sigma`` a rate noise (rad/s),
@@ -248,29 +259,35 @@ def sigma_to_psd(sigma: ArrayLike, dt: float):
     literal reading of S1's "0.01 °/h white-noise drift" maps to an ARW.
     """
     s = _check_nonnegative(sigma, "sigma")
-    return s * s * _check_dt(dt)
+    q: float | Array = s * s * _check_dt(dt)
+    return q
 
 
-def markov_q(sigma: ArrayLike, tau: ArrayLike):
+@overload
+def markov_q(sigma: float, tau: float) -> float: ...
+@overload
+def markov_q(sigma: ArrayLike, tau: ArrayLike) -> Array: ...
+def markov_q(sigma: ArrayLike, tau: ArrayLike) -> float | Array:
     """Driving intensity q = 2σ²/τ of a first-order Gauss-Markov process (spec §8.3).
 
     Parameters
     ----------
-    sigma : array_like, unit
+    sigma : float or array_like, unit
         Steady-state standard deviation.
-    tau : array_like, s
+    tau : float or array_like, s
         Correlation time, > 0.
 
     Returns
     -------
-    q : ndarray or float, unit²/s
+    q : float (for float ``sigma`` and ``tau``) or ndarray, unit²/s
         PSD of ``w`` in ``ḃ = −b/τ + w``.
     """
     s = _check_nonnegative(sigma, "sigma")
     t = np.asarray(tau, dtype=float)
     if not np.all(np.isfinite(t)) or np.any(t <= 0.0):
         raise ValueError(f"tau: must be finite and > 0, got {tau!r}")
-    return 2.0 * s * s / t
+    q: float | Array = 2.0 * s * s / t
+    return q
 
 
 # ---- quantity parser ------------------------------------------------------------------------

@@ -5,7 +5,7 @@ The functions live in :mod:`ftnav.plot.figures` (linear runs) and
 loaded lazily here so that ``import ftnav`` and ``import ftnav.plot`` never import
 matplotlib.  A run draws the scenario's ``[[figures]]`` or, without any,
 :func:`default_figures`; no axes holds more than
-:data:`~ftnav.sim.scenario.MAX_FIGURE_METHODS` method lines.
+:data:`~ftnav.model.scenario.MAX_FIGURE_METHODS` method lines.
 
 Functions
 ---------

@@ -7,15 +7,15 @@ and are safe to use from scripts, tests and worker processes; save them with
 ``fig.savefig(path)``.
 
 Time axis: epoch ``k = 1..steps`` is drawn at ``t_k = k·dt`` seconds
-(:attr:`ftnav.sim.scenario.Scenario.times`).  Fault windows ``[start, end)`` are
+(:attr:`ftnav.model.scenario.Scenario.times`).  Fault windows ``[start, end)`` are
 shaded on every time axis.
 
 Which figures a run draws (:func:`save_all`): the scenario's ``[[figures]]``
-(:class:`~ftnav.sim.scenario.FigureSpec`, ``docs/scenario-format.md``) or, when it has
+(:class:`~ftnav.model.scenario.FigureSpec`, ``docs/scenario-format.md``) or, when it has
 none, :func:`default_figures`: the methods in groups of the centralized reference plus
 up to three others (:func:`method_groups`), one figure per group with the faults and one
 on the fault-free twin, one row of panels per state.  No axes ever holds more than
-:data:`~ftnav.sim.scenario.MAX_FIGURE_METHODS` method lines.  Titles come from the
+:data:`~ftnav.model.scenario.MAX_FIGURE_METHODS` method lines.  Titles come from the
 figure section or from the scenario's description and name.
 """
 
@@ -36,8 +36,8 @@ from matplotlib.patches import Patch
 from ftnav.eval.evaluate import split_unit
 from ftnav.eval.metrics import position_norms
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
-from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
-from ftnav.sim.scenario import MAX_FIGURE_METHODS, FigureSpec, Scenario
+from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.scenario import MAX_FIGURE_METHODS, FigureSpec, Scenario
 
 __all__ = [
     "default_figures",
@@ -329,7 +329,7 @@ def error_figure(
 
     One row of panels per state: the error ``x̂ − x`` of run 0 for each method and the
     ensemble RMS error over runs, ``sqrt(mean_b e_b(t)²)``, on a log axis.  Every axes
-    holds one line per method, at most :data:`~ftnav.sim.scenario.MAX_FIGURE_METHODS`.
+    holds one line per method, at most :data:`~ftnav.model.scenario.MAX_FIGURE_METHODS`.
 
     Parameters
     ----------

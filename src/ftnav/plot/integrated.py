@@ -5,7 +5,7 @@
   per state (:func:`ftnav.plot.figures.error_figure` without the run-0 column).
 * :func:`local_fused_figure`: paper 001 Fig. 4-5, latitude (North) and longitude
   (East) errors in metres of every local filter of one method and of the fused
-  estimate of up to :data:`~ftnav.sim.scenario.MAX_FIGURE_METHODS` methods (run 0 of the
+  estimate of up to :data:`~ftnav.model.scenario.MAX_FIGURE_METHODS` methods (run 0 of the
   Monte Carlo batch, as the paper shows one flight).
 * :func:`vb_noise_figure`: paper 002 Fig. 3, 5, the VB estimate of an aid's noise
   standard deviation against the true one, one panel per measurement component.
@@ -25,6 +25,8 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
+from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.scenario import FigureSpec
 from ftnav.plot.figures import (
     _check_count,
     _method_styles,
@@ -39,8 +41,6 @@ from ftnav.plot.figures import (
     method_groups,
 )
 from ftnav.sim.ins_data import fault_profiles
-from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
-from ftnav.sim.scenario import FigureSpec
 
 __all__ = [
     "local_fused_figure",

@@ -29,7 +29,7 @@ import numpy as np
 
 from ftnav.eval.evaluate import MethodMetrics, split_unit
 from ftnav.eval.montecarlo import ScenarioResult
-from ftnav.sim.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
 
 __all__ = [
     "Column",

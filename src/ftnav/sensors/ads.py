@@ -22,6 +22,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ftnav.model.scenario import PrivateStates
 from ftnav.sensors.base import (
     N_STATES,
     AidErrors,
@@ -38,7 +39,6 @@ from ftnav.sensors.base import (
     markov_private,
     standard_normals,
 )
-from ftnav.sim.scenario import PrivateStates
 
 __all__ = ["Barometer"]
 

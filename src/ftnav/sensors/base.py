@@ -38,8 +38,8 @@ from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
-from ftnav.sim.imu import gauss_markov
-from ftnav.sim.scenario import PrivateStates
+from ftnav.core.markov import gauss_markov
+from ftnav.model.scenario import PrivateStates
 
 __all__ = [
     "N_STATES",

@@ -42,6 +42,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
+from ftnav.model.scenario import PrivateStates
 from ftnav.nav.attitude import (
     attitude_error,
     dcm_to_euler,
@@ -66,7 +67,6 @@ from ftnav.sensors.base import (
     finite_or_zero,
     standard_normals,
 )
-from ftnav.sim.scenario import PrivateStates
 
 __all__ = ["StarTracker", "dcm_n_to_e", "euler_jacobian"]
 

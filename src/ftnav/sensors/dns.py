@@ -40,6 +40,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
+from ftnav.model.scenario import PrivateStates
 from ftnav.nav.attitude import quat_to_dcm
 from ftnav.sensors.base import (
     N_STATES,
@@ -57,7 +58,6 @@ from ftnav.sensors.base import (
     markov_errors,
     standard_normals,
 )
-from ftnav.sim.scenario import PrivateStates
 
 __all__ = ["Doppler"]
 

@@ -37,6 +37,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
+from ftnav.model.scenario import PrivateStates
 from ftnav.nav.earth import radii
 from ftnav.sensors.base import (
     N_STATES,
@@ -54,7 +55,6 @@ from ftnav.sensors.base import (
     markov_private,
     standard_normals,
 )
-from ftnav.sim.scenario import PrivateStates
 
 __all__ = ["Gnss"]
 

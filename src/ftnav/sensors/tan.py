@@ -36,6 +36,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from ftnav.model.scenario import PrivateStates
 from ftnav.nav.earth import radii
 from ftnav.sensors.base import (
     N_STATES,
@@ -51,7 +52,6 @@ from ftnav.sensors.base import (
     standard_normals,
 )
 from ftnav.sensors.terrain import Terrain
-from ftnav.sim.scenario import PrivateStates
 
 __all__ = ["Tan"]
 

@@ -19,8 +19,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ftnav.model.scenario import Fault, Scenario
 from ftnav.sim.linear import Simulation, concat_simulations, simulate
-from ftnav.sim.scenario import Fault, Scenario
 
 __all__ = [
     "FaultFamily",

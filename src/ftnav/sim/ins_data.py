@@ -16,11 +16,12 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ftnav.model.flight import Profile
+from ftnav.model.ins_scenario import SINS, InsFault, InsScenario
 from ftnav.nav import attitude
 from ftnav.sensors.base import AidTruth
 from ftnav.sim.imu import ImuErrorTruth, simulate_imu_errors
-from ftnav.sim.ins_scenario import SINS, InsFault, InsScenario
-from ftnav.sim.trajectory import Profile, Trajectory, generate
+from ftnav.sim.trajectory import Trajectory, generate
 
 __all__ = ["InsData", "simulate_ins", "trajectory_of", "epoch_truth", "fault_profiles"]
 

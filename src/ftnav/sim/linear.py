@@ -17,8 +17,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ftnav.fusion.system import LinearSystem
-from ftnav.sim.scenario import Scenario
+from ftnav.model.scenario import Scenario
+from ftnav.model.system import LinearSystem
 
 __all__ = ["Simulation", "concat_simulations", "run_generator", "simulate"]
 
@@ -60,7 +60,7 @@ def simulate(
     """Simulate ``runs`` Monte Carlo runs (indices ``first_run ..``) of a scenario.
 
     ``system`` replaces the scenario's constant model, e.g. by a
-    :class:`~ftnav.fusion.system.TimeVaryingSystem` (same sensors and faults).
+    :class:`~ftnav.model.system.TimeVaryingSystem` (same sensors and faults).
     """
     system = LinearSystem.from_scenario(scenario) if system is None else system
     K, B, N = scenario.steps, runs, len(scenario.sensors)

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg import block_diag
 
-from ftnav.sim.scenario import LinearModel, Scenario, Sensor
+from ftnav.model.scenario import LinearModel, Scenario, Sensor
 
 __all__ = ["LinearSystem", "LocalModel", "TimeVaryingSystem", "Linearization"]
 

@@ -23,10 +23,10 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 
+from ftnav.model.flight import Profile
+from ftnav.model.imu import ImuErrors
+from ftnav.model.scenario import Evaluation, FigureSpec, Method, fault_window_mask
 from ftnav.nav.error_model import ErrorModelParams
-from ftnav.sim.imu import ImuErrors
-from ftnav.sim.scenario import Evaluation, FigureSpec, Method, fault_window_mask
-from ftnav.sim.trajectory import Profile
 
 __all__ = [
     "InsFault",

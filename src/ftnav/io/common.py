@@ -1,0 +1,238 @@
+"""The validation kit of every ftnav file: one-line errors, pydantic field types, TOML.
+
+Every problem of a scenario, profile or recording file is a :class:`ScenarioError`
+whose message is a single line ``<field path>: <reason>``, e.g.
+``sensors[1].R: not positive definite``.  The pydantic models of the file formats use
+the field types and the strict configuration here; :func:`to_scenario_error` turns a
+pydantic ``ValidationError`` into that one line.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import AfterValidator, ConfigDict, Field, ValidationError
+from pydantic_core import PydanticCustomError
+
+__all__ = [
+    "ScenarioError",
+    "STRICT",
+    "Matrix",
+    "Name",
+    "Vector",
+    "fail",
+    "format_loc",
+    "number",
+    "one_line",
+    "read_toml",
+    "to_scenario_error",
+    "unique",
+]
+
+#: Relative tolerance of the symmetry test: max|A - Aᵀ| <= SYM_RTOL · max|A|.
+SYM_RTOL = 1e-9
+#: Tolerance of ``sum(betas) + master_share == 1``.
+SHARE_TOL = 1e-9
+#: Relative tolerance of the positive-semi-definite test on the smallest eigenvalue.
+PSD_RTOL = 1e-10
+
+_CHECK = "ftnav_check"  # pydantic error type of the checks below
+
+
+# --------------------------------------------------------------------------- errors
+
+
+class ScenarioError(ValueError):
+    """An invalid scenario: the message is one line ``<field path>: <reason>``.
+
+    Attributes
+    ----------
+    path : dotted field path (``methods[2].sharing``), or the file name for
+        problems reading the file.
+    reason : what is wrong, one line.
+    origin : where the data came from (file name or ``"<scenario>"``).
+    """
+
+    def __init__(self, path: str, reason: str, origin: str = "<scenario>") -> None:
+        self.path = one_line(path)
+        self.reason = one_line(reason)
+        self.origin = origin
+        super().__init__(f"{self.path}: {self.reason}")
+
+    def __reduce__(self):  # keep picklable despite the custom signature
+        return (type(self), (self.path, self.reason, self.origin))
+
+
+def one_line(text: str) -> str:
+    """Collapse every line break (``\\n``, ``\\r``, U+2028, ...) to one space."""
+    return " ".join(str(text).splitlines()).strip() if text else str(text)
+
+
+def fail(reason: str, *path: str | int) -> PydanticCustomError:
+    """A validation error at ``path`` (relative to the validator's own location)."""
+    return PydanticCustomError(_CHECK, "{reason}", {"reason": reason, "path": tuple(path)})
+
+
+def format_loc(loc: Sequence[str | int]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+_TOML_TYPES = {
+    bool: "boolean",
+    int: "integer",
+    float: "float",
+    str: "string",
+    list: "array",
+    tuple: "array",
+    dict: "table",
+}
+
+
+def _show(value: Any) -> str:
+    """Short one-line description of an offending input: ``string 'abc'``."""
+    kind = _TOML_TYPES.get(type(value), type(value).__name__)
+    if isinstance(value, list | tuple | dict):
+        return kind
+    text = repr(value)
+    if len(text) > 40:
+        text = text[:37] + "..."
+    return f"{kind} {text}"
+
+
+def _reason(err: Mapping[str, Any]) -> str:
+    """One-line reason for one pydantic error."""
+    kind = err["type"]
+    ctx = err.get("ctx") or {}
+    value = err.get("input")
+    if kind == _CHECK:
+        return str(ctx["reason"])
+    if kind == "extra_forbidden":
+        return "unknown key"
+    if kind == "missing":
+        return "missing required key"
+    if kind == "literal_error":
+        choices = re.findall(r"'((?:[^'\\]|\\.)*)'", str(ctx.get("expected", "")))
+        shown = repr(value) if isinstance(value, str) else _show(value)
+        return f"unknown value {shown} (expected one of: {', '.join(choices)})"
+    if kind in ("float_type", "float_parsing"):
+        return f"expected a number, got {_show(value)}"
+    if kind in ("int_type", "int_parsing", "int_from_float"):
+        return f"expected an integer, got {_show(value)}"
+    if kind in ("bool_type", "bool_parsing"):
+        return f"expected true or false, got {_show(value)}"
+    if kind == "string_type":
+        return f"expected a string, got {_show(value)}"
+    if kind in ("list_type", "tuple_type"):
+        return f"expected an array, got {_show(value)}"
+    if kind in ("model_type", "model_attributes_type", "dict_type"):
+        return f"expected a table, got {_show(value)}"
+    if kind == "finite_number":
+        return f"is NaN or inf ({value!r})"
+    bounds = {
+        "greater_than": ("gt", ">"),
+        "greater_than_equal": ("ge", ">="),
+        "less_than": ("lt", "<"),
+        "less_than_equal": ("le", "<="),
+    }
+    if kind in bounds:
+        key, op = bounds[kind]
+        return f"must be {op} {ctx.get(key)}, got {value!r}"
+    if kind == "too_short":
+        need = ctx.get("min_length", 1)
+        return f"must have at least {need} {'entry' if need == 1 else 'entries'}"
+    if kind == "string_too_short":
+        return "must not be empty"
+    return str(err.get("msg", kind))
+
+
+def to_scenario_error(exc: ValidationError, origin: str) -> ScenarioError:
+    err = exc.errors(include_url=False)[0]
+    loc = tuple(err.get("loc", ()))
+    if err["type"] == _CHECK:
+        loc = loc + tuple(err["ctx"]["path"])
+    path = format_loc(loc) or origin
+    return ScenarioError(path, _reason(err), origin)
+
+
+# ------------------------------------------------------------- field-level types
+
+
+def _finite_vector(values: list[float]) -> list[float]:
+    if not all(math.isfinite(v) for v in values):
+        raise fail("contains NaN or inf")
+    return values
+
+
+def _finite_matrix(rows: list[list[float]]) -> list[list[float]]:
+    if rows and any(len(r) != len(rows[0]) for r in rows):
+        lengths = ", ".join(str(len(r)) for r in rows)
+        raise fail(f"rows have different lengths ({lengths})")
+    if not all(math.isfinite(v) for r in rows for v in r):
+        raise fail("contains NaN or inf")
+    return rows
+
+
+def _name(text: str) -> str:
+    if not text.strip():
+        raise fail("must be a non-empty name")
+    return text
+
+
+Vector = Annotated[list[float], AfterValidator(_finite_vector)]
+Matrix = Annotated[list[list[float]], AfterValidator(_finite_matrix)]
+Name = Annotated[str, AfterValidator(_name)]
+
+
+def number(description: str, **bounds: float) -> Any:
+    """A finite float field with optional bounds."""
+    return Field(description=description, allow_inf_nan=False, **bounds)
+
+
+STRICT = ConfigDict(extra="forbid", strict=True)
+
+
+def read_toml(source: str | Path) -> dict[str, Any]:
+    """Read a TOML file; every problem is a one-line :class:`ScenarioError` naming the file."""
+    path = Path(source)
+    name = str(source)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise ScenarioError(name, "file not found", name) from None
+    except IsADirectoryError:
+        raise ScenarioError(name, "is a directory, not a TOML file", name) from None
+    except OSError as exc:
+        raise ScenarioError(name, f"cannot read file ({exc.strerror or exc})", name) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(name, f"not valid UTF-8 text (byte {exc.start})", name) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = one_line(str(exc))
+        where = re.fullmatch(r"(.*?)\s*\(at line (\d+), column (\d+)\)", msg)
+        if where:
+            reason = f"TOML syntax error at line {where[2]}, column {where[3]}: {where[1]}"
+        else:
+            reason = f"TOML syntax error: {msg}"
+        raise ScenarioError(name, reason, name) from None
+
+
+def unique(names: Sequence[str], what: str, *path: str | int) -> None:
+    seen: set[str] = set()
+    for i, name in enumerate(names):
+        if name in seen:
+            raise fail(f"duplicate {what} {name!r}", *path, i)
+        seen.add(name)
