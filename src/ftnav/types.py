@@ -51,6 +51,6 @@ BatchVector: TypeAlias = Array
 BatchMatrix: TypeAlias = Array
 #: (B,) one flag per batch element, e.g. "the Cholesky factorization succeeded"
 BoolBatch: TypeAlias = npt.NDArray[np.bool_]
-#: a float in, a float out; an array in, an array out (element-wise functions: unit
-#: converters, the Earth model, which also run compiled on the scalars of one run)
+#: a float in, a float out; an array in, an array out (element-wise functions such as the
+#: unit converters of :mod:`ftnav.nav.units`)
 FloatOrArray = TypeVar("FloatOrArray", float, Array)

@@ -17,6 +17,8 @@ import numba
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ftnav.types import Array, ArrayLike, BatchMatrix, BatchScalar, BatchVector
+
 __all__ = [
     "skew",
     "euler_to_dcm",
@@ -36,7 +38,7 @@ __all__ = [
 ]
 
 
-def skew(a: np.ndarray) -> np.ndarray:
+def skew(a: BatchVector) -> BatchMatrix:
     """``[a×]`` (…, 3, 3) with ``[a×] b = a × b``."""
     a = np.asarray(a, dtype=float)
     z = np.zeros_like(a[..., 0])
@@ -50,19 +52,19 @@ def skew(a: np.ndarray) -> np.ndarray:
     )
 
 
-def _flat(a, core):
+def _flat(a: ArrayLike, core: tuple[int, ...]) -> tuple[Array, tuple[int, ...]]:
     a = np.asarray(a, dtype=float)
     return a.reshape((-1,) + core), a.shape[: a.ndim - len(core)]
 
 
-def euler_to_dcm(a: np.ndarray) -> np.ndarray:
+def euler_to_dcm(a: BatchVector) -> BatchMatrix:
     """``C_b^n = R_z(ψ) R_x(θ) R_y(γ)`` from ``a = [θ, γ, ψ]`` (…, 3) in rad."""
     f, batch = _flat(a, (3,))
-    C = Rotation.from_euler("ZXY", f[:, [2, 0, 1]]).as_matrix()
+    C: BatchMatrix = Rotation.from_euler("ZXY", f[:, [2, 0, 1]]).as_matrix()
     return C.reshape(batch + (3, 3))
 
 
-def dcm_to_euler(C: np.ndarray) -> np.ndarray:
+def dcm_to_euler(C: BatchMatrix) -> BatchVector:
     """``[θ, γ, ψ]`` (rad) from ``C_b^n``; θ in [−π/2, π/2], γ and ψ in (−π, π]."""
     f, batch = _flat(C, (3, 3))
     # closed form of R_z(ψ) R_x(θ) R_y(γ): C32 = sin θ, C31 = −cos θ sin γ, C33 = cos θ cos γ,
@@ -73,7 +75,7 @@ def dcm_to_euler(C: np.ndarray) -> np.ndarray:
     return np.stack([theta, gamma, psi], -1).reshape(batch + (3,))
 
 
-def quat_to_dcm(q: np.ndarray) -> np.ndarray:
+def quat_to_dcm(q: BatchVector) -> BatchMatrix:
     """``C_b^n`` from the scalar-first quaternion ``q_b^n`` (normalized first).
 
     The closed-form rotation matrix of a unit quaternion (the same as scipy's
@@ -89,7 +91,7 @@ def quat_to_dcm(q: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _quat_to_dcm_rows(q, C):  # pragma: no cover - compiled
+def _quat_to_dcm_rows(q: BatchVector, C: BatchMatrix) -> None:  # pragma: no cover - compiled
     for b in range(q.shape[0]):
         n = np.sqrt(q[b, 0] ** 2 + q[b, 1] ** 2 + q[b, 2] ** 2 + q[b, 3] ** 2)
         q0, q1, q2, q3 = q[b, 0] / n, q[b, 1] / n, q[b, 2] / n, q[b, 3] / n
@@ -104,29 +106,29 @@ def _quat_to_dcm_rows(q, C):  # pragma: no cover - compiled
         C[b, 2, 2] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
 
 
-def dcm_to_quat(C: np.ndarray) -> np.ndarray:
+def dcm_to_quat(C: BatchMatrix) -> BatchVector:
     """Scalar-first ``q_b^n`` with ``q0 ≥ 0`` from ``C_b^n``."""
     f, batch = _flat(C, (3, 3))
-    q = Rotation.from_matrix(f).as_quat()[:, [3, 0, 1, 2]]
+    q: BatchVector = Rotation.from_matrix(f).as_quat()[:, [3, 0, 1, 2]]
     q *= np.where(q[:, :1] < 0, -1.0, 1.0)
     return q.reshape(batch + (4,))
 
 
-def euler_to_quat(a: np.ndarray) -> np.ndarray:
+def euler_to_quat(a: BatchVector) -> BatchVector:
     """Scalar-first ``q_b^n`` from ``[θ, γ, ψ]``."""
     return dcm_to_quat(euler_to_dcm(a))
 
 
-def quat_to_euler(q: np.ndarray) -> np.ndarray:
+def quat_to_euler(q: BatchVector) -> BatchVector:
     """``[θ, γ, ψ]`` from a scalar-first ``q_b^n``."""
     return dcm_to_euler(quat_to_dcm(q))
 
 
-def quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+def quat_mul(p: BatchVector, q: BatchVector) -> BatchVector:
     """Hamilton product ``p ⊗ q`` of scalar-first quaternions (…, 4)."""
     p0, p1, p2, p3 = np.moveaxis(np.asarray(p, dtype=float), -1, 0)
     q0, q1, q2, q3 = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
-    return np.stack(
+    pq: BatchVector = np.stack(
         [
             p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3,
             p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
@@ -135,14 +137,16 @@ def quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
         ],
         -1,
     )
+    return pq
 
 
-def quat_conj(q: np.ndarray) -> np.ndarray:
+def quat_conj(q: BatchVector) -> BatchVector:
     """Conjugate (inverse of a unit quaternion)."""
-    return np.asarray(q, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0])
+    q_conj: BatchVector = np.asarray(q, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0])
+    return q_conj
 
 
-def rotvec_to_quat(r: np.ndarray) -> np.ndarray:
+def rotvec_to_quat(r: BatchVector) -> BatchVector:
     """``q(r) = [cos(|r|/2), sin(|r|/2) r/|r|]`` with the series for small |r| (spec §8.2)."""
     r = np.asarray(r, dtype=float)
     n2 = np.sum(r * r, -1)
@@ -154,7 +158,7 @@ def rotvec_to_quat(r: np.ndarray) -> np.ndarray:
     return np.concatenate([c[..., None], s[..., None] * r], -1)
 
 
-def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
+def quat_to_rotvec(q: BatchVector) -> BatchVector:
     """Rotation vector of a unit quaternion (angle in [0, π])."""
     q = np.asarray(q, dtype=float)
     q = q * np.where(q[..., :1] < 0, -1.0, 1.0)
@@ -164,10 +168,11 @@ def quat_to_rotvec(q: np.ndarray) -> np.ndarray:
     scale = np.where(
         s < 1e-12, 2.0 / np.maximum(q[..., 0], 1e-300), angle / np.where(s < 1e-12, 1.0, s)
     )
-    return scale[..., None] * v
+    rotvec: BatchVector = scale[..., None] * v
+    return rotvec
 
 
-def attitude_error(C_est: np.ndarray, C_true: np.ndarray) -> np.ndarray:
+def attitude_error(C_est: BatchMatrix, C_true: BatchMatrix) -> BatchVector:
     """Attitude error φ (rad) of ``C_est`` against ``C_true`` (spec §0, §11).
 
     Defined exactly by ``C̃_b^n = exp(−[φ×]) C_b^n``, i.e. φ is the rotation vector of
@@ -175,10 +180,11 @@ def attitude_error(C_est: np.ndarray, C_true: np.ndarray) -> np.ndarray:
     """
     D = np.swapaxes(C_est @ np.swapaxes(C_true, -1, -2), -1, -2)
     f, batch = _flat(D, (3, 3))
-    return Rotation.from_matrix(f).as_rotvec().reshape(batch + (3,))
+    phi: BatchVector = Rotation.from_matrix(f).as_rotvec()
+    return phi.reshape(batch + (3,))
 
 
-def quat_attitude_error(q_est: np.ndarray, q_true: np.ndarray) -> np.ndarray:
+def quat_attitude_error(q_est: BatchVector, q_true: BatchVector) -> BatchVector:
     """:func:`attitude_error` of the attitudes of two quaternions ``q_b^n`` (…, 4).
 
     ``C_true C̃ᵀ`` is the DCM of ``q_true ⊗ q̃*``, so φ is that quaternion's rotation
@@ -187,11 +193,12 @@ def quat_attitude_error(q_est: np.ndarray, q_true: np.ndarray) -> np.ndarray:
     return quat_to_rotvec(quat_mul(q_true, quat_conj(q_est)))
 
 
-def heading_deg(psi: np.ndarray) -> np.ndarray:
+def heading_deg(psi: BatchScalar) -> BatchScalar:
     """Heading clockwise from North in degrees [0, 360) from the yaw ψ (rad)."""
-    return np.mod(-np.degrees(psi), 360.0)
+    heading: BatchScalar = np.mod(-np.degrees(psi), 360.0)
+    return heading
 
 
-def wrap_angle(a: np.ndarray) -> np.ndarray:
+def wrap_angle(a: Array) -> Array:
     """Wrap to (−π, π]."""
     return np.pi - np.mod(np.pi - np.asarray(a, dtype=float), 2.0 * np.pi)

@@ -11,10 +11,12 @@ Geodetic/ECEF/ENU conversions are left to :mod:`pymap3d`.
 
 from __future__ import annotations
 
+from typing import overload
+
 import numba
 import numpy as np
 
-from ftnav.types import ArrayLike, BatchVector, FloatOrArray
+from ftnav.types import ArrayLike, BatchScalar, BatchVector
 
 __all__ = [
     "A",
@@ -40,7 +42,13 @@ _K = 0.00193185265241  #: Somigliana constant
 _M = 0.00344978650684  #: ω² a² b / GM
 
 
-def radii(L: FloatOrArray, h: FloatOrArray | float) -> tuple[FloatOrArray, FloatOrArray]:
+@overload
+def radii(L: float, h: float) -> tuple[float, float]: ...
+@overload
+def radii(L: BatchScalar, h: float | BatchScalar) -> tuple[BatchScalar, BatchScalar]: ...
+def radii(
+    L: float | BatchScalar, h: float | BatchScalar
+) -> tuple[float | BatchScalar, float | BatchScalar]:
     """``(R_Mh, R_Nh)``: meridian and prime-vertical radii plus height (m), spec §8.1.
 
     ``R_M = a(1−e²)/(1−e² sin²L)^{3/2}``, ``R_N = a/(1−e² sin²L)^{1/2}``.
@@ -50,7 +58,11 @@ def radii(L: FloatOrArray, h: FloatOrArray | float) -> tuple[FloatOrArray, Float
     return RN * (1.0 - E2) / w + h, RN + h
 
 
-def gravity(L: FloatOrArray, h: FloatOrArray | float) -> FloatOrArray:
+@overload
+def gravity(L: float, h: float) -> float: ...
+@overload
+def gravity(L: BatchScalar, h: float | BatchScalar) -> BatchScalar: ...
+def gravity(L: float | BatchScalar, h: float | BatchScalar) -> float | BatchScalar:
     """Normal gravity magnitude g(L, h) (m/s², positive), spec §8.1.
 
     ``g = g_e (1 + k sin²L)/√(1 − e² sin²L) · [1 − (2/a)(1 + f + m − 2f sin²L) h + 3h²/a²]``;
@@ -58,11 +70,19 @@ def gravity(L: FloatOrArray, h: FloatOrArray | float) -> FloatOrArray:
     """
     s2 = np.sin(L) ** 2
     g0 = _GE * (1.0 + _K * s2) / np.sqrt(1.0 - E2 * s2)
-    g: FloatOrArray = g0 * (1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2)
+    g: float | BatchScalar = g0 * (
+        1.0 - 2.0 / A * (1.0 + F + _M - 2.0 * F * s2) * h + 3.0 * h * h / A**2
+    )
     return g
 
 
-def gravity_gradient(L: FloatOrArray, h: FloatOrArray | float) -> tuple[FloatOrArray, FloatOrArray]:
+@overload
+def gravity_gradient(L: float, h: float) -> tuple[float, float]: ...
+@overload
+def gravity_gradient(L: BatchScalar, h: float | BatchScalar) -> tuple[BatchScalar, BatchScalar]: ...
+def gravity_gradient(
+    L: float | BatchScalar, h: float | BatchScalar
+) -> tuple[float | BatchScalar, float | BatchScalar]:
     """``(∂g/∂L, ∂g/∂h)`` of :func:`gravity` (1/s² per rad and per m), for the error model."""
     s = np.sin(L)
     c = np.cos(L)
@@ -84,7 +104,7 @@ def omega_ie_n(L: ArrayLike) -> BatchVector:
     return np.stack([np.zeros_like(L), OMEGA_IE * np.cos(L), OMEGA_IE * np.sin(L)], -1)
 
 
-def omega_en_n(L: FloatOrArray, h: FloatOrArray | float, v: BatchVector) -> BatchVector:
+def omega_en_n(L: BatchScalar, h: float | BatchScalar, v: BatchVector) -> BatchVector:
     """Transport rate ``[−v_N/R_Mh, v_E/R_Nh, v_E tan L/R_Nh]`` (rad/s), spec §8.1."""
     RMh, RNh = radii(L, h)
     vE, vN = v[..., 0], v[..., 1]

@@ -35,6 +35,7 @@ solution (:class:`NavState`) at each step through :meth:`SinsErrorModel.transiti
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
@@ -52,6 +53,7 @@ from ftnav.nav.earth import (
     radii,
     radii_nb,
 )
+from ftnav.types import ArrayLike, BatchMatrix, BatchScalar, BatchVector, Matrix, Vector
 
 __all__ = [
     "STATES_18",
@@ -90,7 +92,7 @@ STATES_15 = STATES_18[:9] + ("eps_x", "eps_y", "eps_z", "nabla_x", "nabla_y", "n
 Vec3 = tuple[float, float, float]
 
 
-def _axes(name: str, value, positive: bool = False) -> Vec3:
+def _axes(name: str, value: ArrayLike, positive: bool = False) -> Vec3:
     try:
         a = np.broadcast_to(np.asarray(value, dtype=float), (3,))
     except ValueError:
@@ -99,7 +101,7 @@ def _axes(name: str, value, positive: bool = False) -> Vec3:
         raise ValueError(
             f"{name} must be finite and {'> 0' if positive else '≥ 0'} on every axis, got {value!r}"
         )
-    return tuple(float(x) for x in a)
+    return float(a[0]), float(a[1]), float(a[2])
 
 
 @dataclass(frozen=True, slots=True)
@@ -136,7 +138,7 @@ class ErrorModelParams:
     bias_frame: Literal["body", "nav"] = "body"
     states: Literal[18, 15] = 18
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name in (
             "gyro_psd",
             "gyro_markov_sigma",
@@ -164,7 +166,7 @@ class ErrorModelParams:
         return STATES_18 if self.states == 18 else STATES_15
 
     @property
-    def noise_psd(self) -> np.ndarray:
+    def noise_psd(self) -> Vector:
         """``q`` (12,): PSDs of ``w = [w_g, w_v, w_3, w_4]`` (module docstring).
 
         18 states: ``q_r = 2σ_g²/T_g``, ``q_a = 2σ_a²/T_a`` (spec §8.3).
@@ -188,14 +190,15 @@ class ContinuousModel(NamedTuple):
     q : (12,) noise PSDs (shared by the batch).
     """
 
-    F: np.ndarray
-    G: np.ndarray
-    q: np.ndarray
+    F: BatchMatrix
+    G: BatchMatrix
+    q: Vector
 
     @property
-    def GQGt(self) -> np.ndarray:
+    def GQGt(self) -> BatchMatrix:
         """``G diag(q) Gᵀ`` (..., n, n)."""
-        return (self.G * self.q) @ np.swapaxes(self.G, -1, -2)
+        GQGt: BatchMatrix = (self.G * self.q) @ np.swapaxes(self.G, -1, -2)
+        return GQGt
 
 
 class NavState(NamedTuple):
@@ -211,15 +214,15 @@ class NavState(NamedTuple):
     C_bn : (B, 3, 3) attitude ``C_b^n``.
     """
 
-    L: np.ndarray
-    lam: np.ndarray
-    h: np.ndarray
-    v_enu: np.ndarray
-    f_b: np.ndarray
-    C_bn: np.ndarray
+    L: BatchScalar
+    lam: BatchScalar
+    h: BatchScalar
+    v_enu: BatchVector
+    f_b: BatchVector
+    C_bn: BatchMatrix
 
 
-def _mat(rows, batch):
+def _mat(rows: Sequence[Sequence[ArrayLike]], batch: tuple[int, ...]) -> BatchMatrix:
     """Fill (batch, 3, 3) from a nested 3×3 list of scalars/arrays (one allocation)."""
     out = np.empty(batch + (3, 3))
     for i, r in enumerate(rows):
@@ -228,7 +231,7 @@ def _mat(rows, batch):
     return out
 
 
-def _nav_blocks(L, h, v, f_n):
+def _nav_blocks(L: BatchScalar, h: BatchScalar, v: BatchVector, f_n: BatchVector) -> BatchMatrix:
     """The 9×9 navigation blocks of F (spec §8.3), shape ``L.shape + (9, 9)``."""
     batch = L.shape
     s, c, t = np.sin(L), np.cos(L), np.tan(L)
@@ -259,7 +262,9 @@ def _nav_blocks(L, h, v, f_n):
     return F
 
 
-def _nav_inputs(L, h, v_enu, f_b, C_bn):
+def _nav_inputs(
+    L: ArrayLike, h: ArrayLike, v_enu: BatchVector, f_b: BatchVector, C_bn: BatchMatrix
+) -> tuple[BatchScalar, BatchScalar, BatchVector, BatchVector, BatchMatrix, tuple[int, ...]]:
     L, h = np.asarray(L, dtype=float), np.asarray(h, dtype=float)
     v, f_b, C = (np.asarray(a, dtype=float) for a in (v_enu, f_b, C_bn))
     batch = L.shape
@@ -281,7 +286,15 @@ def _nav_inputs(L, h, v_enu, f_b, C_bn):
     return L, h, v, f_b, C, batch
 
 
-def continuous_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams) -> ContinuousModel:
+def continuous_model(
+    L: ArrayLike,
+    lam: ArrayLike,
+    h: ArrayLike,
+    v_enu: BatchVector,
+    f_b: BatchVector,
+    C_bn: BatchMatrix,
+    params: ErrorModelParams,
+) -> ContinuousModel:
     """Continuous SINS error model ``(F, G, q)`` linearized at an INS solution (spec §8.3).
 
     ``φ̇ = F_aa φ + F_av δv + F_ap δp − C_b^n (ε_b + ε_r) − C_b^n w_g``,
@@ -324,7 +337,9 @@ def continuous_model(L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams) -> C
     return ContinuousModel(F.reshape(batch + (n, n)), G.reshape(batch + (n, 12)), params.noise_psd)
 
 
-def _flat_inputs(L, h, v, f_b, C, M):
+def _flat_inputs(
+    L: BatchScalar, h: BatchScalar, v: BatchVector, f_b: BatchVector, C: BatchMatrix, M: int
+) -> tuple[BatchScalar, BatchScalar, BatchVector, BatchVector, BatchMatrix]:
     return (
         np.ascontiguousarray(L, float).reshape(M),
         np.ascontiguousarray(h, float).reshape(M),
@@ -335,7 +350,9 @@ def _flat_inputs(L, h, v, f_b, C, M):
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _skew_into(F, r, c, sign, a0, a1, a2):  # pragma: no cover - compiled
+def _skew_into(
+    F: Matrix, r: int, c: int, sign: float, a0: float, a1: float, a2: float
+) -> None:  # pragma: no cover - compiled
     """``F[r:r+3, c:c+3] += sign·[a×]``."""
     F[r, c + 1] += -sign * a2
     F[r, c + 2] += sign * a1
@@ -346,7 +363,19 @@ def _skew_into(F, r, c, sign, a0, a1, a2):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _model_row(L, h, v, f_b, C, body, n, tau_g, tau_a, F, G):  # pragma: no cover
+def _model_row(
+    L: float,
+    h: float,
+    v: Vector,
+    f_b: Vector,
+    C: Matrix,
+    body: bool,
+    n: int,
+    tau_g: Vector,
+    tau_a: Vector,
+    F: Matrix,
+    G: Matrix,
+) -> None:  # pragma: no cover
     """F (n, n) and G (n, 12) of :func:`continuous_model` at one INS solution (zeroed)."""
     Fav = np.zeros((3, 3))
     Fap = np.zeros((3, 3))
@@ -424,15 +453,40 @@ def _model_row(L, h, v, f_b, C, body, n, tau_g, tau_a, F, G):  # pragma: no cove
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _model_rows(L, h, v, f_b, C, body, n, tau_g, tau_a, F, G):  # pragma: no cover
+def _model_rows(
+    L: BatchScalar,
+    h: BatchScalar,
+    v: BatchVector,
+    f_b: BatchVector,
+    C: BatchMatrix,
+    body: bool,
+    n: int,
+    tau_g: Vector,
+    tau_a: Vector,
+    F: BatchMatrix,
+    G: BatchMatrix,
+) -> None:  # pragma: no cover
     for b in range(L.shape[0]):
         _model_row(L[b], h[b], v[b], f_b[b], C[b], body, n, tau_g, tau_a, F[b], G[b])
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _discrete_rows(
-    L, h, v, f_b, C, body, n, tau_g, tau_a, q, T, order, Phi, Q
-):  # pragma: no cover - compiled
+    L: BatchScalar,
+    h: BatchScalar,
+    v: BatchVector,
+    f_b: BatchVector,
+    C: BatchMatrix,
+    body: bool,
+    n: int,
+    tau_g: Vector,
+    tau_a: Vector,
+    q: Vector,
+    T: float,
+    order: int,
+    Phi: BatchMatrix,
+    Q: BatchMatrix,
+) -> None:  # pragma: no cover - compiled
     """Φ, Q (M, n, n) of :func:`discrete_model` with ``method="series"``, one loop."""
     F, G, GQGt = np.empty((n, n)), np.empty((n, 12)), np.empty((n, n))
     X, nxt, Mj, FM = np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n))
@@ -451,7 +505,13 @@ def _discrete_rows(
 
 
 def continuous_model_reference(
-    L, lam, h, v_enu, f_b, C_bn, params: ErrorModelParams
+    L: ArrayLike,
+    lam: ArrayLike,
+    h: ArrayLike,
+    v_enu: BatchVector,
+    f_b: BatchVector,
+    C_bn: BatchMatrix,
+    params: ErrorModelParams,
 ) -> ContinuousModel:
     """Plain NumPy form of :func:`continuous_model` (the compiled kernel's test oracle)."""
     L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
@@ -483,17 +543,17 @@ Method = Literal["van-loan", "series"]
 
 
 def discrete_model(
-    L,
-    lam,
-    h,
-    v_enu,
-    f_b,
-    C_bn,
+    L: ArrayLike,
+    lam: ArrayLike,
+    h: ArrayLike,
+    v_enu: BatchVector,
+    f_b: BatchVector,
+    C_bn: BatchMatrix,
     params: ErrorModelParams,
     T: float,
     method: Method = "van-loan",
     order: int = 5,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[BatchMatrix, BatchMatrix]:
     """Discrete SINS error model ``(Φ_k, Q_k)`` over a step T (spec §8.3, §8.4).
 
     F is held at the given INS solution over the step; ``method="van-loan"`` is exact
@@ -560,7 +620,7 @@ class SinsErrorModel:
     method: Method = "van-loan"
     order: int = 5
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not np.isfinite(self.T) or self.T <= 0.0:
             raise ValueError(f"T must be positive and finite, got {self.T!r}")
         if self.method not in ("van-loan", "series"):
@@ -582,6 +642,6 @@ class SinsErrorModel:
         """``(F, G, q)`` at the INS solution ``nav`` (:func:`continuous_model`)."""
         return continuous_model(*nav, self.params)
 
-    def transition(self, nav: NavState) -> tuple[np.ndarray, np.ndarray]:
+    def transition(self, nav: NavState) -> tuple[BatchMatrix, BatchMatrix]:
         """``(Φ, Q)`` (B, n, n) for the step that starts at the INS solution ``nav``."""
         return discrete_model(*nav, self.params, self.T, self.method, self.order)

@@ -35,6 +35,7 @@ import numpy as np
 
 from ftnav.nav import attitude
 from ftnav.nav.earth import OMEGA_IE, gravity_nb, radii_nb
+from ftnav.types import BatchVector, Vector
 
 __all__ = [
     "InsState",
@@ -61,27 +62,27 @@ class InsState(NamedTuple):
     a : (B, 3) last navigation-frame acceleration (for the mid-interval extrapolation).
     """
 
-    q: np.ndarray
-    v: np.ndarray
-    p: np.ndarray
-    a: np.ndarray
+    q: BatchVector
+    v: BatchVector
+    p: BatchVector
+    a: BatchVector
 
 
 class NavSolution(NamedTuple):
     """Navigation solution at the output epochs: q (B, K, 4), v (B, K, 3), p (B, K, 3)."""
 
-    q: np.ndarray
-    v: np.ndarray
-    p: np.ndarray
+    q: BatchVector
+    v: BatchVector
+    p: BatchVector
 
     @property
-    def euler(self) -> np.ndarray:
+    def euler(self) -> BatchVector:
         """``[θ, γ, ψ]`` (rad), (B, K, 3)."""
         return attitude.quat_to_euler(self.q)
 
 
 def init_state(
-    p: np.ndarray, v: np.ndarray, euler: np.ndarray, batch: int | None = None
+    p: BatchVector, v: BatchVector, euler: BatchVector, batch: int | None = None
 ) -> InsState:
     """Initial state from position ``[L, λ, h]``, ENU velocity and ``[θ, γ, ψ]``.
 
@@ -101,7 +102,9 @@ def init_state(
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):  # pragma: no cover - compiled
+def _qmul(
+    a0: float, a1: float, a2: float, a3: float, b0: float, b1: float, b2: float, b3: float
+) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
     return (
         a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
         a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
@@ -111,7 +114,9 @@ def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _rv2q(x, y, z):  # pragma: no cover - compiled
+def _rv2q(
+    x: float, y: float, z: float
+) -> tuple[float, float, float, float]:  # pragma: no cover - compiled
     n2 = x * x + y * y + z * z
     if n2 < 1e-16:  # |r| < 1e-8: series
         c = 1.0 - n2 / 8.0
@@ -124,12 +129,16 @@ def _rv2q(x, y, z):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _cross(a0, a1, a2, b0, b1, b2):  # pragma: no cover - compiled
+def _cross(
+    a0: float, a1: float, a2: float, b0: float, b1: float, b2: float
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _qrot(q0, q1, q2, q3, x, y, z):  # pragma: no cover - compiled
+def _qrot(
+    q0: float, q1: float, q2: float, q3: float, x: float, y: float, z: float
+) -> tuple[float, float, float]:  # pragma: no cover - compiled
     """C(q) [x, y, z] for a unit quaternion."""
     t0, t1, t2 = _cross(q1, q2, q3, x, y, z)
     t0, t1, t2 = 2.0 * t0, 2.0 * t1, 2.0 * t2
@@ -139,8 +148,22 @@ def _qrot(q0, q1, q2, q3, x, y, z):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _run(
-    b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out
-):  # pragma: no cover - compiled
+    b: int,
+    q: BatchVector,
+    v: BatchVector,
+    p: BatchVector,
+    a: BatchVector,
+    dtheta: BatchVector,
+    dv: BatchVector,
+    dt: float,
+    alg: int,
+    gb: BatchVector,
+    ab: BatchVector,
+    every: int,
+    q_out: BatchVector,
+    v_out: BatchVector,
+    p_out: BatchVector,
+) -> None:  # pragma: no cover - compiled
     """Integrate run b over all its samples (sequential); writes the state back."""
     K = dtheta.shape[1]
     ns = 2 if alg == 2 else 1
@@ -229,8 +252,21 @@ def _run(
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def _integrate_serial(
-    q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out
-):  # pragma: no cover - compiled
+    q: BatchVector,
+    v: BatchVector,
+    p: BatchVector,
+    a: BatchVector,
+    dtheta: BatchVector,
+    dv: BatchVector,
+    dt: float,
+    alg: int,
+    gb: BatchVector,
+    ab: BatchVector,
+    every: int,
+    q_out: BatchVector,
+    v_out: BatchVector,
+    p_out: BatchVector,
+) -> None:  # pragma: no cover - compiled
     for b in range(q.shape[0]):
         _run(b, q, v, p, a, dtheta, dv, dt, alg, gb, ab, every, q_out, v_out, p_out)
 
@@ -240,13 +276,13 @@ def _integrate_serial(
 
 def integrate(
     state: InsState,
-    dtheta: np.ndarray,
-    dv: np.ndarray,
+    dtheta: BatchVector,
+    dv: BatchVector,
     dt: float,
     *,
     algorithm: str = "two-sample",
-    gyro_bias: np.ndarray | None = None,
-    accel_bias: np.ndarray | None = None,
+    gyro_bias: BatchVector | None = None,
+    accel_bias: BatchVector | None = None,
     output_every: int = 1,
 ) -> tuple[InsState, NavSolution]:
     """Integrate IMU increments from ``state`` (spec §8.2).
@@ -319,8 +355,13 @@ def integrate(
 
 
 def apply_correction(
-    q: np.ndarray, v: np.ndarray, p: np.ndarray, phi: np.ndarray, dv: np.ndarray, dp: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    q: BatchVector,
+    v: BatchVector,
+    p: BatchVector,
+    phi: BatchVector,
+    dv: BatchVector,
+    dp: BatchVector,
+) -> tuple[BatchVector, BatchVector, BatchVector]:
     """Remove estimated errors from a navigation solution (spec §8.5).
 
     ``q ← q(φ̂) ⊗ q̃`` (i.e. ``C ← exp([φ̂×]) C̃ ≈ (I + [φ̂×]) C̃``), ``v ← ṽ − δv̂``,
@@ -339,7 +380,9 @@ def apply_correction(
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _correct_rows(q, phi, out):  # pragma: no cover - compiled
+def _correct_rows(
+    q: BatchVector, phi: BatchVector, out: BatchVector
+) -> None:  # pragma: no cover - compiled
     for b in range(q.shape[0]):
         r0, r1, r2, r3 = _rv2q(phi[b, 0], phi[b, 1], phi[b, 2])
         c0, c1, c2, c3 = _qmul(r0, r1, r2, r3, q[b, 0], q[b, 1], q[b, 2], q[b, 3])
@@ -348,13 +391,13 @@ def _correct_rows(q, phi, out):  # pragma: no cover - compiled
 
 
 def navigation_errors(
-    q: np.ndarray,
-    v: np.ndarray,
-    p: np.ndarray,
-    q_true: np.ndarray,
-    v_true: np.ndarray,
-    p_true: np.ndarray,
-) -> np.ndarray:
+    q: BatchVector,
+    v: BatchVector,
+    p: BatchVector,
+    q_true: Vector,
+    v_true: Vector,
+    p_true: Vector,
+) -> BatchVector:
     """(B, 9) true navigation error states ``[φ, δv, δL δλ δh]`` (spec §8.3 order).
 
     ``φ`` is :func:`ftnav.nav.attitude.quat_attitude_error` (the rotation vector of
@@ -376,7 +419,15 @@ def navigation_errors(
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
-def _errors_rows(q, v, p, qt, vt, pt, out):  # pragma: no cover - compiled
+def _errors_rows(
+    q: BatchVector,
+    v: BatchVector,
+    p: BatchVector,
+    qt: Vector,
+    vt: Vector,
+    pt: Vector,
+    out: BatchVector,
+) -> None:  # pragma: no cover - compiled
     for b in range(q.shape[0]):
         # q_true ⊗ q̃*, sign fixed to a non-negative scalar part
         e0, e1, e2, e3 = _qmul(qt[0], qt[1], qt[2], qt[3], q[b, 0], -q[b, 1], -q[b, 2], -q[b, 3])
@@ -394,7 +445,7 @@ def _errors_rows(q, v, p, qt, vt, pt, out):  # pragma: no cover - compiled
             out[b, 6 + i] = p[b, i] - pt[i]
 
 
-def feedback(state: InsState, phi: np.ndarray, dv: np.ndarray, dp: np.ndarray) -> InsState:
+def feedback(state: InsState, phi: BatchVector, dv: BatchVector, dp: BatchVector) -> InsState:
     """Closed-loop correction of the mechanization state (spec §8.5).
 
     The caller zeroes the fed-back error states of its filter and passes the estimated
