@@ -9,33 +9,33 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import ArrayLike
 from scipy.signal import lfilter
+
+from ftnav.types import ArrayLike, BatchMatrix, Vector
 
 __all__ = ["check_dt", "gauss_markov", "gauss_markov_inplace"]
 
 
-def _show(value) -> str:
+def _show(value: object) -> str:
     """One-line rendering of a bad input for an error message."""
     return np.array2string(value, separator=", ") if isinstance(value, np.ndarray) else repr(value)
 
 
-def gauss_markov_inplace(
-    w: np.ndarray, sigma: np.ndarray, tau: np.ndarray, dt: float
-) -> np.ndarray:
+def gauss_markov_inplace(w: BatchMatrix, sigma: Vector, tau: Vector, dt: float) -> BatchMatrix:
     """Turn standard normals ``w`` (..., K, n) into stationary Gauss-Markov sequences."""
     a = np.exp(-dt / tau)
     w[..., 1:, :] *= sigma * np.sqrt(-np.expm1(-2.0 * dt / tau))
     w[..., 0, :] *= sigma  # stationary start
     if np.all(a == a[0]):
-        return lfilter([1.0], [1.0, -a[0]], w, axis=-2)
+        b: BatchMatrix = lfilter([1.0], [1.0, -a[0]], w, axis=-2)
+        return b
     out = np.empty_like(w)
     for j, aj in enumerate(a):
         out[..., j] = lfilter([1.0], [1.0, -aj], w[..., j], axis=-1)
     return out
 
 
-def gauss_markov(white: ArrayLike, sigma: ArrayLike, tau: ArrayLike, dt: float) -> np.ndarray:
+def gauss_markov(white: ArrayLike, sigma: ArrayLike, tau: ArrayLike, dt: float) -> BatchMatrix:
     """Stationary first-order Gauss-Markov sequences from standard normals (spec §8.4).
 
     ``b_0 = σ ε_0``, ``b_k = e^{−dt/τ} b_{k−1} + σ√(1 − e^{−2dt/τ}) ε_k``, so every
@@ -69,7 +69,8 @@ def gauss_markov(white: ArrayLike, sigma: ArrayLike, tau: ArrayLike, dt: float) 
     return gauss_markov_inplace(w, sigma, tau, check_dt(dt))
 
 
-def check_dt(dt) -> float:
+def check_dt(dt: float) -> float:
+    """``float(dt)``, checked finite and > 0 (``ValueError`` naming ``dt`` otherwise)."""
     try:
         value = float(dt)
     except (TypeError, ValueError):
