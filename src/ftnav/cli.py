@@ -44,7 +44,47 @@ import traceback
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from ftnav import __version__
+from ftnav.eval.evaluate import evaluate, metrics_to_json
+from ftnav.eval.montecarlo import build_filters, run_scenario
+from ftnav.eval.resources import (
+    available_memory_bytes,
+    format_bytes,
+    kernels_compiled,
+    mark_kernels_compiled,
+    max_runs_within,
+    run_memory_bytes,
+    trajectory_memory_bytes,
+)
+from ftnav.io.common import ScenarioError
+from ftnav.io.learned import save_neuron_model, save_rbf_model
+from ftnav.io.model_file import ModelFileError
+from ftnav.io.profile_file import resolve_profile
+from ftnav.io.results import write_estimates, write_metrics
+from ftnav.io.scenario_file import load_scenario, scenario_json_schema
+from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
+from ftnav.model.imu import imu_preset
+from ftnav.parallel import default_workers
+from ftnav.report.claims import check_claims
+from ftnav.report.summary import detector_table, markdown_report, results_table
+from ftnav.scenarios import builtin_names, builtin_path
+from ftnav.sim.fault_family import fault_variants
+from ftnav.sim.imu import simulate_imu_errors
+from ftnav.sim.trajectory import generate
+from ftnav.training.detector import (
+    DetectorTraining,
+    default_method,
+    held_out_table,
+    train_detector,
+)
+from ftnav.training.fusion import FusionTraining, check_training, fusion_table, train_fusion
+from ftnav.training.ins_fusion import ins_configurations, train_ins_fusion
 
 __all__ = ["MANIFEST", "main"]
 
@@ -132,16 +172,12 @@ def _checking() -> Iterator[None]:
     except (UsageError, KeyboardInterrupt):
         raise
     except ValueError as e:
-        from ftnav.io.common import ScenarioError
-        from ftnav.io.model_file import ModelFileError
-
         if isinstance(e, ScenarioError | ModelFileError):
             raise
         raise UsageError(_one_line(e)) from e
 
 
 def _parser() -> _Parser:
-    from ftnav import __version__
 
     debug = argparse.ArgumentParser(add_help=False)
     debug.add_argument(
@@ -246,9 +282,6 @@ def _parser() -> _Parser:
 
 
 def _resolve(spec: str):
-    from ftnav.io.scenario_file import load_scenario
-    from ftnav.scenarios import builtin_names, builtin_path
-
     if spec in builtin_names():
         return load_scenario(builtin_path(spec))
     path = Path(spec)
@@ -268,33 +301,15 @@ def _integrated(sc) -> bool:
 
 
 def _build_filters(sc) -> None:
-    """Build every method's filter once, as the runner will: bad settings and model files
-    are refused here, before anything is simulated."""
-    from ftnav.eval.montecarlo import build_filter
-
+    """Build every method's filter once, as the runner will, before anything is simulated
+    (the settings and model files were checked when the scenario was loaded)."""
     if not sc.methods:
         raise UsageError("methods: a run needs at least one method")
-    if _integrated(sc):
-        from ftnav.eval.integrated import build_ins_system
-
-        system = build_ins_system(sc)
-    else:
-        from ftnav.model.system import LinearSystem
-
-        system = LinearSystem.from_scenario(sc)
-    for m in sc.methods:
-        build_filter(system, m)
+    build_filters(sc, sc.system(), sc.methods)
 
 
 def _check_memory(sc, runs: int, **options) -> None:
     """Refuse a run whose estimated peak memory exceeds what the machine has available."""
-    from ftnav.eval.resources import (
-        available_memory_bytes,
-        format_bytes,
-        max_runs_within,
-        run_memory_bytes,
-    )
-
     available = available_memory_bytes()
     if available is None:
         return
@@ -317,8 +332,6 @@ def _check_memory(sc, runs: int, **options) -> None:
 
 
 def _compile_note(kind: str, quiet: bool) -> None:
-    from ftnav.eval.resources import kernels_compiled
-
     if not quiet and not kernels_compiled(kind):
         print(COMPILING.format(_COMPILE_S[kind]), file=sys.stderr, flush=True)
 
@@ -447,22 +460,21 @@ def _staged(out: Path, *, folder: bool) -> Iterator[Path]:
 
 
 def _cmd_list(args) -> int:
-    from ftnav.io.scenario_file import load_scenario
-    from ftnav.scenarios import builtin_names, builtin_path
-
     for name in builtin_names():
         sc = load_scenario(builtin_path(name))
         print(f"{name}: {sc.description}")
         print(
-            f"  {sc.steps} epochs x {sc.dt} s, states {', '.join(sc.model.states)}; sensors "
+            f"  {sc.steps} epochs x {sc.dt} s, states {', '.join(sc.metric_states)}; sensors "
             f"{', '.join(sc.sensor_names)}; {len(sc.faults)} fault(s)"
         )
         for m in sc.methods:
             detail = m.architecture
             if m.architecture == "federated":
                 detail += f" {m.mode}/{m.reset_interval} {m.sharing}"
-            if m.detector != "none":
-                detail += f", detector {m.detector}"
+            if m.detector.kind != "none":
+                detail += f", detector {m.detector.kind}"
+            if m.noise.kind != "none":
+                detail += f", noise {m.noise.kind}"
             print(f"    {m.name:28s} {detail}")
     print("architectures: centralized | federated | distributed | neural")
     print(
@@ -474,8 +486,6 @@ def _cmd_list(args) -> int:
 
 
 def _cmd_schema(args) -> int:
-    from ftnav.io.scenario_file import scenario_json_schema
-
     if args.out is not None:
         _check_out_file(args.out)
     text = json.dumps(scenario_json_schema(), indent=2)
@@ -488,16 +498,6 @@ def _cmd_schema(args) -> int:
 
 
 def _cmd_run(args) -> int:
-    from tqdm import tqdm
-
-    from ftnav.eval.evaluate import evaluate, metrics_to_json
-    from ftnav.eval.montecarlo import run_scenario
-    from ftnav.eval.resources import mark_kernels_compiled
-    from ftnav.io.results import write_estimates, write_metrics
-    from ftnav.parallel import default_workers
-    from ftnav.report.claims import check_claims
-    from ftnav.report.summary import detector_table, markdown_report, results_table
-
     with _checking():
         sc = _resolve(args.scenario)
         out = args.out if args.out is not None else Path("results") / sc.name
@@ -519,17 +519,10 @@ def _cmd_run(args) -> int:
         file=sys.stderr,
         mininterval=0.5,
     ) as bar:
-        if integrated:
-            from ftnav.eval.integrated import run_ins_scenario
-
-            ir = run_ins_scenario(sc, args.runs, args.seed, progress=bar.update, workers=workers)
-            result = ir.result
-        else:
-            result = run_scenario(sc, args.runs, args.seed, progress=bar.update, workers=workers)
+        result = run_scenario(sc, args.runs, args.seed, progress=bar.update, workers=workers)
     second = None
     if integrated and sc.test_profile is not None:
         # learned methods are also scored on a flight they were not trained on
-        from dataclasses import replace
 
         sc2 = replace(
             sc, name=f"{sc.name}@{sc.test_profile.name}", profile=sc.test_profile, test_profile=None
@@ -542,19 +535,19 @@ def _cmd_run(args) -> int:
             file=sys.stderr,
             mininterval=0.5,
         ) as bar:
-            ir2 = run_ins_scenario(sc2, args.runs, args.seed, progress=bar.update, workers=workers)
-        second = (ir2.result, evaluate(ir2.result))
+            result2 = run_scenario(sc2, args.runs, args.seed, progress=bar.update, workers=workers)
+        second = (result2, evaluate(result2))
     elapsed = time.perf_counter() - t0
     mark_kernels_compiled(kind)
     metrics = evaluate(result)
-    claims = check_claims(result, metrics, ir.local if integrated else None, second)
+    claims = check_claims(result, metrics, second)
     with _staged(out, folder=True) as stage:
         figures = []
         if not args.no_figures:
             if integrated:
                 from ftnav.plot.integrated import save_integrated
 
-                figures = [p.name for p in save_integrated(ir, stage)]
+                figures = [p.name for p in save_integrated(result, stage)]
             else:
                 from ftnav.plot.figures import save_all
 
@@ -589,22 +582,10 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_trajectory(args) -> int:
-    from ftnav.eval.resources import (
-        available_memory_bytes,
-        format_bytes,
-        mark_kernels_compiled,
-        trajectory_memory_bytes,
-    )
-    from ftnav.io.profile_file import resolve_profile
-    from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
-    from ftnav.sim.trajectory import generate
-
     with _checking():
         profile = resolve_profile(args.profile)
         errors = None
         if args.imu is not None:
-            from ftnav.model.imu import imu_preset
-
             errors = imu_preset(args.imu)
         out = Path(args.out)
         _check_out_folder(out)
@@ -620,8 +601,6 @@ def _cmd_trajectory(args) -> int:
     traj = generate(profile)
     dtheta, dv = traj.dtheta, traj.dv
     if errors is not None:
-        from ftnav.sim.imu import simulate_imu_errors
-
         dtheta, dv, _ = simulate_imu_errors(dtheta, dv, traj.dt, errors, seed=args.seed)
     mark_kernels_compiled("trajectory")
     with _staged(out, folder=True) as stage:
@@ -645,8 +624,6 @@ def _cmd_trajectory(args) -> int:
 
 
 def _bar(total: int, quiet: bool, desc: str):
-    from tqdm import tqdm
-
     return tqdm(
         total=total,
         disable=True if quiet else None,
@@ -658,12 +635,6 @@ def _bar(total: int, quiet: bool, desc: str):
 
 
 def _cmd_train_detector(args) -> int:
-    import numpy as np
-
-    from ftnav.eval.resources import mark_kernels_compiled
-    from ftnav.fdi.training import DetectorTraining, default_method, held_out_table, train_detector
-    from ftnav.sim.fault_family import fault_variants
-
     with _checking():
         sc = _resolve(args.scenario)
         out = args.out
@@ -698,7 +669,7 @@ def _cmd_train_detector(args) -> int:
     mark_kernels_compiled("train-linear")
     written = [str(out)]
     with _staged(out, folder=False) as stage:
-        model.save(stage / out.name)
+        save_rbf_model(model, stage / out.name)
         if not args.no_figure:
             from ftnav.plot.learning import detector_figure
 
@@ -717,17 +688,6 @@ def _cmd_train_detector(args) -> int:
 
 
 def _cmd_train_fusion(args) -> int:
-    import numpy as np
-
-    from ftnav.eval.resources import mark_kernels_compiled
-    from ftnav.fusion.neural_training import (
-        FusionTraining,
-        check_training,
-        fusion_table,
-        train_fusion,
-    )
-    from ftnav.sim.fault_family import fault_variants
-
     with _checking():
         sc = _resolve(args.scenario)
         out = args.out
@@ -752,7 +712,7 @@ def _cmd_train_fusion(args) -> int:
     mark_kernels_compiled("train-linear")
     written = [str(out)]
     with _staged(out, folder=False) as stage:
-        model.save(stage / out.name)
+        save_neuron_model(model, stage / out.name)
         if not args.no_figure:
             from ftnav.plot.learning import fusion_figure
 
@@ -770,9 +730,6 @@ def _cmd_train_fusion(args) -> int:
 
 def _train_ins_fusion(sc, out: Path, args) -> int:
     """``train-fusion`` on an integrated scenario (paper 001's five configurations)."""
-    from ftnav.eval.ins_training import ins_configurations, train_ins_fusion
-    from ftnav.eval.resources import mark_kernels_compiled
-
     _compile_note("train-integrated", args.quiet)
     t0 = time.perf_counter()
     total = sc.steps * len(ins_configurations(sc))
@@ -780,7 +737,7 @@ def _train_ins_fusion(sc, out: Path, args) -> int:
         model = train_ins_fusion(sc, runs=args.runs, seed=args.seed, progress=bar.update)
     mark_kernels_compiled("train-integrated")
     with _staged(out, folder=False) as stage:
-        model.save(stage / out.name)
+        save_neuron_model(model, stage / out.name)
     print(
         f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
         f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s"
@@ -810,9 +767,6 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``ftnav`` command; returns the exit status (module docstring)."""
-    from ftnav.io.common import ScenarioError
-    from ftnav.io.model_file import ModelFileError
-
     debug = False
     try:
         parser = _parser()

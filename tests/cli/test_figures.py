@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from ftnav.eval.montecarlo import run_scenario
-from ftnav.model.scenario import MAX_FIGURE_METHODS, Fault, LinearModel, Method, Scenario, Sensor
+from ftnav.model.scenario import MAX_FIGURE_METHODS, Fault, Method, Scenario
+from ftnav.model.system import LinearModel, Sensor
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

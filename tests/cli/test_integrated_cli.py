@@ -11,7 +11,7 @@ import json
 import numpy as np
 
 from ftnav.cli import main
-from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS
 
 SEED002_LIKE = """
 kind = "integrated"

@@ -16,7 +16,7 @@ from output_problems import integrated_run, north_ramp_run
 
 from ftnav.eval.evaluate import split_unit
 from ftnav.eval.metrics import error_stats
-from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS
 from ftnav.report.summary import fault_states, markdown_report, results_table, summary_tables
 
 

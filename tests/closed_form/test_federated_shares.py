@@ -13,7 +13,8 @@ import warnings
 import numpy as np
 
 from ftnav.fusion.federated import MIN_SHARE, FederatedFilter
-from ftnav.model.scenario import LinearModel, Method, Sensor
+from ftnav.model.system import LinearModel, Sensor
+from ftnav.model.scenario import Method
 from ftnav.model.system import LinearSystem
 
 

@@ -11,7 +11,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ftnav.fusion.centralized import CentralizedFilter
-from ftnav.model.scenario import Fault, LinearModel, Scenario, Sensor
+from ftnav.model.scenario import Fault, Scenario
+from ftnav.model.system import LinearModel, Sensor
 from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import Simulation, simulate
 

@@ -18,7 +18,8 @@ from ftnav.fusion.centralized import CentralizedFilter
 from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import FederatedFilter
 from ftnav.io.profile_file import resolve_profile
-from ftnav.model.scenario import LinearModel, Method, Scenario, Sensor
+from ftnav.model.system import LinearModel, Sensor
+from ftnav.model.scenario import Method, Scenario
 from ftnav.model.system import TimeVaryingSystem
 from ftnav.nav import attitude as at
 from ftnav.nav.error_model import STATES_18, ErrorModelParams, NavState, SinsErrorModel

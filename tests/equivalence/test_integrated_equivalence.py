@@ -32,7 +32,7 @@ import pytest
 from ftnav.eval.integrated import run_ins_scenario
 from ftnav.io.ins_scenario_file import parse_ins_scenario
 from ftnav.io.scenario_file import load_scenario
-from ftnav.model.ins_scenario import InsFault
+from ftnav.model.scenario import InsFault
 from ftnav.model.scenario import Method
 from ftnav.scenarios import builtin_path
 

@@ -13,7 +13,8 @@ import pytest
 from scipy.linalg import block_diag
 
 from ftnav.fusion.centralized import CentralizedFilter
-from ftnav.model.scenario import LinearModel, Scenario, Sensor
+from ftnav.model.system import LinearModel, Sensor
+from ftnav.model.scenario import Scenario
 from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
 

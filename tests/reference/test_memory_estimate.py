@@ -31,7 +31,7 @@ import gc, json, sys, tempfile, tracemalloc
 args = json.loads(sys.argv[1])
 
 from ftnav.cli import main
-from ftnav.sim.ins_data import trajectory_of
+from ftnav.sim.ins import trajectory_of
 
 def command(d, name):
     if args.get("chunk"):

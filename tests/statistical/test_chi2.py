@@ -29,7 +29,8 @@ from scipy.stats import chi2
 
 from ftnav.eval.montecarlo import build_filter, run_filter
 from ftnav.fdi.chi2 import state_statistic
-from ftnav.model.scenario import LinearModel, Method, Scenario, Sensor
+from ftnav.model.system import LinearModel, Sensor
+from ftnav.model.scenario import Method, Scenario
 from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
 

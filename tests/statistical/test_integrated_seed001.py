@@ -73,7 +73,7 @@ import pytest
 from ftnav.eval.evaluate import evaluate
 from ftnav.eval.integrated import run_ins_scenario
 from ftnav.io.scenario_file import load_scenario
-from ftnav.model.ins_scenario import SINS
+from ftnav.model.scenario import SINS
 from ftnav.scenarios import builtin_path
 
 FKF = "fkf-nr-chi2"

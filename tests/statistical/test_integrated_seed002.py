@@ -14,7 +14,7 @@ import pytest
 from ftnav.eval.integrated import run_ins_scenario
 from ftnav.eval.metrics import chi2_band, nees_stats
 from ftnav.io.scenario_file import load_scenario
-from ftnav.model.ins_scenario import METRIC_STATES
+from ftnav.model.scenario import METRIC_STATES
 from ftnav.scenarios import builtin_path
 
 

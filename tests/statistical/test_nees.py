@@ -20,7 +20,8 @@ import pytest
 
 from ftnav.eval.metrics import chi2_band
 from ftnav.eval.montecarlo import build_filter, run_filter
-from ftnav.model.scenario import Fault, LinearModel, Method, Scenario, Sensor
+from ftnav.model.scenario import Fault, Method, Scenario
+from ftnav.model.system import LinearModel, Sensor
 from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
 

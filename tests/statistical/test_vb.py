@@ -26,7 +26,8 @@ from ftnav.core import kalman as kf
 from ftnav.core import vb
 from ftnav.eval.montecarlo import run_filter
 from ftnav.fusion.distributed import DistributedFilter
-from ftnav.model.scenario import LinearModel, Method, Scenario, Sensor
+from ftnav.model.system import LinearModel, Sensor
+from ftnav.model.scenario import Method, Scenario
 from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
 

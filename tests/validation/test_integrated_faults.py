@@ -24,7 +24,7 @@ import pytest
 
 from ftnav.eval.integrated import run_ins_scenario
 from ftnav.io.ins_scenario_file import parse_ins_scenario
-from ftnav.model.ins_scenario import INS_FAULT_KINDS, SINS
+from ftnav.model.scenario import INS_FAULT_KINDS, SINS
 
 HEAD = """
 kind = "integrated"

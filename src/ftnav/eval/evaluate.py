@@ -24,7 +24,7 @@ import numpy as np
 
 from ftnav.eval.metrics import detection_stats, error_stats, nees_stats, position_norms
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
-from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS
 
 __all__ = ["MethodMetrics", "evaluate", "metrics_to_json", "split_unit"]
 
@@ -76,10 +76,6 @@ def _named(values: np.ndarray, names) -> dict[str, float]:
     return {n: float(v) for n, v in zip(names, values, strict=True)}
 
 
-def _errors(res: MethodResult, truth: np.ndarray) -> np.ndarray:
-    return res.x - truth[..., : res.x.shape[-1]]
-
-
 def _norms(err: np.ndarray, states) -> np.ndarray | None:
     """(B, K, 2) horizontal and 3-D position error, or None without ENU position states."""
     enu = METRIC_STATES[:3]
@@ -105,6 +101,12 @@ def _rmse(err: np.ndarray, norms: np.ndarray | None, states, mask: np.ndarray) -
     )
 
 
+def _compared(res: MethodResult) -> np.ndarray:
+    """What is compared with the centralized filter: a linear model's fused estimate, an
+    integrated run's output error (the same truth is subtracted from both)."""
+    return res.error if res.estimate is None else res.estimate
+
+
 def _max_rel_diff(a: np.ndarray, b: np.ndarray) -> float:
     scale = max(1.0, float(np.abs(b).max()))
     return float(np.abs(a - b).max() / scale)
@@ -114,26 +116,25 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
     """Compute every metric of every method."""
     sc = result.scenario
     t = sc.times
-    states = sc.model.states
+    states = sc.metric_states
     window = t >= sc.evaluation.skip_initial
     in_fault = sc.fault_mask() & window
     out_fault = ~sc.fault_mask() & window
-    truth = result.simulation.truth
     methods = {m.name: m for m in sc.methods}
     central = next(
         (
             n
             for n, m in methods.items()
             if m.architecture == "centralized"
-            and m.detector == "none"
-            and m.adaptive_noise == "none"
+            and m.detector.kind == "none"
+            and m.noise.kind == "none"
             and n in result.results
         ),
         None,
     )
     out: dict[str, MethodMetrics] = {}
     for name, res in result.results.items():
-        err = _errors(res, truth)
+        err = res.error
         norms = _norms(err, states)
         es = error_stats(err, window)
         es_norms = None if norms is None else error_stats(norms, window)
@@ -141,19 +142,19 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
         detection = None
         if res.flag is not None:
             detection = {}
-            for i, s in enumerate(sc.sensors):
+            for i, sensor in enumerate(sc.sensor_names):
                 wins = [
-                    (f.start, f.end) for f in sc.faults if f.sensor == s.name and f.kind != "outage"
+                    (f.start, f.end) for f in sc.faults if f.sensor == sensor and f.kind != "outage"
                 ]
                 d = detection_stats(res.flag[..., i], t, wins, sc.evaluation.grace)
-                detection[s.name] = {
+                detection[sensor] = {
                     k: (None if isinstance(v, float) and math.isnan(v) else float(v))
                     for k, v in d._asdict().items()
                 }
         ff = None
         ff_res = result.fault_free.get(name)
         if ff_res is not None:
-            ff_err = _errors(ff_res, result.fault_free_simulation.truth)
+            ff_err = ff_res.error
             ff_norms = _norms(ff_err, states)
             ff = {
                 "rmse": _rmse(ff_err, ff_norms, states, window),
@@ -165,9 +166,9 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
         if central is not None and name != central:
             ref_res = result.fault_free.get(central) if ff_res is not None else None
             if ref_res is not None:
-                rel = _max_rel_diff(ff_res.x, ref_res.x)
+                rel = _max_rel_diff(_compared(ff_res), _compared(ref_res))
             else:
-                rel = _max_rel_diff(res.x, result.results[central].x)
+                rel = _max_rel_diff(_compared(res), _compared(result.results[central]))
         out[name] = MethodMetrics(
             architecture=methods[name].architecture if name in methods else "",
             rmse=_with_norms(es.rmse, states, es_norms and es_norms.rmse),
@@ -187,7 +188,7 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
             if res.beta is not None
             else None,
             nan_measurements={
-                s.name: int(res.nan_count[:, i].sum()) for i, s in enumerate(sc.sensors)
+                s: int(res.nan_count[:, i].sum()) for i, s in enumerate(sc.sensor_names)
             },
         )
     return out
@@ -204,7 +205,7 @@ def metrics_to_json(
         "runs": result.runs,
         "seed": result.seed,
         "ftnav_version": __version__,
-        "states": list(result.scenario.model.states),
+        "states": list(result.scenario.metric_states),
         "sensors": list(result.scenario.sensor_names),
         "methods": {name: asdict(m) for name, m in metrics.items()},
     }

@@ -1,54 +1,83 @@
-"""Monte Carlo runner: simulate once, run every method over all runs in lock-step.
+"""Monte Carlo runs of a scenario: simulate, run the engine, score against the truth.
 
-The time loop is a Python loop over epochs; every operation inside is batched
-over the B runs (no loop over runs).  Per-run random streams come from one root
-seed (:func:`ftnav.sim.linear.run_generator`).
+One runner for linear and integrated scenarios.  Each task simulates its runs (a
+stream and, apart, the truth: :mod:`ftnav.sim`), steps every method through the engine
+(:func:`ftnav.engine.driver.iterate`) and scores each epoch's output against the truth
+as it comes (errors in the reported states, NEES, variances): the engine never sees
+the truth, and no full covariance history is kept.
+
+With faults, the fault-free twin draws the same random streams with the faults
+removed (the paper's Fig. 3 condition) and runs in the same batch (2·runs; runs are
+independent, so the results are those of two separate batches): in-window errors can
+be compared with and without the fault on identical noise, at half the per-epoch
+Python overhead.  Per-run random streams come from one root seed, so run i is the
+same alone, in a batch, or in another worker process (:mod:`ftnav.parallel`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import NamedTuple
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
+from ftnav.engine import navigation_model
+from ftnav.engine.driver import EpochRecord, iterate
 from ftnav.eval.metrics import nees
-from ftnav.fusion.centralized import CentralizedFilter
-from ftnav.fusion.distributed import DistributedFilter
-from ftnav.fusion.federated import FederatedFilter
-from ftnav.fusion.neural import NeuralFusion
-from ftnav.model.scenario import Method, Scenario
+from ftnav.eval.navigation import N_NAV, metric_errors, metric_variances
+from ftnav.fusion import registry
+from ftnav.fusion.config import NOTHING_LEARNED
+from ftnav.fusion.protocol import Architecture
+from ftnav.model.streams import concat_streams
 from ftnav.model.system import LinearSystem
+from ftnav.nav.mechanization import navigation_errors
 from ftnav.parallel import run_tasks, split_even
-from ftnav.sim.linear import Simulation, concat_simulations, simulate
+from ftnav.sim.ins import InsTruth, simulate_ins
+from ftnav.sim.linear import LinearTruth, simulate
 
 __all__ = [
+    "CHUNK_BYTES",
     "MethodResult",
+    "PARALLEL_MIN_WORK",
     "ScenarioResult",
-    "build_filter",
-    "run_filter",
+    "build_filters",
+    "chunk_runs",
     "run_scenario",
-    "concat_simulations",
+    "simulate_runs",
     "split_result",
 ]
 
+#: smallest ``methods × epochs`` of a linear scenario worth worker processes (~2 s each)
+PARALLEL_MIN_WORK = 10_000
+#: memory budget of one batch's simulated IMU increments (bytes); the simulation's
+#: temporaries roughly double it at its peak
+CHUNK_BYTES = 2 << 30
+
 
 class MethodResult(NamedTuple):
-    """Per-epoch outputs of one method over B runs and K epochs.
+    """Per-epoch scores of one method over B runs and K epochs, against the truth.
 
     Attributes
     ----------
-    x : (B, K, n_c) fused estimate.   P_diag : (B, K, n_c) its variances.
-    nees : (B, K) NEES of the fused common state against truth.
+    error : (B, K, n) error of the reported states: the estimate − truth of a linear
+        model's common states; an integrated run's output errors (computed − true:
+        E/N/U m, m/s, φ arcmin, :data:`~ftnav.model.scenario.METRIC_STATES`).
+    P_diag : (B, K, n) the filter's variances of the same states.
+    nees : (B, K) NEES of the fused estimate (common states; integrated: the 9
+        navigation states).
     beta : (B, K, N) sharing coefficients, or None (not federated).
     statistic, threshold : (B, K, N) detector statistic and threshold, or None.
     raw_flag, flag : (B, K, N) detector flags before/after hysteresis, or None.
     R_hat : per sensor (B, K, m_i) diagonal noise used (adapted under VB).
     nan_count : (B, N) scheduled measurements that were NaN/inf (treated as missing).
     features : (B, K, F) learned-detector features (spec §4.1), or None.
+    local : (B, K, N, 3) integrated runs: each local filter's position error (E/N/U m),
+        or None.
+    estimate : (B, K, n) a linear model's fused estimate (None for an integrated run,
+        whose estimates are error states).
     """
 
-    x: np.ndarray
+    error: np.ndarray
     P_diag: np.ndarray
     nees: np.ndarray
     beta: np.ndarray | None
@@ -59,159 +88,267 @@ class MethodResult(NamedTuple):
     R_hat: tuple[np.ndarray, ...]
     nan_count: np.ndarray
     features: np.ndarray | None = None
+    local: np.ndarray | None = None
+    estimate: np.ndarray | None = None
 
 
 class ScenarioResult(NamedTuple):
-    """Everything ``ftnav run`` computes: data, and results with and without faults."""
+    """Everything ``ftnav run`` computes, with and without the faults.
 
-    scenario: Scenario
+    ``truth`` is the reference of the runs (a linear scenario's always; an integrated
+    one's when everything ran as one batch); ``stream`` the simulated stream when
+    everything ran as one batch in this process (else None).
+    """
+
+    scenario: Any
     runs: int
     seed: int
-    simulation: Simulation
     results: dict[str, MethodResult]
-    fault_free_simulation: Simulation | None
     fault_free: dict[str, MethodResult]
+    truth: LinearTruth | InsTruth | None = None
+    stream: Any = None
 
 
-def build_filter(system: LinearSystem, method: Method, features: tuple[str, ...] | None = None):
-    """The filter object for a method's architecture.
+def build_filters(
+    scenario: Any, system: LinearSystem, methods: Sequence[Any], **kw: Any
+) -> dict[str, Architecture[Any]]:
+    """Every method's filter on ``system`` with its trained models (scenario.learned)."""
+    return {
+        m.name: registry.build(system, m, scenario.learned_for(m.name) or NOTHING_LEARNED, **kw)
+        for m in methods
+    }
 
-    ``features`` asks a federated or distributed filter to report the learned
-    detector's input features every epoch (training data collection).
+
+def simulate_runs(scenario: Any, runs: range, seed: int):  # noqa: ANN201 - Simulated[Ins]
+    """The stream and truth of runs ``runs`` of either kind of scenario."""
+    if scenario.kind == "integrated":
+        return simulate_ins(scenario, runs, seed)
+    return simulate(scenario, len(runs), seed, first_run=runs.start)
+
+
+def chunk_runs(sc: Any, twin: bool = True) -> int:
+    """Runs per batch of an integrated scenario so its IMU increments stay within
+    :data:`CHUNK_BYTES` (a linear scenario runs in one batch).
+
+    Per run and per SINS: the increments ``dθ``, ``Δv``, ``2 × 3`` float64 per IMU
+    sample; the fault-free twin doubles it.  A 3600 s flight at 100 Hz gives 62 runs
+    per batch.
     """
-    if method.architecture == "centralized":
-        return CentralizedFilter(system, method)
-    if method.architecture == "federated":
-        return FederatedFilter(system, method, features=features)
-    if method.architecture == "distributed":
-        return DistributedFilter(system, method, features=features)
-    if method.architecture == "neural":
-        return NeuralFusion(system, method)
-    raise ValueError(f"methods[{method.name}].architecture: unknown value {method.architecture!r}")
+    if sc.kind != "integrated":
+        return 1 << 62
+    per_run = sc.samples_per_epoch * sc.steps * 6 * 8 * (2 if twin else 1)
+    return max(1, CHUNK_BYTES // per_run)
 
 
-def run_filter(
-    filt, sim: Simulation, n_common: int, progress: Callable[[int], None] | None = None
-) -> MethodResult:
-    """Run one filter over a simulation; returns per-epoch arrays."""
-    B, K = sim.truth.shape[:2]
-    N = len(sim.z)
-    state = filt.init(B)
-    x = np.empty((B, K, n_common))
-    Pd = np.empty((B, K, n_common))
-    ne = np.empty((B, K))
-    beta = stat = thr = raw = flag = feats = None
-    R_hat = [np.empty((B, K, z.shape[-1])) for z in sim.z]
-    nan_count = np.zeros((B, N), dtype=int)
-    for k in range(1, K + 1):
-        zk = [z[:, k - 1] for z in sim.z]
-        state, out = filt.step(state, k, zk, sim.available[:, k - 1], sim.oracle[k - 1])
-        x[:, k - 1] = out.x
-        Pd[:, k - 1] = np.diagonal(out.P, axis1=-2, axis2=-1)
-        ne[:, k - 1] = nees(out.x - sim.truth[:, k - 1, :n_common], out.P)
-        if out.beta is not None:
-            if beta is None:
-                beta = np.empty((B, K, N))
-            beta[:, k - 1] = out.beta
-        if out.detection is not None:
-            if stat is None:
-                stat, thr = np.empty((B, K, N)), np.empty((B, K, N))
-                raw, flag = np.empty((B, K, N), bool), np.empty((B, K, N), bool)
-            d = out.detection
-            stat[:, k - 1], thr[:, k - 1] = d.statistic, d.threshold
-            raw[:, k - 1], flag[:, k - 1] = d.raw, d.flag
-        if out.features is not None:
-            if feats is None:
-                feats = np.empty((B, K, out.features.shape[-1]))
-            feats[:, k - 1] = out.features
+# --------------------------------------------------------------------------- scoring
+class _Scores:
+    """One method's per-epoch scores, filled in place as the epochs come."""
+
+    def __init__(self, B: int, K: int, n: int, dims: Sequence[int], local: bool):
+        self.B, self.K = B, K
+        self.error, self.P = np.empty((B, K, n)), np.empty((B, K, n))
+        self.nees = np.empty((B, K))
+        self.R_hat = [np.empty((B, K, m)) for m in dims]
+        self.nan = np.zeros((B, len(dims)), dtype=int)
+        self.extra: dict[str, np.ndarray] = {}
+        self.want_local = local
+
+    def _put(self, key: str, k: int, value: np.ndarray | None, dtype: Any = float) -> None:
+        if value is None:
+            return
+        if key not in self.extra:
+            self.extra[key] = np.empty((self.B, self.K) + value.shape[1:], dtype=dtype)
+        self.extra[key][:, k - 1] = value
+
+    def outputs(self, k: int, out: Any) -> None:
+        self._put("beta", k, out.beta)
+        d = out.detection
+        if d is not None:
+            self._put("statistic", k, d.statistic)
+            self._put("threshold", k, d.threshold)
+            self._put("raw_flag", k, d.raw, bool)
+            self._put("flag", k, d.flag, bool)
         for i, r in enumerate(out.R_hat):
-            R_hat[i][:, k - 1] = r
-        nan_count += out.nan
-        if progress is not None:
-            progress(1)
-    return MethodResult(x, Pd, ne, beta, stat, thr, raw, flag, tuple(R_hat), nan_count, feats)
+            self.R_hat[i][:, k - 1] = r
+        self.nan += out.nan
+        self._put("features", k, out.features)
+
+    def result(self) -> MethodResult:
+        e = self.extra
+        return MethodResult(
+            self.error,
+            self.P,
+            self.nees,
+            e.get("beta"),
+            e.get("statistic"),
+            e.get("threshold"),
+            e.get("raw_flag"),
+            e.get("flag"),
+            tuple(self.R_hat),
+            self.nan,
+            e.get("features"),
+            e.get("local"),
+            e.get("estimate"),
+        )
 
 
-#: smallest ``methods × epochs`` worth worker processes (each costs ~2 s to start)
-PARALLEL_MIN_WORK = 10_000
+def _score_linear(
+    records, truth: LinearTruth, names: list[str], B: int, K: int, nc: int, dims: Sequence[int]
+) -> dict[str, MethodResult]:
+    scores = {nm: _Scores(B, K, nc, dims, False) for nm in names}
+    for r in records:
+        k = r.k
+        for j, nm in enumerate(names):
+            out, s = r.outputs[j], scores[nm]
+            s._put("estimate", k, out.x)
+            s.error[:, k - 1] = out.x - truth.states[:, k - 1, :nc]
+            s.P[:, k - 1] = np.diagonal(out.P, axis1=-2, axis2=-1)
+            s.nees[:, k - 1] = nees(out.x - truth.states[:, k - 1, :nc], out.P)
+            s.outputs(k, out)
+    return {nm: scores[nm].result() for nm in names}
 
 
+def _score_ins(
+    records: Sequence[EpochRecord] | Any,
+    truth: InsTruth,
+    names: list[str],
+    B: int,
+    K: int,
+    dims: Sequence[int],
+    feedback: bool,
+) -> dict[str, MethodResult]:
+    M = len(names)
+    parts = [slice(j * B, (j + 1) * B) for j in range(M)]
+    scores = {nm: _Scores(B, K, N_NAV, dims, True) for nm in names}
+    tr = truth.epochs
+    for r in records:
+        k = r.k
+        q_t, v_t, p_t = tr.q[k - 1], tr.v[k - 1], tr.p[k - 1]
+        e_true = navigation_errors(r.nav.q, r.nav.v, r.nav.p, q_t, v_t, p_t)
+        d_all = np.concatenate([o.x[:, :N_NAV] for o in r.outputs], 0)
+        P_all = np.concatenate([o.P[:, :N_NAV, :N_NAV] for o in r.outputs], 0)
+        eps = nees(d_all - e_true, P_all)
+        var = metric_variances(P_all, p_t)
+        e_out = (
+            metric_errors(
+                navigation_errors(r.solution.q, r.solution.v, r.solution.p, q_t, v_t, p_t), p_t
+            )
+            if feedback
+            else None
+        )
+        for j, nm in enumerate(names):
+            p, s, out = parts[j], scores[nm], r.outputs[j]
+            s.error[:, k - 1] = (
+                e_out[p] if feedback else metric_errors(e_true[p] - out.x[:, :N_NAV], p_t)
+            )
+            s.nees[:, k - 1], s.P[:, k - 1] = eps[p], var[p]
+            if r.local[j] is not None:
+                s._put("local", k, metric_errors(e_true[p][:, None, :] - r.local[j], p_t)[..., :3])
+            s.outputs(k, out)
+    return {nm: scores[nm].result() for nm in names}
+
+
+def score(
+    scenario: Any, records: Any, truth: LinearTruth | InsTruth, names: list[str], B: int, model: Any
+) -> dict[str, MethodResult]:
+    """Each method's :class:`MethodResult` from the engine's records and the truth."""
+    dims = [s.dim for s in model.system.sensors]
+    if scenario.kind == "integrated":
+        return _score_ins(records, truth, names, B, scenario.steps, dims, model.feedback)
+    return _score_linear(records, truth, names, B, scenario.steps, model.system.n_common, dims)
+
+
+# ---------------------------------------------------------------------------- runner
 def run_scenario(
-    scenario: Scenario,
+    scenario: Any,
     runs: int,
     seed: int,
     *,
-    methods: tuple[Method, ...] | None = None,
+    methods: Sequence[Any] | None = None,
     fault_free: bool = True,
     progress: Callable[[int], None] | None = None,
     workers: int = 1,
+    check_spd: bool = False,
+    chunk: int | None = None,
 ) -> ScenarioResult:
-    """Simulate the scenario and run every method (and, if asked, the fault-free twin).
+    """Simulate ``runs`` runs from ``seed`` and run every method (module docstring).
 
-    The fault-free twin uses the same random streams with the faults removed
-    (the paper's Fig. 3 condition), so in-window RMSE can be compared with and
-    without the fault on identical noise.  Both simulations run as one batch of
-    ``2·runs`` (runs are independent, so the results are those of two separate
-    batches) and are split afterwards: half the per-epoch Python overhead.
-
-    ``workers > 1`` runs groups of methods in that many processes
-    (:mod:`ftnav.parallel`) when the job holds at least
-    :data:`PARALLEL_MIN_WORK` method-epochs; each simulates the same runs from the
-    seed, so the results are identical to ``workers = 1``.
+    Integrated runs go in batches of ``chunk`` runs (default :func:`chunk_runs`, which
+    bounds the memory of the simulated IMU data).  ``workers > 1`` runs the batches (or
+    groups of methods: every group of a linear scenario above :data:`PARALLEL_MIN_WORK`
+    method-epochs, an integrated one when there are fewer batches than workers) in that
+    many processes (:mod:`ftnav.parallel`); the results are the same.
     """
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
-    methods = scenario.methods if methods is None else methods
-    system = LinearSystem.from_scenario(scenario)
-    filters = {m.name: build_filter(system, m) for m in methods}  # validate before running
-    sim = simulate(scenario, runs, seed)
+    methods = tuple(scenario.methods if methods is None else methods)
+    system = scenario.system()
+    build_filters(scenario, system, methods)  # every method builds before anything runs
     twin = fault_free and bool(scenario.faults)
-    sim_ff = simulate(scenario.without_faults(), runs, seed) if twin else None
-    groups = [tuple(methods)]
-    if workers > 1 and len(methods) * scenario.steps >= PARALLEL_MIN_WORK:
-        groups = [tuple(g) for g in split_even(methods, 3 * workers)]
-    # in this process the task reuses the simulation; a worker simulates its own copy
-    local = (sim, sim_ff) if len(groups) == 1 else None
-    parts = run_tasks(
-        _method_group, [(scenario, runs, seed, g, twin, local) for g in groups], workers, progress
-    )
-    results, ff = {}, {}
-    for group, (res, res_ff) in zip(groups, parts, strict=True):
-        results.update((m.name, r) for m, r in zip(group, res, strict=True))
-        ff.update((m.name, r) for m, r in zip(group, res_ff, strict=False))
-    results = {name: results[name] for name in filters}  # the scenario's order
-    ff = {name: ff[name] for name in filters} if twin else {}
-    return ScenarioResult(scenario, runs, seed, sim, results, sim_ff, ff)
-
-
-def _method_group(
-    task, progress: Callable[[int], None] | None = None
-) -> tuple[list[MethodResult], list[MethodResult]]:
-    """One task of :func:`run_scenario`: a group of methods over every run."""
-    scenario, runs, seed, methods, twin, local = task
-    system = LinearSystem.from_scenario(scenario)
-    nc = system.n_common
-    sim, sim_ff = (
-        local
-        if local is not None
-        else (
-            simulate(scenario, runs, seed),
-            simulate(scenario.without_faults(), runs, seed) if twin else None,
-        )
-    )
-    if not twin:
-        return [run_filter(build_filter(system, m), sim, nc, progress) for m in methods], []
-    both = concat_simulations(sim, sim_ff)
-    split = [
-        split_result(run_filter(build_filter(system, m), both, nc, progress), runs) for m in methods
+    chunk = chunk_runs(scenario, twin) if chunk is None else int(chunk)
+    if chunk < 1:
+        raise ValueError(f"chunk: must be >= 1, got {chunk}")
+    integrated = scenario.kind == "integrated"
+    if workers > 1 and integrated:  # no more runs per batch than share the workers evenly
+        chunk = min(chunk, -(-runs // workers))
+    starts = range(0, runs, chunk)
+    groups = [methods]
+    if workers > 1 and (
+        len(starts) < workers if integrated else len(methods) * scenario.steps >= PARALLEL_MIN_WORK
+    ):
+        parts = -(-workers // len(starts)) if integrated else 3 * workers
+        groups = [tuple(g) for g in split_even(methods, parts)]
+    keep = len(starts) * len(groups) == 1  # the stream and truth stay in this process
+    tasks = [
+        (scenario, range(s, min(s + chunk, runs)), seed, g, twin, check_spd, keep)
+        for s in starts
+        for g in groups
     ]
-    return [r[0] for r in split], [r[1] for r in split]
+    done = run_tasks(_task, tasks, workers, progress)
+    return _merge(done, len(groups), methods, scenario, runs, seed)
+
+
+def _task(task: tuple, progress: Callable[[int], None] | None = None) -> ScenarioResult:
+    """One task of :func:`run_scenario`: a group of methods over a batch of runs."""
+    sc, rr, seed, methods, twin, check_spd, keep = task
+    runs = len(rr)
+    system = sc.system()
+    model = navigation_model(sc, system)
+    filters = build_filters(sc, system, methods)
+    sim = simulate_runs(sc, rr, seed)
+    stream = sim.stream
+    if twin:
+        stream = concat_streams(stream, simulate_runs(sc.without_faults(), rr, seed).stream)
+    names = [m.name for m in methods]
+    B = stream.batch
+    truth = sim.truth if not twin else _twin_truth(sim.truth)
+    records = iterate(model, stream, filters, sc.steps, progress, check_spd)
+    scored = score(sc, records, truth, names, B, model)
+    results, ff = {}, {}
+    for name, res in scored.items():
+        if twin:
+            results[name], ff[name] = split_result(res, runs)
+        else:
+            results[name] = res
+    return ScenarioResult(
+        sc, runs, seed, results, ff, sim.truth if keep else None, sim.stream if keep else None
+    )
+
+
+def _twin_truth(truth: LinearTruth | InsTruth) -> LinearTruth | InsTruth:
+    """The truth of a batch of runs and their fault-free twins (the truth is the same)."""
+    if isinstance(truth, LinearTruth):
+        return LinearTruth(
+            np.concatenate([truth.states, truth.states]),
+            tuple(np.concatenate([z, z]) for z in truth.noise_free),
+        )
+    return truth  # the flight is shared by every run
 
 
 def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult]:
     """Split a :class:`MethodResult` of a concatenated batch after ``runs`` runs."""
 
-    def part(sl):
+    def part(sl: slice) -> MethodResult:
         return MethodResult(
             *(
                 tuple(a[sl] for a in v) if isinstance(v, tuple) else None if v is None else v[sl]
@@ -220,3 +357,43 @@ def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult
         )
 
     return part(slice(None, runs)), part(slice(runs, None))
+
+
+def _merge(
+    done: list[ScenarioResult],
+    n_groups: int,
+    methods: Sequence[Any],
+    scenario: Any,
+    runs: int,
+    seed: int,
+) -> ScenarioResult:
+    """One result from the tasks: groups of methods side by side, batches of runs joined."""
+    order = [m.name for m in methods]
+    chunks = [done[i : i + n_groups] for i in range(0, len(done), n_groups)]
+
+    def union(dicts: list[dict[str, MethodResult]]) -> dict[str, MethodResult]:
+        merged = {k: v for d in dicts for k, v in d.items()}
+        return {k: merged[k] for k in order if k in merged}
+
+    def cat(values: list[Any]) -> Any:
+        first = values[0]
+        if first is None:
+            return None
+        if isinstance(first, tuple):
+            return tuple(cat(list(a)) for a in zip(*values, strict=True))
+        return np.concatenate(values, 0)
+
+    per_chunk = [(union([p.results for p in c]), union([p.fault_free for p in c])) for c in chunks]
+    if len(done) == 1:
+        return done[0]
+
+    def joined(which: int) -> dict[str, MethodResult]:
+        fields = range(len(MethodResult._fields))
+        return {
+            nm: MethodResult(*(cat([c[which][nm][f] for c in per_chunk]) for f in fields))
+            for nm in per_chunk[0][which]
+        }
+
+    if len(per_chunk) == 1:  # groups of methods on the same runs: the same truth
+        return ScenarioResult(scenario, runs, seed, *per_chunk[0], done[0].truth)
+    return ScenarioResult(scenario, runs, seed, joined(0), joined(1))

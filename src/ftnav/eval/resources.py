@@ -10,8 +10,8 @@ runners hold at their peak:
   fault-free twin and the concatenated batch of ``2B`` runs; the per-epoch results
   of every method (``x`` and ``P_diag`` ``(2B, K, n_c)``, NEES ``(2B, K)``, sharing
   coefficients and detector outputs ``(2B, K, N)``, noise ``(2B, K, Σm)``);
-* integrated scenarios (:func:`ftnav.eval.integrated.run_ins_scenario`): per batch of
-  :func:`~ftnav.eval.integrated.chunk_runs` runs, the IMU increments ``(b, n_imu, 3)``
+* integrated scenarios (:func:`ftnav.eval.montecarlo.run_scenario`): per batch of
+  :func:`~ftnav.eval.montecarlo.chunk_runs` runs, the IMU increments ``(b, n_imu, 3)``
   at their peak in :func:`ftnav.sim.imu.simulate_imu_errors` (outputs, Markov drifts,
   one temporary), the fault-free twin and the concatenated batch; the results of every
   method, local tracks ``(2b, K, N, 3)`` included; every run's results are held until
@@ -42,6 +42,8 @@ import os
 import re
 import sys
 from pathlib import Path
+
+from ftnav.eval.montecarlo import PARALLEL_MIN_WORK, chunk_runs
 
 __all__ = [
     "available_memory_bytes",
@@ -83,7 +85,7 @@ def _result_bytes(method, B: int, K: int, nc: int, N: int, dims_sum: int, local:
     flags = 0
     if method.architecture == "federated":
         floats += N  # beta
-    if method.detector != "none":
+    if method.detector.kind != "none":
         floats += 2 * N  # statistic, threshold
         flags += 2 * N  # raw, flag (bool)
     if local and method.architecture != "centralized":
@@ -127,7 +129,7 @@ def _linear_bytes(sc, runs: int, workers: int, fault_free: bool, save_estimates:
         # stacked into the dataset, then each variable and the truth copied big-endian
         # (netCDF-3) while written: about three times the stacked arrays (measured)
         transient = max(transient, 3 * per_condition + 2 * B * K * nc * _F8)
-    if workers > 1 and len(sc.methods) * K >= _parallel_min_work():
+    if workers > 1 and len(sc.methods) * K >= PARALLEL_MIN_WORK:
         # run_scenario: the parent simulates and keeps both conditions, each worker
         # simulates its own copy for its group of methods (3 groups per worker, one at a
         # time); the parent receives every result
@@ -135,12 +137,6 @@ def _linear_bytes(sc, runs: int, workers: int, fault_free: bool, save_estimates:
         worker = max(simulation, held + group + state)
         return after + results + workers * worker + transient
     return max(simulation, held + results + state, after + results + transient)
-
-
-def _parallel_min_work() -> int:
-    from ftnav.eval.montecarlo import PARALLEL_MIN_WORK
-
-    return PARALLEL_MIN_WORK
 
 
 def _imu_arrays(imu) -> int:
@@ -178,8 +174,6 @@ def _integrated_chunk_bytes(sc, b: int, twin: bool) -> tuple[int, int, int]:
 def _integrated_bytes(
     sc, runs: int, workers: int, fault_free: bool, save_estimates: bool, chunk: int | None
 ) -> int:
-    from ftnav.eval.integrated import chunk_runs
-
     twin = fault_free and bool(sc.faults)
     b = min(int(runs), chunk_runs(sc, twin) if chunk is None else int(chunk))
     if workers > 1:  # as run_ins_scenario: no more runs per batch than share the workers
@@ -241,7 +235,7 @@ def run_memory_bytes(
     fault_free : the fault-free twin runs beside the faults (what ``ftnav run`` does).
     save_estimates : ``estimates.nc`` is written after the run.
     chunk : runs per batch of an integrated run (default
-        :func:`ftnav.eval.integrated.chunk_runs`).
+        :func:`ftnav.eval.montecarlo.chunk_runs`).
 
     Returns
     -------

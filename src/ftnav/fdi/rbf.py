@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -30,7 +29,7 @@ from ftnav.fdi.chi2 import DetectorOutput, DetectorState, apply_hysteresis
 
 __all__ = ["RBFNetwork", "RBFModel", "RBFDetector", "MODEL_KIND"]
 
-#: ``kind`` of an RBF detector model file (:mod:`ftnav.io.model_file`).
+#: ``kind`` of an RBF detector model file (:mod:`ftnav.io.learned`).
 MODEL_KIND = "rbf-detector"
 
 _WIDTHS = ("global", "nearest")
@@ -295,53 +294,6 @@ class RBFModel:
     n_off: int
     compatibility: dict
     training: dict
-
-    def save(self, path: str | Path) -> Path:
-        """Write the open-format model file (npz arrays + JSON metadata, no pickle)."""
-        from ftnav.io.model_file import save_model
-
-        settings = {
-            "network": self.network.get_params(),
-            "features": list(self.features),
-            "prior": self.prior,
-            "threshold": [float(v) for v in self.threshold],
-            "n_on": int(self.n_on),
-            "n_off": int(self.n_off),
-            "training": self.training,
-        }
-        return save_model(
-            path,
-            MODEL_KIND,
-            self.network.to_arrays(),
-            compatibility=self.compatibility,
-            settings=settings,
-        )
-
-    @classmethod
-    def load(cls, path: str | Path, compatibility: Mapping | None = None) -> RBFModel:
-        """Read and check a model file; a bad or foreign file raises ``ModelFileError``."""
-        from ftnav.io.model_file import ModelFileError, load_model
-
-        mf = load_model(path, MODEL_KIND, compatibility=compatibility)
-        s = mf.settings
-        try:
-            net = RBFNetwork.from_arrays(mf.arrays, s["network"])
-            tau = np.asarray(s["threshold"], dtype=float)
-            if tau.shape != (net.n_outputs_,) or not (np.isfinite(tau).all()):
-                raise ValueError("threshold: expected one finite value per output")
-            model = cls(
-                net,
-                tuple(s["features"]),
-                str(s["prior"]),
-                tau,
-                int(s["n_on"]),
-                int(s["n_off"]),
-                dict(mf.compatibility),
-                dict(s.get("training", {})),
-            )
-        except (KeyError, TypeError, ValueError) as e:
-            raise ModelFileError(path, f"inconsistent RBF detector settings ({e})") from None
-        return model
 
 
 class RBFDetector:

@@ -1,14 +1,12 @@
 """Carlson federated Kalman filter with adaptive information sharing (spec §1-§2).
 
-Modes (spec §1.5):
+Modes (spec §1.5); ``zero-reset`` is its own filter (:mod:`ftnav.fusion.zero_reset`):
 
 * ``fusion-reset`` (FR): fuse every epoch; every ``reset_interval`` epochs reset
   each healthy local filter to ``x̂_g``, ``P_g/β_i`` and the master to
   ``P_g/β_m``; local filters propagate with ``Q/β_i``.  Equals the centralized
   filter when the reset interval is 1 (spec §1.6).
 * ``no-reset`` (NR): the initial sharing only; locals stay independent.
-* ``zero-reset`` (ZR): the master holds all information; locals are information
-  filters over the common state that are zeroed after each reset (fusion).
 
 Fault factors ``r_i`` (spec §1.8): a filter flagged at epoch k is fused with its
 prior (time update only) at k, gets ``β_i = 0`` from the sharing at the end of
@@ -26,48 +24,168 @@ than falling back on the remaining aids alone.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import math
+from typing import Annotated, Literal, NamedTuple
 
 import numpy as np
+from pydantic import Field, model_validator
 
 from ftnav.core import kalman as kf
 from ftnav.core.sharing import information_content, sharing_coefficients
 from ftnav.fdi.chi2 import DetectorState
-from ftnav.fdi.features import detector_features, whitened_innovation
-from ftnav.fusion.local import (
-    NoiseState,
-    StateTest,
-    StepOutput,
-    check_prior,
-    detect,
-    detector_feature_kinds,
-    initial_noise,
-    local_update,
-    make_detector,
-    predicted_noise,
-    residual_statistic,
-    select,
-    valid_measurement,
-    vb_enabled,
-    vb_variant,
-    with_common,
+from ftnav.fusion.config import (
+    NOTHING_LEARNED,
+    Count,
+    Learned,
+    MethodBase,
+    ResidualChi2,
+    Tuple,
+    config_error,
 )
-from ftnav.model.scenario import Method
-from ftnav.model.system import LinearSystem
+from ftnav.fusion.detection import Detection, epoch_features, features_needed
+from ftnav.fusion.isolation import IsolationPolicy
+from ftnav.fusion.locals import LocalBank, LocalUpdate, Measurements, NoiseState, measurements
+from ftnav.fusion.protocol import StepOutput, minus, select, with_common
+from ftnav.model.system import Epoch, LinearSystem
 
-__all__ = ["FederatedFilter", "FederatedState", "MIN_SHARE"]
+__all__ = ["FederatedConfig", "FederatedFilter", "FederatedState", "MIN_SHARE", "check"]
 
 #: Smallest positive sharing coefficient: a local reset with P_g/β for β below it
 #: loses accuracy roughly as (machine epsilon)/β.
 MIN_SHARE = 1e-6
+#: Tolerance of ``sum(betas) + master_share == 1``.
+SHARE_TOL = 1e-9
+
+Sharing = Literal[
+    "equal", "fixed", "information", "trace", "eigen-trace", "frobenius", "inverse-trace"
+]
+Gaussian = tuple[np.ndarray, np.ndarray]
+
+#: the settings each mode reads (beyond name, architecture, detector and noise)
+MODE_SETTINGS: dict[str, tuple[str, ...]] = {
+    "fusion-reset": (
+        "mode",
+        "reset_interval",
+        "sharing",
+        "betas",
+        "master_share",
+        "trace_mode",
+        "isolation",
+        "common_mode",
+        "common_mode_quorum",
+    ),
+    "no-reset": (
+        "mode",
+        "sharing",
+        "betas",
+        "master_share",
+        "trace_mode",
+        "isolation",
+        "common_mode",
+        "common_mode_quorum",
+    ),
+    "zero-reset": ("mode", "reset_interval", "common_mode", "common_mode_quorum"),
+}
+
+
+class FederatedConfig(MethodBase):
+    """``architecture = "federated"``: local filters sharing information (spec §1-§2).
+
+    ``sharing`` is the rule of spec §2 (``betas``: the user's coefficients with
+    ``fixed``); ``trace_mode`` whether the trace rules scale the covariances by the
+    initial σ; ``master_share`` the master filter's β_m; ``isolation`` and
+    ``common_mode`` what a flag does (:mod:`ftnav.fusion.isolation`).
+    """
+
+    architecture: Literal["federated"] = "federated"
+    mode: Literal["fusion-reset", "no-reset", "zero-reset"] = "fusion-reset"
+    reset_interval: Count = 1
+    sharing: Sharing = "equal"
+    betas: Tuple[Annotated[float, Field(ge=0.0, allow_inf_nan=False)]] = ()
+    master_share: Annotated[float, Field(ge=0.0, lt=1.0, allow_inf_nan=False)] = 0.0
+    trace_mode: Literal["scaled", "raw"] = "scaled"
+    isolation: Literal["standalone", "time-update"] = "standalone"
+    common_mode: Literal["isolate", "keep"] = "isolate"
+    common_mode_quorum: Annotated[int, Field(ge=2)] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> FederatedConfig:
+        allowed = MODE_SETTINGS[self.mode]
+        for key in sorted(self.model_fields_set - {"name", "architecture", "detector", "noise"}):
+            if key not in allowed:
+                raise config_error(f"not a setting of the {self.mode} mode", key)
+        self.check_pieces()
+        if self.sharing == "fixed":
+            total = math.fsum(self.betas) + self.master_share
+            if abs(total - 1.0) > SHARE_TOL:
+                raise config_error(
+                    f"sum(betas) + master_share must equal 1, got {total!r}", "betas"
+                )
+        elif self.betas:
+            raise config_error(
+                f"only read with sharing = 'fixed' (sharing is {self.sharing!r})", "betas"
+            )
+        if "trace_mode" in self.model_fields_set and self.sharing in ("equal", "fixed"):
+            raise config_error(f"not read by the {self.sharing!r} sharing rule", "trace_mode")
+        if self.common_mode_quorum is not None and self.common_mode != "keep":
+            raise config_error(
+                f"only read with common_mode = 'keep' (common_mode is {self.common_mode!r})",
+                "common_mode_quorum",
+            )
+        return self
+
+    @property
+    def DETECTORS(self) -> tuple[str, ...]:  # type: ignore[override]  # noqa: N802
+        if self.mode == "zero-reset":  # the locals have no prior, no propagator
+            return ("none", "oracle", "residual-chi2")
+        return MethodBase.DETECTORS
+
+    @property
+    def NOISE(self) -> tuple[str, ...]:  # type: ignore[override]  # noqa: N802
+        return ("none",) if self.mode == "zero-reset" else MethodBase.NOISE
+
+
+def check(config: FederatedConfig, system: LinearSystem, learned: Learned) -> None:
+    """Boundary checks that need the system (sensors, private states)."""
+    config.check_sensors(system.sensors)
+    N = system.n_sensors
+    if config.sharing == "fixed" and len(config.betas) != N:
+        raise config_error(
+            f"expected {N} values (one per sensor) with sharing = 'fixed', got {len(config.betas)}",
+            "betas",
+        )
+    if config.common_mode_quorum is not None and config.common_mode_quorum > N:
+        raise config_error(f"must be <= the number of sensors ({N})", "common_mode_quorum")
+    if config.mode == "zero-reset" and system.has_private:
+        raise config_error(
+            "zero-reset needs full-state local filters (a sensor has private states)", "mode"
+        )
+    if config.sharing == "information" and system.linearized:
+        raise config_error(
+            "the information rule needs constant measurement matrices; an "
+            "integrated scenario linearizes them every epoch",
+            "sharing",
+        )
+    if (
+        isinstance(config.detector, ResidualChi2)
+        and config.mode == "zero-reset"
+        and "prior" in config.detector.model_fields_set
+        and config.detector.prior != "global"
+    ):
+        raise config_error(
+            "zero-reset tests against the fused prior (its local filters "
+            "hold information, not a prior)",
+            "detector",
+            "prior",
+        )
 
 
 class FederatedState(NamedTuple):
     """Full state of the federated filter (nothing hidden in the object).
 
-    ``x``/``P`` hold each local filter's posterior after the sharing (in ZR the
-    information vector and matrix).  ``share`` is the β each local was last
-    reset with (its Q scaling), ``active`` whether it is fused next epoch.
+    ``x``/``P`` hold each local filter's posterior after the sharing.  ``share`` is
+    the β each local was last reset with (its Q scaling), ``active`` whether it is
+    fused next epoch.
     """
 
     x: tuple[np.ndarray, ...]
@@ -82,70 +200,62 @@ class FederatedState(NamedTuple):
     propagator: tuple[kf.Gaussian, ...] | None
 
 
+class _Locals(NamedTuple):
+    """One epoch of the local filters: priors, posteriors, and what the test reads."""
+
+    priors: list[Gaussian]
+    updates: list[LocalUpdate]
+    props: list[Gaussian]
+    Hs: list[np.ndarray]
+
+    @property
+    def posts(self) -> list[Gaussian]:
+        return [(u.x, u.P) for u in self.updates]
+
+
 class FederatedFilter:
-    """Federated filter with the spec §2 sharing rules and fault factors.
+    """Federated filter (fusion-reset or no-reset) with the spec §2 sharing rules.
 
     Parameters
     ----------
     system : linear system (local filters carry ``[x_c; x_si]``).
-    method : settings: ``mode``, ``reset_interval``, ``sharing``, ``betas``,
-        ``master_share``, ``trace_mode``, ``detector`` and its settings,
-        ``prior``, ``adaptive_noise``.
+    config : the method's settings (mode fusion-reset or no-reset).
+    learned : the trained RBF model of an ``rbf`` detector.
     features : feature kinds (spec §4.1) to compute every epoch even without an
-        RBF detector (training data collection); reported in ``StepOutput.features``.
+        RBF detector (training data collection); ``feature_prior`` the prior their
+        innovations are whitened against (default: the test's reference); reported in
+        ``StepOutput.features``.
     """
 
     def __init__(
-        self, system: LinearSystem, method: Method, features: tuple[str, ...] | None = None
+        self,
+        system: LinearSystem,
+        config: FederatedConfig,
+        learned: Learned = NOTHING_LEARNED,
+        features: tuple[str, ...] | None = None,
+        feature_prior: str | None = None,
     ):
-        name = f"methods[{method.name}]"
-        if method.mode == "rescale":
-            raise ValueError(f"{name}.mode: 'rescale' is provided by the distributed architecture")
-        if method.mode == "zero-reset":
-            if system.has_private:
-                raise ValueError(
-                    f"{name}.mode: zero-reset needs full-state local filters "
-                    "(a sensor has private states)"
-                )
-            if method.adaptive_noise != "none":
-                raise ValueError(
-                    f"{name}.adaptive_noise: not available with zero-reset "
-                    "(local filters have no prior)"
-                )
-            if method.detector in ("state-chi2", "rbf") or features:
-                raise ValueError(
-                    f"{name}.detector: {method.detector!r} needs local priors; "
-                    "zero-reset locals have none"
-                )
-        check_prior(method)
-        N = system.n_sensors
-        q = method.common_mode_quorum
-        if q is not None and not (method.common_mode == "keep" and 2 <= q <= N):
-            raise ValueError(
-                f"{name}.common_mode_quorum: needs common_mode 'keep' and "
-                f"2 <= quorum <= {N}, got {q} with {method.common_mode!r}"
-            )
-        if method.sharing == "fixed" and len(method.betas) != N:
-            raise ValueError(f"{name}.betas: expected {N} values, got {len(method.betas)}")
         self.system = system
-        self.method = method
-        self.N = N
+        self.config = config
+        self.N = system.n_sensors
         self.nc = system.n_common
-        self.locals = [system.local(i) for i in range(N)]
-        self.detector = make_detector(method, system)
-        self.features, self.feature_prior = detector_feature_kinds(self.detector, method, features)
-        self.state_test = (
-            StateTest(method.state_test_reset) if method.detector == "state-chi2" else None
+        self.bank = LocalBank(system, config.noise)
+        self.detection = Detection(config.detector, learned.detector)
+        self.global_prior = self.detection.prior == "global" and self.detection.residual
+        self.features = features_needed(self.detection, features,
+                                        feature_prior or self.detection.prior)
+        self.policy = IsolationPolicy(
+            config.isolation, config.common_mode, config.common_mode_quorum, self.N
         )
-        self.variant = vb_variant(method)
-        self.vb_on = vb_enabled(method, system.sensors)
-        self.scale = None if method.trace_mode == "raw" else 1.0 / np.sqrt(np.diag(system.model.P0))
-        self.info = information_content(
-            [s.H for s in system.sensors], [s.R for s in system.sensors], self.scale
+        self.scale = None if config.trace_mode == "raw" else 1.0 / np.sqrt(np.diag(system.model.P0))
+        self.info = (
+            None
+            if system.linearized
+            else information_content(
+                [s.H for s in system.sensors], [s.R for s in system.sensors], self.scale
+            )
         )
-        self.zr = method.mode == "zero-reset"
-        self.beta_m = 0.0 if self.zr else float(method.master_share)
-        self.global_prior = method.prior == "global" or self.zr
+        self.beta_m = float(config.master_share)
 
     @property
     def n_filters(self) -> int:
@@ -159,13 +269,13 @@ class FederatedFilter:
         overflows.  Raising it to the floor (the others renormalized, Σβ + β_m = 1)
         keeps its measurements in the fusion; a zero β (fault, fixed 0) stays 0.
         """
-        m = self.method
+        c = self.config
         beta = sharing_coefficients(
-            m.sharing,
+            c.sharing,
             P_common,
             r,
             master_share=self.beta_m,
-            betas=np.asarray(m.betas),
+            betas=np.asarray(c.betas),
             info=self.info,
             scale=self.scale,
         )
@@ -174,40 +284,29 @@ class FederatedFilter:
             return beta
         rest = np.where(tiny, 0.0, beta)
         budget = 1.0 - self.beta_m - MIN_SHARE * tiny.sum(-1, keepdims=True)
-        # a run whose shares are all zero (every filter faulty) keeps them at zero; without
-        # the guard its 0/0 gave NaN shares (read as zero) and a divide-by-zero warning
+        # a run whose shares are all zero (every filter faulty) keeps them at zero
         total = rest.sum(-1, keepdims=True)
         return np.where(tiny, MIN_SHARE, rest * (budget / np.where(total > 0, total, 1.0)))
 
     def init(self, batch: int) -> FederatedState:
         B, nc = batch, self.nc
         x0c, P0c = self.system.model.x0, self.system.model.P0
-        r = np.ones((B, self.N))
-        share = self._sharing(np.broadcast_to(P0c, (B, self.N, nc, nc)), r)
+        share = self._sharing(np.broadcast_to(P0c, (B, self.N, nc, nc)), np.ones((B, self.N)))
         xs, Ps = [], []
-        for i, lm in enumerate(self.locals):
-            if self.zr:
-                xs.append(np.zeros((B, nc)))
-                Ps.append(np.zeros((B, nc, nc)))
-                continue
+        for i, lm in enumerate(self.bank.models):
             P = np.broadcast_to(lm.P0, (B,) + lm.P0.shape).copy()
             P[:, :nc, :nc] = P0c / np.where(share[:, i] > 0, share[:, i], 1.0)[:, None, None]
             xs.append(np.broadcast_to(lm.x0, (B, lm.n)).copy())
             Ps.append(P)
         master = None
-        if self.zr or self.beta_m > 0:
-            bm = 1.0 if self.zr else self.beta_m
+        if self.beta_m > 0:
             master = kf.Gaussian(
-                np.broadcast_to(x0c, (B, nc)).copy(), np.broadcast_to(P0c / bm, (B, nc, nc)).copy()
+                np.broadcast_to(x0c, (B, nc)).copy(),
+                np.broadcast_to(P0c / self.beta_m, (B, nc, nc)).copy(),
             )
-        noise = tuple(
-            initial_noise(s.R, B) if on else None
-            for s, on in zip(self.system.sensors, self.vb_on, strict=True)
-        )
-        det = self.detector.init(B, self.N) if self.detector else None
         prop = (
             tuple(kf.Gaussian(x, P) for x, P in zip(xs, Ps, strict=True))
-            if self.state_test
+            if self.detection.state_test
             else None
         )
         return FederatedState(
@@ -217,23 +316,16 @@ class FederatedFilter:
             np.broadcast_to(x0c, (B, nc)).copy(),
             np.broadcast_to(P0c, (B, nc, nc)).copy(),
             share,
-            np.ones((B, self.N), dtype=bool) if self.zr else share > 0,
-            noise,
-            det,
+            share > 0,
+            self.bank.initial_noise(B),
+            self.detection.init(B, self.N),
             prop,
         )
 
     # ------------------------------------------------------------------------------
-    def step(self, state: FederatedState, k: int, z, available, oracle, lin=None):
-        """Advance one epoch (spec §1.3): predict, update, test, fuse, share.
-
-        ``lin`` (:class:`~ftnav.model.system.Linearization`) supplies the epoch's
-        per-run matrices of an error-state model linearized at the INS solution.
-        """
-        m, nc, N = self.method, self.nc, self.N
-        F, Q = self.system.transition(k, lin)
-        Hs = [lm.H for lm in self.locals] if lin is None else list(lin.H)
-        B = state.xg.shape[0]
+    def step(self, state: FederatedState, epoch: Epoch) -> tuple[FederatedState, StepOutput]:
+        """Advance one epoch (spec §1.3): predict, update, test, fuse, share."""
+        F, Q = self.system.transition(epoch.lin)
         # the fused prior: needed by global-prior tests and when every local is isolated
         need_prior = (
             self.global_prior
@@ -241,192 +333,173 @@ class FederatedFilter:
             or not state.active.any(1).all()
             and state.master is None
         )
-        xg_pr, Pg_pr = kf.predict(state.xg, state.Pg, F, Q) if need_prior else (None, None)
-        usable, nan = zip(
-            *(valid_measurement(z[i], available[:, i]) for i in range(N)), strict=True
+        prior_g = kf.predict(state.xg, state.Pg, F, Q) if need_prior else None
+        meas = measurements(epoch, self.system.sensors)
+        loc = self._locals(state, epoch, meas.usable)
+        feats = (
+            None
+            if self.features is None
+            else epoch_features(
+                self.features,
+                self.bank,
+                loc.priors,
+                loc.posts,
+                prior_g,
+                epoch,
+                meas.usable,
+                state.noise,
+                loc.Hs,
+            )
         )
-        usable, nan = np.stack(usable, 1), np.stack(nan, 1)
+        det_state, det_out, flag = self._detect(state, epoch, meas, loc, prior_g, feats)
+        xg, Pg, master = self._fuse(state, loc, flag, prior_g, F, Q)
+        new = self._share(state, epoch.k, loc, flag, xg, Pg, master)
+        beta_report = np.where(new.active, new.share, 0.0)
+        R_hat = tuple(np.diagonal(u.R, axis1=-2, axis2=-1) for u in loc.updates)
+        out = StepOutput(xg, Pg, beta_report, det_out, R_hat, meas.nan, feats)
+        return new._replace(noise=tuple(u.noise for u in loc.updates), detector=det_state), out
 
-        priors, posts, noise, R_hat, stat, props = [], [], [], [], [], []
-        for i, s in enumerate(self.system.sensors):
-            use = usable[:, i]
-            if self.zr:
-                y, Y = kf.information_predict(state.x[i], state.P[i], F, Q)
-                HtRinv = kf.mT(np.linalg.solve(s.R, Hs[i]))
-                Y_post = np.where(use[:, None, None], Y + HtRinv @ Hs[i], Y)
-                y_post = np.where(
-                    use[:, None], y + kf.mv(HtRinv, np.where(use[:, None], z[i], 0.0)), y
-                )
-                priors.append((y, Y))
-                posts.append((y_post, Y_post))
-                noise.append(None)
-                R_hat.append(np.broadcast_to(np.diag(s.R), (B, s.dim)))
-            else:
-                sharing_local = state.active[:, i] & (state.share[:, i] > 0)
-                scale = np.where(
-                    sharing_local, 1.0 / np.where(sharing_local, state.share[:, i], 1.0), 1.0
-                )
-                Fi, Qi = self.system.local_transition(i, k, scale, lin)
-                x_pr, P_pr = kf.predict(state.x[i], state.P[i], Fi, Qi)
-                up = local_update(
-                    x_pr,
-                    P_pr,
-                    z[i],
-                    use,
-                    Hs[i],
-                    s.R,
-                    state.noise[i],
-                    variant=self.variant if self.vb_on[i] else None,
-                    rho=m.vb_rho,
-                    iterations=m.vb_iterations,
-                )
-                priors.append((x_pr, P_pr))
-                posts.append((up.x, up.P))
-                noise.append(up.noise)
-                R_hat.append(np.diagonal(up.R, axis1=-2, axis2=-1))
-                if self.state_test is not None:
-                    props.append(kf.predict(*state.propagator[i], Fi, Qi))
-            if m.detector != "residual-chi2":  # no other detector reads the statistic
-                stat.append(np.zeros(B))
-            elif self.global_prior:  # covers zero-reset
-                stat.append(
-                    self._residual(
-                        i, *with_common(priors[i], xg_pr, Pg_pr), z[i], use, state.noise[i], Hs[i]
+    def _locals(self, state: FederatedState, epoch: Epoch, usable: np.ndarray) -> _Locals:
+        """Predict (with ``Q/β_i`` while sharing) and update every local filter."""
+        Hs = self.bank.H(epoch.lin)
+        priors, updates, props = [], [], []
+        for i in range(self.N):
+            sharing = state.active[:, i] & (state.share[:, i] > 0)
+            scale = np.where(sharing, 1.0 / np.where(sharing, state.share[:, i], 1.0), 1.0)
+            Fi, Qi = self.system.local_transition(i, scale, epoch.lin)
+            prior = kf.predict(state.x[i], state.P[i], Fi, Qi)
+            priors.append(prior)
+            updates.append(
+                self.bank.update(i, prior, epoch.z[i], usable[:, i], Hs[i], state.noise[i])
+            )
+            if state.propagator is not None:
+                props.append(kf.predict(*state.propagator[i], Fi, Qi))
+        return _Locals(priors, updates, props, Hs)
+
+    def _detect(
+        self,
+        state: FederatedState,
+        epoch: Epoch,
+        meas: Measurements,
+        loc: _Locals,
+        prior_g: Gaussian | None,
+        feats: np.ndarray | None,
+    ):
+        """The epoch's test statistic, the detector, the common-mode rule."""
+        B, N = meas.usable.shape
+        if not self.detection.residual:  # no other detector reads the statistic
+            stat = np.zeros((B, N))
+        elif self.global_prior:
+            assert prior_g is not None
+            stat = np.stack(
+                [
+                    self.bank.residual(
+                        i,
+                        with_common(loc.priors[i], *prior_g),
+                        epoch.z[i],
+                        meas.usable[:, i],
+                        loc.Hs[i],
+                        state.noise[i],
                     )
-                )
-            else:
-                stat.append(up.nis)
-        stat = np.stack(stat, 1)
-        dof = np.array([s.dim for s in self.system.sensors])[None, :] * usable
-        tested = usable
-        if self.state_test is not None:
-            res = [self.state_test.statistic(k, *posts[i], *props[i]) for i in range(N)]
-            stat = np.stack([r[0] for r in res], 1)
-            dof = np.stack([r[1] for r in res], 1)
-            tested = np.stack([r[2] for r in res], 1)
-        feats = None
-        if self.features is not None:
-            feats = self._features(priors, posts, xg_pr, Pg_pr, z, usable, state.noise, Hs)
-        det_state, det_out = detect(
-            m, self.detector, state.detector, stat, dof, tested, oracle, feats
+                    for i in range(N)
+                ],
+                1,
+            )
+        else:
+            stat = np.stack([u.nis for u in loc.updates], 1)
+        dof, tested = meas.dof, meas.usable
+        test = self.detection.state_test
+        if test is not None:
+            res = [test.statistic(epoch.k, *loc.posts[i], *loc.props[i]) for i in range(N)]
+            stat, dof, tested = (np.stack([r[j] for r in res], 1) for j in range(3))
+        det_state, det_out = self.detection.step(
+            state.detector, stat, dof, tested, epoch.labels, feats
         )
         flag = np.zeros((B, N), dtype=bool) if det_out is None else det_out.flag
-        if m.common_mode == "keep" and N > 1:
-            # at least a quorum of the aids (by default every one) flagged at once: the
-            # shared reference (the SINS) failed, not the aids, so none is isolated
-            quorum = N if m.common_mode_quorum is None else m.common_mode_quorum
-            flag = flag & ~(flag.sum(1, keepdims=True) >= quorum)
+        return det_state, det_out, self.policy.flags(flag)
 
-        # ---- fusion over the active set (spec §1.3 step 3) --------------------------
-        newly = state.active & flag
-        if self.zr:
-            Pm_pr = kf.predict(state.master.x, state.master.P, F, Q)
-            ym, Ym = kf.to_information(*Pm_pr)
-            Yg, yg = Ym.copy(), ym.copy()
-            for i in range(N):
-                y_i = select(newly[:, i], priors[i][0], posts[i][0])
-                Y_i = select(newly[:, i], priors[i][1], posts[i][1])
-                Yg += np.where(state.active[:, i, None, None], Y_i, 0.0)
-                yg += np.where(state.active[:, i, None], y_i, 0.0)
-            xg, Pg = kf.from_information(yg, Yg)
-            any_source = np.ones(B, dtype=bool)
-        else:
-            xc = np.stack(
-                [select(newly[:, i], priors[i][0], posts[i][0])[:, :nc] for i in range(N)], 1
-            )
-            Pc = np.stack(
-                [select(newly[:, i], priors[i][1], posts[i][1])[:, :nc, :nc] for i in range(N)], 1
-            )
-            P_common = [posts[i][1][:, :nc, :nc] for i in range(N)]
-            master = y0 = Y0 = None
-            if state.master is not None:
-                master = kf.predict(state.master.x, state.master.P, F, Q / self.beta_m)
-                y0, Y0 = kf.to_information(*master)
-            any_source = state.active.any(1) | (state.master is not None)
-            if not any_source.all():  # every local isolated: output the global prior
-                Y0 = np.where(any_source[:, None, None], 0.0 if Y0 is None else Y0, np.eye(nc))
-            xf, Pf = kf.fuse(xc, Pc, state.active.astype(float), y0, Y0)
-            xg, Pg = select(any_source, xf, xg_pr), select(any_source, Pf, Pg_pr)
+    def _fuse(
+        self,
+        state: FederatedState,
+        loc: _Locals,
+        flag: np.ndarray,
+        prior_g: Gaussian | None,
+        F: np.ndarray,
+        Q: np.ndarray,
+    ):
+        """Information fusion over the active set and the master (spec §1.3 step 3)."""
+        nc, N = self.nc, self.N
+        newly = state.active & flag  # flagged now: fused with its prior this epoch
+        xc = np.stack(
+            [select(newly[:, i], loc.priors[i][0], loc.updates[i].x)[:, :nc] for i in range(N)], 1
+        )
+        Pc = np.stack(
+            [
+                select(newly[:, i], loc.priors[i][1], loc.updates[i].P)[:, :nc, :nc]
+                for i in range(N)
+            ],
+            1,
+        )
+        master = y0 = Y0 = None
+        if state.master is not None:
+            master = kf.predict(state.master.x, state.master.P, F, Q / self.beta_m)
+            y0, Y0 = kf.to_information(*master)
+        any_source = state.active.any(1) | (state.master is not None)
+        if not any_source.all():  # every local isolated: output the global prior
+            Y0 = np.where(any_source[:, None, None], 0.0 if Y0 is None else Y0, np.eye(nc))
+        xf, Pf = kf.fuse(xc, Pc, state.active.astype(float), y0, Y0)
+        if any_source.all():
+            return xf, Pf, master
+        assert prior_g is not None
+        return select(any_source, xf, prior_g[0]), select(any_source, Pf, prior_g[1]), master
 
-        # ---- sharing / reset (spec §1.2, §1.5, §1.8) ---------------------------------
+    def _share(
+        self,
+        state: FederatedState,
+        k: int,
+        loc: _Locals,
+        flag: np.ndarray,
+        xg: np.ndarray,
+        Pg: np.ndarray,
+        master: kf.Gaussian | None,
+    ) -> FederatedState:
+        """Sharing and reset (spec §1.2, §1.5, §1.8): the locals' state for the next epoch."""
+        c, N = self.config, self.N
         r = ~flag
-        reset_epoch = m.mode != "no-reset" and k % m.reset_interval == 0
-        active_next = r.copy() if (reset_epoch or m.mode == "no-reset") else state.active & r
-        if m.mode == "no-reset":
+        no_reset = c.mode == "no-reset"
+        reset_epoch = not no_reset and k % c.reset_interval == 0
+        active_next = r.copy() if (reset_epoch or no_reset) else state.active & r
+        if no_reset:
             # time-update isolation leaves a flagged local uncontaminated: keep fusing it
             active_next = (
-                (state.share > 0)
-                if m.isolation == "time-update" and not self.zr
-                else active_next & (state.share > 0)
+                (state.share > 0) if self.policy.time_update else active_next & (state.share > 0)
             )
-        xs = [p[0] for p in posts]
-        Ps = [p[1] for p in posts]
-        if m.isolation == "time-update" and not self.zr:
-            # a flagged local filter discards this epoch's measurement (spec §6.3)
-            xs = [select(flag[:, i], priors[i][0], xs[i]) for i in range(N)]
-            Ps = [select(flag[:, i], priors[i][1], Ps[i]) for i in range(N)]
-        share = state.share
-        new_master = None
-        if self.zr:
-            if reset_epoch:
-                xs = [np.zeros_like(x) for x in xs]
-                Ps = [np.zeros_like(P) for P in Ps]
-                new_master = kf.Gaussian(xg, Pg)
-            else:
-                new_master = Pm_pr
-            beta_report = np.zeros((B, N))
-        elif reset_epoch:
-            share = self._sharing(np.stack(P_common, 1), r.astype(float))
+        xs, Ps = self.policy.discard(flag, loc.priors, loc.posts)
+        share, new_master = state.share, master
+        if reset_epoch:
+            P_common = np.stack([u.P[:, : self.nc, : self.nc] for u in loc.updates], 1)
+            share = self._sharing(P_common, r.astype(float))
             active_next &= share > 0  # a zero share is not reset (P_g/0) nor fused
             for i in range(N):
                 xs[i], Ps[i] = self._reset(xs[i], Ps[i], xg, Pg, share[:, i], active_next[:, i])
             if state.master is not None:
                 new_master = kf.Gaussian(xg.copy(), Pg / self.beta_m)
-            beta_report = np.where(active_next, share, 0.0)
-        else:
-            new_master = master
-            beta_report = np.where(active_next, share, 0.0)
-
         prop = None
-        if self.state_test is not None:
+        test = self.detection.state_test
+        if test is not None:
             prop = tuple(
-                kf.Gaussian(*self.state_test.restart(k, xs[i], Ps[i], *props[i])) for i in range(N)
+                kf.Gaussian(*test.restart(k, xs[i], Ps[i], *loc.props[i])) for i in range(N)
             )
-        out = StepOutput(xg, Pg, beta_report, det_out, tuple(R_hat), nan, feats)
-        return FederatedState(
-            tuple(xs),
-            tuple(Ps),
-            new_master,
-            xg,
-            Pg,
-            share,
-            active_next,
-            tuple(noise),
-            det_state,
-            prop,
-        ), out
-
-    # ------------------------------------------------------------------------------
-    def _residual(self, i, x, P, z, use, noise, H):
-        """NIS of sensor i against the prior (x, P) (spec §3.1)."""
-        R = predicted_noise(noise, self.system.sensors[i].R, self.method.vb_rho)
-        return residual_statistic(x, P, z, use, H, R)
-
-    def _features(self, priors, posts, xg_pr, Pg_pr, z, usable, noise, Hs):
-        """Spec §4.1 features: posterior − fused prior, whitened innovations."""
-        nc = self.nc
-        innov = []
-        for i, s in enumerate(self.system.sensors):
-            base = (
-                with_common(priors[i], xg_pr, Pg_pr)
-                if self.feature_prior == "global"
-                else priors[i]
-            )
-            R = predicted_noise(noise[i], s.R, self.method.vb_rho)
-            innov.append(whitened_innovation(*base, z[i], usable[:, i], Hs[i], R))
-        xl = np.stack([p[0][:, :nc] for p in posts], 1)
-        vl = np.stack([np.diagonal(p[1], axis1=-2, axis2=-1)[:, :nc] for p in posts], 1)
-        return detector_features(self.features, xl, vl, xg_pr, innov)
+        return state._replace(
+            x=tuple(xs),
+            P=tuple(Ps),
+            master=new_master,
+            xg=xg,
+            Pg=Pg,
+            share=share,
+            active=active_next,
+            propagator=prop,
+        )
 
     def _reset(self, x, P, xg, Pg, beta, where):
         """Reset common block to ``x̂_g``, ``P_g/β`` (spec §1.2); cross block per §1.7."""
@@ -444,3 +517,25 @@ class FederatedFilter:
             P_new[:, nc:, :nc] = kf.mT(P_cs)
         P_new[:, :nc, :nc] = P_new_cc
         return select(where, x_new, x), select(where, P_new, P)
+
+    # ------------------------------------------------------------------------------
+    def shift(self, state: FederatedState, delta: np.ndarray) -> FederatedState:
+        master = (
+            None
+            if state.master is None
+            else kf.Gaussian(minus(state.master.x, delta), state.master.P)
+        )
+        prop = (
+            None
+            if state.propagator is None
+            else tuple(kf.Gaussian(minus(g.x, delta), g.P) for g in state.propagator)
+        )
+        return state._replace(
+            x=tuple(minus(x, delta) for x in state.x),
+            master=master,
+            xg=minus(state.xg, delta),
+            propagator=prop,
+        )
+
+    def local_estimates(self, state: FederatedState, n: int) -> np.ndarray:
+        return np.stack([x[:, :n] for x in state.x], 1)

@@ -9,14 +9,16 @@ pydantic ``ValidationError`` into that one line.
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
+import types
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
-from pydantic import AfterValidator, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, Tag, ValidationError
 from pydantic_core import PydanticCustomError
 
 __all__ = [
@@ -156,13 +158,117 @@ def _reason(err: Mapping[str, Any]) -> str:
     return str(err.get("msg", kind))
 
 
-def to_scenario_error(exc: ValidationError, origin: str) -> ScenarioError:
-    err = exc.errors(include_url=False)[0]
-    loc = tuple(err.get("loc", ()))
+#: why a key is refused in a table of a model: ``explain(key, model) -> reason | None``
+Explainer = Callable[[str, type[BaseModel]], str | None]
+
+
+def to_scenario_error(
+    exc: ValidationError,
+    origin: str,
+    root: type[BaseModel] | None = None,
+    explain: Explainer | None = None,
+) -> ScenarioError:
+    """The one line of the first problem (an unknown key before the rest: it usually
+    explains a missing one).  With ``root`` (the model that was validated) an unknown
+    key gets the closest valid key of its table, or the reason ``explain`` gives (e.g.
+    a method's setting that another architecture reads)."""
+    errors = exc.errors(include_url=False)
+    err = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
+    raw = tuple(err.get("loc", ()))
     if err["type"] == _CHECK:
-        loc = loc + tuple(err["ctx"]["path"])
+        raw = raw + tuple(err["ctx"]["path"])
+    loc, models = _walk(root, raw) if root is not None else (raw, [])
     path = format_loc(loc) or origin
-    return ScenarioError(path, _reason(err), origin)
+    reason = _reason(err)
+    if err["type"] == "extra_forbidden" and models:
+        key = str(loc[-1])
+        reason = (explain and explain(key, models[-1])) or _unknown_key(key, models[-1])
+    return ScenarioError(path, reason, origin)
+
+
+def _walk(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[tuple[Any, ...], list[Any]]:
+    """``loc`` without the tags of tagged unions, and the model class at each table."""
+    out: list[Any] = []
+    models: list[Any] = [root]
+    current: Any = root
+    for part in loc:
+        current = _unwrap(current)
+        if isinstance(current, type) and issubclass(current, BaseModel):
+            field = current.model_fields.get(part) if isinstance(part, str) else None
+            if field is None:
+                out.append(part)
+                current = None
+                continue
+            out.append(part)
+            current = field.annotation
+            continue
+        origin_ = get_origin(current)
+        if origin_ in (list, tuple) and isinstance(part, int):
+            out.append(part)
+            current = get_args(current)[0]
+            continue
+        members = _union_members(current)
+        if members and isinstance(part, str) and part in members:
+            current = members[part]  # a tag: not part of the user's path
+            models.append(_unwrap(current))
+            continue
+        out.append(part)
+        current = None
+    if isinstance(_unwrap(current), type) and issubclass(_unwrap(current), BaseModel):
+        models.append(_unwrap(current))
+    return tuple(out), [m for m in models if isinstance(m, type) and issubclass(m, BaseModel)]
+
+
+def _unwrap(tp: Any) -> Any:
+    while get_origin(tp) is Annotated:
+        tp = get_args(tp)[0]
+    args = [a for a in get_args(tp) if a is not type(None)] if _is_union(tp) else []
+    if len(args) == 1:
+        return _unwrap(args[0])
+    return tp
+
+
+def _is_union(tp: Any) -> bool:
+    return get_origin(tp) in (Union, types.UnionType)
+
+
+def _union_members(tp: Any) -> dict[str, Any]:
+    """Tag → member of a tagged union (pydantic ``Tag``, or a ``kind``/``architecture``
+    literal), empty for anything else."""
+    tp0 = tp
+    while get_origin(tp0) is Annotated:
+        tp0 = get_args(tp0)[0]
+    if not _is_union(tp0):
+        return {}
+    members = {}
+    for member in get_args(tp0):
+        tag = None
+        inner = member
+        if get_origin(member) is Annotated:
+            inner = get_args(member)[0]
+            tag = next((m.tag for m in get_args(member)[1:] if isinstance(m, Tag)), None)
+        if isinstance(inner, type) and issubclass(inner, BaseModel) and tag is None:
+            for key in ("kind", "architecture"):
+                f = inner.model_fields.get(key)
+                if f is not None and get_origin(f.annotation) is Literal:
+                    tags = get_args(f.annotation)
+                    for t in tags:
+                        members[str(t)] = inner
+                    break
+            continue
+        if tag is not None:
+            members[tag] = inner
+    return members
+
+
+def _fields(model: type[BaseModel]) -> list[str]:
+    return list(model.model_fields)
+
+
+def _unknown_key(key: str, model: type[BaseModel]) -> str:
+    """``unknown key``, with the closest valid key of ``model``'s table when there is one."""
+    close = difflib.get_close_matches(key, _fields(model), n=1, cutoff=0.6)
+    return f"unknown key (did you mean {close[0]!r}?)" if close else "unknown key"
 
 
 # ------------------------------------------------------------- field-level types

@@ -14,6 +14,7 @@ import dataclasses
 import re
 import warnings
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any, Literal, NamedTuple
 
@@ -21,23 +22,25 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema, create_model
 
 from ftnav.io.common import ScenarioError, format_loc, to_scenario_error
+from ftnav.io.profile_file import resolve_profile
 from ftnav.io.sections import (
     EvaluationFile,
     FigureFile,
-    MethodFile,
+    MethodConfig,
     build_figures,
-    build_method,
+    explain_method_key,
+    resolve_methods,
 )
 from ftnav.model.imu import DATASHEET_KEYS, IMU_PRESETS, ImuErrors, imu_preset
-from ftnav.model.ins_scenario import (
+from ftnav.model.scenario import (
     METRIC_STATES,
     POSITION_NORMS,
     SINS,
     AidSpec,
-    InsFault,
+    Evaluation,
+    Fault,
     InsScenario,
 )
-from ftnav.model.scenario import Evaluation
 from ftnav.nav.error_model import ErrorModelParams
 
 __all__ = [
@@ -203,7 +206,7 @@ class InsScenarioFile(BaseModel):
     terrain: TerrainFile | None = None
     aids: list[AidFile] = Field(min_length=1)
     faults: list[InsFaultFile] = Field(default_factory=list)
-    methods: list[MethodFile] = Field(default_factory=list)
+    methods: list[MethodConfig] = Field(default_factory=list)
     evaluation: EvaluationFile = Field(default_factory=EvaluationFile)
     figures: list[FigureFile] = Field(default_factory=list)
 
@@ -393,14 +396,15 @@ def sensor_from_table(
 def parse_ins_scenario(
     data: Mapping[str, Any], origin: str = "<scenario>", base: Path | None = None
 ) -> InsScenario:
-    """Validate an integrated scenario dictionary and build the frozen objects."""
-    from ftnav.io.profile_file import resolve_profile
+    """Validate an integrated scenario dictionary and build the frozen objects.
 
+    ``base`` is the folder relative paths (profiles, DEMs, model files) are relative to.
+    """
     base = base or Path(".")
     try:
         f = InsScenarioFile.model_validate(dict(data))
     except ValidationError as exc:
-        raise to_scenario_error(exc, origin) from None
+        raise to_scenario_error(exc, origin, InsScenarioFile, explain_method_key) from None
 
     def profile(key: str, value: str):
         try:
@@ -493,18 +497,8 @@ def parse_ins_scenario(
                 mag = np.zeros(0)
         if not np.all(np.isfinite(mag)):
             raise _err(f"{p}.magnitude", "must be finite", origin)
-        faults.append(InsFault(x.sensor, x.kind, float(x.start), float(x.end), mag))
-    methods, seen = [], set()
-    for i, me in enumerate(f.methods):
-        if me.name in seen:
-            raise _err(f"methods[{i}].name", f"duplicate method name {me.name!r}", origin)
-        seen.add(me.name)
-        try:
-            methods.append(build_method(me, aids, i))
-        except Exception as exc:  # pydantic custom error outside validation
-            ctx = getattr(exc, "context", None) or {}
-            path = format_loc(ctx.get("path", ()))
-            raise _err(path or f"methods[{i}]", str(exc), origin) from None
+        faults.append(Fault(x.sensor, x.kind, float(x.start), float(x.end), mag))
+    methods = list(f.methods)
     ev = f.evaluation
     if not ev.skip_initial < steps * fl.dt:
         raise _err("evaluation.skip_initial", "must be less than the duration", origin)
@@ -524,7 +518,7 @@ def parse_ins_scenario(
     field = "imu" if f.filter.imu is None else "filter.imu"
     for note in model.notes:
         warnings.warn(f"{origin}: {field}: {note}", ScenarioWarning, stacklevel=2)
-    return InsScenario(
+    sc = InsScenario(
         name=f.name,
         profile=prof,
         imu=imu,
@@ -543,3 +537,4 @@ def parse_ins_scenario(
         test_profile=test_prof,
         figures=figures,
     )
+    return replace(sc, learned=resolve_methods(sc.methods, sc.system(), base, origin))

@@ -51,24 +51,24 @@ def state_units(states) -> list[str]:
 def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
     """xarray Dataset of per-epoch estimates (dims method_name, run, time, state, sensor).
 
-    Variables: ``x_hat`` and ``P_diag`` (method_name, run, time, state); ``truth``
-    (run, time, state); ``fault_flag`` (method_name, run, time, sensor) as int8 for
-    methods with a detector (``-1`` for methods without one); ``beta``
-    (method_name, run, time, sensor) for federated methods (NaN otherwise).  Every
-    variable and coordinate has ``units`` and ``long_name`` attributes; the coordinate
-    ``state_units`` (along ``state``) gives each state's unit.  In an integrated run
-    ``x_hat`` holds each method's navigation output *error* (computed − true) and
-    ``truth`` is zero.  Select a method with ``ds.x_hat.sel(method_name="ckf")``.
+    Variables: ``error`` and ``P_diag`` (method_name, run, time, state), the error of the
+    reported states (estimate − truth; an integrated run's navigation output error,
+    computed − true) and its variance; a linear scenario also has ``x_hat`` (the fused
+    estimate) and ``truth`` (run, time, state); ``fault_flag`` (method_name, run, time,
+    sensor) as int8 for methods with a detector (``-1`` for methods without one);
+    ``beta`` (method_name, run, time, sensor) for federated methods (NaN otherwise).
+    Every variable and coordinate has ``units`` and ``long_name`` attributes; the
+    coordinate ``state_units`` (along ``state``) gives each state's unit.  Select a
+    method with ``ds.error.sel(method_name="ckf")``.
     """
     import xarray as xr
 
     sc = result.scenario
     res = result.fault_free if fault_free else result.results
-    sim = result.fault_free_simulation if fault_free else result.simulation
     names = list(res)
     first = res[names[0]]
-    B, K, n = first.x.shape
-    N = len(sc.sensors)
+    B, K, n = first.error.shape
+    N = len(sc.sensor_names)
     flag = np.full((len(names), B, K, N), -1, dtype=np.int8)
     beta = np.full((len(names), B, K, N), np.nan)
     for j, name in enumerate(names):
@@ -76,7 +76,7 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
             flag[j] = res[name].flag
         if res[name].beta is not None:
             beta[j] = res[name].beta
-    states = list(sc.model.states)
+    states = list(sc.metric_states)
     units = state_units(states)
     known = any(u != "state units" for u in units)
     x_units = (
@@ -87,33 +87,38 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
     p_units = "square of state_units (per state)" if known else "state units squared"
     integrated = getattr(sc, "kind", "linear") == "integrated"
     M = METHOD_DIM
+    variables = {
+        "error": (
+            (M, "run", "time", "state"),
+            np.stack([res[m].error for m in names]),
+            {
+                "units": x_units,
+                "long_name": "navigation output error of each method (computed - true)"
+                if integrated
+                else "estimation error of each method (fused estimate - truth)",
+            },
+        ),
+        "P_diag": (
+            (M, "run", "time", "state"),
+            np.stack([res[m].P_diag for m in names]),
+            {"units": p_units, "long_name": "variance of each state of the fused estimate"},
+        ),
+    }
+    if not integrated:
+        variables["x_hat"] = (
+            (M, "run", "time", "state"),
+            np.stack([res[m].estimate for m in names]),
+            {"units": x_units, "long_name": "fused state estimate of each method"},
+        )
+        if result.truth is not None:
+            variables["truth"] = (
+                ("run", "time", "state"),
+                result.truth.states[..., :n],
+                {"units": x_units, "long_name": "true state"},
+            )
     ds = xr.Dataset(
         {
-            "x_hat": (
-                (M, "run", "time", "state"),
-                np.stack([res[m].x for m in names]),
-                {
-                    "units": x_units,
-                    "long_name": "navigation output error of each method (computed - true)"
-                    if integrated
-                    else "fused state estimate of each method",
-                },
-            ),
-            "P_diag": (
-                (M, "run", "time", "state"),
-                np.stack([res[m].P_diag for m in names]),
-                {"units": p_units, "long_name": "variance of each state of the fused estimate"},
-            ),
-            "truth": (
-                ("run", "time", "state"),
-                sim.truth[..., :n],
-                {
-                    "units": x_units,
-                    "long_name": "zero: x_hat already holds the errors"
-                    if integrated
-                    else "true state",
-                },
-            ),
+            **variables,
             "fault_flag": (
                 (M, "run", "time", "sensor"),
                 flag,

@@ -14,10 +14,11 @@ line ``<field path>: <reason>``, e.g. ``sensors[1].R: not positive definite``.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import (
@@ -47,20 +48,13 @@ from ftnav.io.ins_scenario_file import InsScenarioFile, parse_ins_scenario
 from ftnav.io.sections import (
     EvaluationFile,
     FigureFile,
-    MethodFile,
+    MethodConfig,
     build_figures,
-    build_method,
+    explain_method_key,
+    resolve_methods,
 )
-from ftnav.model.scenario import (
-    Evaluation,
-    Fault,
-    FaultKind,
-    LinearModel,
-    Method,
-    PrivateStates,
-    Scenario,
-    Sensor,
-)
+from ftnav.model.scenario import Evaluation, Fault, Scenario
+from ftnav.model.system import LinearModel, PrivateStates, Sensor
 
 __all__ = [
     "ScenarioError",
@@ -142,7 +136,9 @@ class FaultFile(BaseModel):
     model_config = STRICT
 
     sensor: Name = Field(description="name of the faulty sensor")
-    kind: FaultKind = Field(description="bias | ramp | noise-scale | outage | stuck")
+    kind: Literal["bias", "ramp", "noise-scale", "outage", "stuck"] = Field(
+        description="bias | ramp | noise-scale | outage | stuck"
+    )
     start: float = number("window start in seconds", ge=0.0)
     end: float = number("window end in seconds (> start)")
     magnitude: Vector | None = Field(
@@ -164,7 +160,7 @@ class ScenarioFile(BaseModel):
     model: ModelFile
     sensors: list[SensorFile] = Field(min_length=1)
     faults: list[FaultFile] = Field(default=[])
-    methods: list[MethodFile] = Field(min_length=1)
+    methods: list[MethodConfig] = Field(min_length=1)
     evaluation: EvaluationFile = Field(default_factory=EvaluationFile)
     figures: list[FigureFile] = Field(default=[])
 
@@ -346,7 +342,7 @@ def _build_sensor(s: SensorFile, model: LinearModel, i: int) -> Sensor:
     return Sensor(s.name, H, R, R_true, s.every, s.offset, private)
 
 
-def _build_fault(f: FaultFile, sensors: Sequence[Sensor], i: int) -> Fault:
+def _build_fault(f: FaultFile, sensors: Sequence[Sensor], i: int, duration: float) -> Fault:
     names = [s.name for s in sensors]
     if f.sensor not in names:
         raise fail(
@@ -354,6 +350,14 @@ def _build_fault(f: FaultFile, sensors: Sequence[Sensor], i: int) -> Fault:
         )
     if not f.end > f.start:
         raise fail(f"must be greater than start ({f.start!r})", "faults", i, "end")
+    if not f.start < duration:
+        raise fail(
+            f"{f.start:g} s is not before the end of the run ({duration:g} s, dt*steps): "
+            "the fault would never act",
+            "faults",
+            i,
+            "start",
+        )
     j = names.index(f.sensor)
     m = sensors[j].dim
     if f.magnitude is None:
@@ -376,15 +380,9 @@ def _build(f: ScenarioFile) -> Scenario:
             raise fail(f"duplicate sensor name {s.name!r}", "sensors", i, "name")
         seen.add(s.name)
         sensors.append(_build_sensor(s, model, i))
-    faults = tuple(_build_fault(x, sensors, i) for i, x in enumerate(f.faults))
-    methods = []
-    seen = set()
-    for i, me in enumerate(f.methods):
-        if me.name in seen:
-            raise fail(f"duplicate method name {me.name!r}", "methods", i, "name")
-        seen.add(me.name)
-        methods.append(build_method(me, sensors, i))
     duration = f.dt * f.steps
+    faults = tuple(_build_fault(x, sensors, i, duration) for i, x in enumerate(f.faults))
+    methods = list(f.methods)
     ev = f.evaluation
     if not ev.skip_initial < duration:
         raise fail(f"must be less than dt*steps ({duration!r} s)", "evaluation", "skip_initial")
@@ -408,7 +406,9 @@ def _build(f: ScenarioFile) -> Scenario:
 # ------------------------------------------------------------------- public API
 
 
-def parse_scenario(data: Mapping[str, Any], origin: str = "<scenario>") -> Scenario:
+def parse_scenario(
+    data: Mapping[str, Any], origin: str = "<scenario>", base: Path | None = None
+) -> Scenario:
     """Validate an already-parsed scenario dictionary and build the frozen objects.
 
     Parameters
@@ -416,6 +416,7 @@ def parse_scenario(data: Mapping[str, Any], origin: str = "<scenario>") -> Scena
     data : the TOML document as a dictionary (lists for arrays, no tuples).
     origin : where ``data`` came from; kept on the error as ``origin`` and used
         as the path of errors about the document as a whole.
+    base : the folder relative model paths are relative to (default: the working one).
 
     Raises
     ------
@@ -426,9 +427,10 @@ def parse_scenario(data: Mapping[str, Any], origin: str = "<scenario>") -> Scena
     try:
         spec = ScenarioFile.model_validate(data)
     except ValidationError as exc:
-        raise to_scenario_error(exc, origin) from None
-    assert spec._built is not None
-    return spec._built
+        raise to_scenario_error(exc, origin, ScenarioFile, explain_method_key) from None
+    sc = spec._built
+    assert sc is not None
+    return replace(sc, learned=resolve_methods(sc.methods, sc.system(), base, origin))
 
 
 def load_scenario(source: str | Path) -> Scenario:
@@ -441,19 +443,8 @@ def load_scenario(source: str | Path) -> Scenario:
     """
     data = read_toml(source)
     if data.get("kind") == "integrated":
-        sc = parse_ins_scenario(data, origin=str(source), base=Path(source).parent)
-    else:
-        sc = parse_scenario(data, origin=str(source))
-    return resolve_model_paths(sc, Path(source).parent)
-
-
-def resolve_model_paths(sc: Scenario, base: Path) -> Scenario:
-    """Make the methods' relative ``model`` paths relative to ``base`` (the file's folder)."""
-    methods = tuple(
-        replace(m, model=str(base / m.model)) if m.model and not Path(m.model).is_absolute() else m
-        for m in sc.methods
-    )
-    return replace(sc, methods=methods)
+        return parse_ins_scenario(data, origin=str(source), base=Path(source).parent)
+    return parse_scenario(data, origin=str(source), base=Path(source).parent)
 
 
 def scenario_json_schema() -> dict[str, Any]:
@@ -490,8 +481,8 @@ def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
     """The scenario as a plain, TOML/JSON-serialisable dictionary (inverse of parsing).
 
     Every optional key is written out explicitly (``Q_true``, ``R_true``, all
-    method keys, ``[evaluation]``), except a method's ``model`` when it is unset
-    (TOML has no null), so ``parse_scenario(scenario_to_dict(sc))`` rebuilds
+    method settings, ``[evaluation]``), except an unset optional one (TOML has no
+    null), so ``parse_scenario(scenario_to_dict(sc))`` rebuilds
     ``sc`` and ``json.dumps(..., sort_keys=True)`` gives a stable hash input.
     """
     m = sc.model
@@ -516,19 +507,8 @@ def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
                 "H": _rows(p.H),
             }
         sensors.append(d)
-    methods = []
-    for me in sc.methods:
-        d = {}
-        for key in Method.__dataclass_fields__:
-            value = getattr(me, key)
-            if isinstance(value, tuple):
-                value = list(value)
-            if key == "betas":
-                value = [float(v) for v in value]
-            if value is None:
-                continue
-            d[key] = value
-        methods.append(d)
+    # every setting written out (the nested detector and noise as tables), lists for tuples
+    methods = [json.loads(me.model_dump_json(exclude_none=True)) for me in sc.methods]
     return {
         "name": sc.name,
         "description": sc.description,

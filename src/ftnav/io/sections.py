@@ -8,108 +8,35 @@ every problem a one-line :class:`~ftnav.io.common.ScenarioError`.
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Sequence
-from typing import Annotated, Any
+from pathlib import Path
+from typing import Annotated, Any, get_args, get_origin
 
 from pydantic import BaseModel, Field
+from pydantic_core import PydanticCustomError
 
-from ftnav.io.common import SHARE_TOL, STRICT, Name, fail, number, unique
-from ftnav.model.scenario import (
-    MAX_FIGURE_METHODS,
-    AdaptiveNoise,
-    Architecture,
-    CommonMode,
-    Detector,
-    FigureCondition,
-    FigureKind,
-    FigureSpec,
-    Increment,
-    Isolation,
-    Method,
-    Mode,
-    Prior,
-    Sensor,
-    Sharing,
-    TraceMode,
+from ftnav.fusion.config import (
+    NOTHING_LEARNED,
+    Learned,
+    MethodBase,
+    VbNoise,
 )
+from ftnav.fusion.registry import ARCHITECTURES, MethodConfig
+from ftnav.fusion.registry import check as check_method
+from ftnav.io.common import STRICT, Name, ScenarioError, fail, format_loc, number, unique
+from ftnav.io.learned import learned_for
+from ftnav.model.scenario import MAX_FIGURE_METHODS, FigureCondition, FigureKind, FigureSpec
+from ftnav.model.system import LinearSystem
 
-__all__ = ["EvaluationFile", "FigureFile", "MethodFile", "build_figures", "build_method"]
-
-_M = Method.__dataclass_fields__
-
-
-def _d(key: str) -> Any:
-    """Default of a Method dataclass field."""
-    return _M[key].default
-
-
-class MethodFile(BaseModel):
-    """``[[methods]]``: one fusion method; every key but ``name`` is optional."""
-
-    model_config = STRICT
-
-    name: Name = Field(description="unique method name")
-    architecture: Architecture = Field(default=_d("architecture"))
-    mode: Mode = Field(default=_d("mode"), description="information reset mode")
-    reset_interval: int = Field(default=_d("reset_interval"), ge=1)
-    sharing: Sharing = Field(default=_d("sharing"), description="information-sharing rule")
-    betas: list[Annotated[float, Field(ge=0.0, allow_inf_nan=False)]] = Field(
-        default=[], description="sharing = 'fixed' only: one factor per sensor"
-    )
-    master_share: float = number("master filter's share", default=_d("master_share"), ge=0, lt=1)
-    trace_mode: TraceMode = Field(default=_d("trace_mode"))
-    detector: Detector = Field(default=_d("detector"))
-    false_alarm_probability: float = number(
-        "false-alarm probability of the chi-square test",
-        default=_d("false_alarm_probability"),
-        gt=0,
-        lt=1,
-    )
-    window: int = Field(default=_d("window"), ge=1, description="chi-square test window (steps)")
-    prior: Prior = Field(default=_d("prior"))
-    n_on: int = Field(default=_d("n_on"), ge=1, description="alarms in a row to isolate")
-    n_off: int = Field(default=_d("n_off"), ge=1, description="passes in a row to readmit")
-    state_test_reset: int = Field(default=_d("state_test_reset"), ge=5)
-    adaptive_noise: AdaptiveNoise = Field(default=_d("adaptive_noise"))
-    vb_rho: float = number("VB forgetting factor", default=_d("vb_rho"), gt=0, le=1)
-    vb_iterations: int = Field(default=_d("vb_iterations"), ge=1)
-    vb_sensors: list[Name] = Field(default=[], description="sensors with VB; empty = all")
-    increment: Increment = Field(default=_d("increment"))
-    reconstructed: bool = Field(default=_d("reconstructed"))
-    rescale_factor: float = number(
-        "information scale of the rescale mode", default=_d("rescale_factor"), ge=0, lt=1
-    )
-    model: str | None = Field(
-        default=_d("model"),
-        description="trained model file (detector 'rbf' or architecture 'neural'); a relative "
-        "path is relative to the scenario file",
-    )
-    threshold: float | None = number(
-        "RBF decision threshold (default: the model's)", default=_d("threshold"), gt=0, lt=1
-    )
-    uncovered: Name = Field(
-        default=_d("uncovered"),
-        description="neural: flag pattern no configuration covers -> 'renormalize' or a "
-        "configuration name",
-    )
-    isolation: Isolation = Field(
-        default=_d("isolation"),
-        description="federated, neural: a flagged local filter runs 'standalone' on its own "
-        "measurements (spec §1.8) or does the 'time-update' only (spec §6.3)",
-    )
-    common_mode: CommonMode = Field(
-        default=_d("common_mode"),
-        description="federated: when every aid is flagged at once, 'isolate' them all or "
-        "'keep' them (the shared SINS failed, not the aids)",
-    )
-    common_mode_quorum: int | None = Field(
-        default=_d("common_mode_quorum"),
-        ge=2,
-        description="federated, common_mode 'keep': keep every aid when at least this many "
-        "are flagged at the same epoch (default: all of them)",
-    )
+__all__ = [
+    "EvaluationFile",
+    "FigureFile",
+    "MethodConfig",
+    "build_figures",
+    "explain_method_key",
+    "resolve_methods",
+]
 
 
 class FigureFile(BaseModel):
@@ -146,107 +73,53 @@ class EvaluationFile(BaseModel):
     grace: float = number("post-fault grace period (s)", default=10.0, ge=0)
 
 
-def build_method(me: MethodFile, sensors: Sequence[Sensor], i: int) -> Method:
-    names = [s.name for s in sensors]
-    if me.sharing == "fixed":
-        if len(me.betas) != len(sensors):
-            raise fail(
-                f"expected {len(sensors)} values (one per sensor) with sharing = 'fixed', "
-                f"got {len(me.betas)}",
-                "methods",
-                i,
-                "betas",
-            )
-        total = math.fsum(me.betas) + me.master_share
-        if abs(total - 1.0) > SHARE_TOL:
-            raise fail(
-                f"sum(betas) + master_share must equal 1, got {total!r}", "methods", i, "betas"
-            )
-    elif me.betas:
-        raise fail(
-            f"must be empty unless sharing = 'fixed' (sharing is {me.sharing!r})",
-            "methods",
-            i,
-            "betas",
-        )
-    unique(me.vb_sensors, "sensor", "methods", i, "vb_sensors")
-    for j, name in enumerate(me.vb_sensors):
-        if name not in names:
-            raise fail(
-                f"unknown sensor {name!r} (known: {', '.join(names)})",
-                "methods",
-                i,
-                "vb_sensors",
-                j,
-            )
-    needs_model = me.detector == "rbf" or me.architecture == "neural"
-    if needs_model and me.model is None:
-        what = "detector 'rbf'" if me.detector == "rbf" else "architecture 'neural'"
-        raise fail(f"{what} needs a trained model file", "methods", i, "model")
-    if me.model is not None and not needs_model:
-        raise fail(
-            "only used with detector = 'rbf' or architecture = 'neural'", "methods", i, "model"
-        )
-    if me.common_mode_quorum is not None:
-        if me.common_mode != "keep":
-            raise fail(
-                f"only used with common_mode = 'keep' (common_mode is {me.common_mode!r})",
-                "methods",
-                i,
-                "common_mode_quorum",
-            )
-        if me.common_mode_quorum > len(sensors):
-            raise fail(
-                f"must be <= the number of sensors ({len(sensors)})",
-                "methods",
-                i,
-                "common_mode_quorum",
-            )
-    if me.prior == "intersection" and me.architecture != "neural":
-        raise fail(
-            "'intersection' (covariance intersection of the local priors) is only "
-            "used with architecture = 'neural'",
-            "methods",
-            i,
-            "prior",
-        )
-    if me.mode == "rescale" and not me.reconstructed:
-        raise fail(
-            "'rescale' is a reconstruction (spec §1.5); set reconstructed = true to use it",
-            "methods",
-            i,
-            "mode",
-        )
-    return Method(
-        name=me.name,
-        architecture=me.architecture,
-        mode=me.mode,
-        reset_interval=me.reset_interval,
-        sharing=me.sharing,
-        betas=tuple(float(b) for b in me.betas),
-        master_share=float(me.master_share),
-        trace_mode=me.trace_mode,
-        detector=me.detector,
-        false_alarm_probability=float(me.false_alarm_probability),
-        window=me.window,
-        prior=me.prior,
-        n_on=me.n_on,
-        n_off=me.n_off,
-        state_test_reset=me.state_test_reset,
-        adaptive_noise=me.adaptive_noise,
-        vb_rho=float(me.vb_rho),
-        vb_iterations=me.vb_iterations,
-        vb_sensors=tuple(me.vb_sensors),
-        increment=me.increment,
-        reconstructed=me.reconstructed,
-        rescale_factor=float(me.rescale_factor),
-        model=me.model,
-        threshold=None if me.threshold is None else float(me.threshold),
-        uncovered=me.uncovered,
-        isolation=me.isolation,
-        common_mode=me.common_mode,
-        common_mode_quorum=me.common_mode_quorum,
-    )
+def explain_method_key(key: str, model: type[BaseModel]) -> str | None:
+    """Why ``key`` is refused in a method's table: a setting of another architecture (or
+    of another mode), of the detector, of the noise model; None when it is unknown."""
+    if not (isinstance(model, type) and issubclass(model, MethodBase)):
+        return None
+    arch = model.model_fields["architecture"].default
+    others = [n for n, e in ARCHITECTURES.items() if key in e.config.model_fields]
+    if others:
+        return f"not a setting of the {arch} architecture (a setting of {', '.join(others)})"
+    for table in ("detector", "noise"):
+        annotation = MethodBase.model_fields[table].annotation
+        kinds = [m for m in _members(annotation) if key in m.model_fields and key != "kind"]
+        if kinds:
+            kind = get_args(kinds[0].model_fields["kind"].annotation)[0]
+            return f"a setting of the {table}: write {table} = {{kind = {kind!r}, {key} = ...}}"
+    return None
+
+
+def _members(annotation: Any) -> list[type[BaseModel]]:
+    while get_origin(annotation) is Annotated:
+        annotation = get_args(annotation)[0]
+    return [m for m in get_args(annotation) if isinstance(m, type) and issubclass(m, BaseModel)]
+
+
+def resolve_methods(
+    methods: Sequence[MethodBase], system: LinearSystem, base: Path | None, origin: str
+) -> tuple[tuple[str, Learned], ...]:
+    """Check every method against the system and load its trained models (once).
+
+    Method names must be unique; a check that needs the system (sensor names, sizes,
+    private states) or a trained model (its file, its states) fails with one line
+    ``methods[i].<setting>: <reason>``.
+    """
+    learned, seen = [], set()
+    for i, me in enumerate(methods):
+        if me.name in seen:
+            raise ScenarioError(f"methods[{i}].name", f"duplicate method name {me.name!r}", origin)
+        seen.add(me.name)
+        got = learned_for(me, i, system, base)
+        try:
+            check_method(system, me, got)
+        except PydanticCustomError as exc:
+            path = format_loc(("methods", i, *(exc.context or {}).get("path", ())))
+            raise ScenarioError(path, exc.message(), origin) from None
+        if got is not NOTHING_LEARNED:
+            learned.append((me.name, got))
+    return tuple(learned)
 
 
 _FILE_STEM = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
@@ -258,7 +131,7 @@ def _build_figure(
     fg: FigureFile,
     i: int,
     states: Sequence[str],
-    methods: Sequence[Method],
+    methods: Sequence[MethodBase],
     sensors: Sequence[str],
     kinds: Sequence[str] = ("errors",),
     position_states: Sequence[str] = (),
@@ -311,8 +184,8 @@ def _build_figure(
                 "sensor",
             )
         for j, name in enumerate(fg.methods):
-            me = by_name[name]
-            if me.adaptive_noise == "none" or (me.vb_sensors and fg.sensor not in me.vb_sensors):
+            noise = by_name[name].noise
+            if not isinstance(noise, VbNoise) or (noise.sensors and fg.sensor not in noise.sensors):
                 raise fail(
                     f"method {name!r} does not estimate the noise of {fg.sensor!r}",
                     *at,

@@ -1,114 +1,94 @@
-"""Plain frozen numerical description of a linear multi-sensor scenario.
+"""Plain frozen descriptions of a scenario: linear (spec §1, §9.6) or integrated (§8-§10).
 
-These containers are what the inner code sees; TOML files are parsed and
-validated at the boundary (:mod:`ftnav.io.scenario_file`) and turned into them.
-Every matrix is a float64 ``numpy`` array with its shape already checked.
+These containers are what the inner code sees; TOML files are parsed and validated at
+the boundary (:mod:`ftnav.io.scenario_file`, :mod:`ftnav.io.ins_scenario_file`) and
+turned into them.  Every matrix is a float64 ``numpy`` array with its shape checked.
 
-Time base: step ``k = 1..steps`` happens at ``t_k = k·dt`` seconds; the initial
-state ``x_0`` is at ``t = 0``.  A sensor with ``every = e`` and ``offset = o``
-measures at the steps where ``(k − o) mod e == 0``.  Fault windows are
-``start <= t_k < end`` in seconds.
+Time base: step ``k = 1..steps`` happens at ``t_k = k·dt`` seconds; the initial state
+is at ``t = 0``.  A sensor with ``every = e`` and ``offset = o`` measures at the steps
+where ``(k − o) mod e == 0``.  Fault windows are ``start <= t_k < end`` in seconds.
+
+Both kinds answer what evaluation and reporting read (:class:`ScenarioBase`): the
+names of the reported states (``metric_states``), the sensors, the epoch times, the
+fault windows.  A linear scenario reports its model's states (estimate − truth); an
+integrated one the navigation *output* errors (computed − true, spec §11): position
+East/North/Up in metres, velocity East/North/Up in m/s, attitude φ East/North/Up in
+arcmin.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Literal
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any, ClassVar, Literal, Self
 
 import numpy as np
 
-FaultKind = Literal["bias", "ramp", "noise-scale", "outage", "stuck"]
-Architecture = Literal["centralized", "federated", "distributed", "neural"]
-Mode = Literal["no-reset", "fusion-reset", "zero-reset", "rescale"]
-Sharing = Literal[
-    "equal", "fixed", "information", "trace", "eigen-trace", "frobenius", "inverse-trace"
+from ftnav.model.flight import Profile
+from ftnav.model.imu import ImuErrors
+from ftnav.model.system import LinearModel, LinearSystem, Sensor
+from ftnav.nav.error_model import ErrorModelParams
+
+__all__ = [
+    "AidSpec",
+    "Evaluation",
+    "Fault",
+    "FigureSpec",
+    "INS_FAULT_KINDS",
+    "InsScenario",
+    "LINEAR_FAULT_KINDS",
+    "MAX_FIGURE_METHODS",
+    "METRIC_STATES",
+    "POSITION_NORMS",
+    "SINS",
+    "Scenario",
+    "ScenarioBase",
+    "fault_window_mask",
 ]
-Detector = Literal["none", "residual-chi2", "state-chi2", "oracle", "rbf"]
-AdaptiveNoise = Literal["none", "vb", "vb-literal"]
-Prior = Literal["local", "global", "intersection"]
-TraceMode = Literal["scaled", "raw"]
-Increment = Literal["direct", "difference"]
-Isolation = Literal["standalone", "time-update"]
-CommonMode = Literal["isolate", "keep"]
+
+FaultKind = Literal["bias", "ramp", "noise-scale", "noise-ramp", "outage", "stuck", "gyro-bias"]
+#: fault kinds of a linear scenario (spec §9.6)
+LINEAR_FAULT_KINDS: tuple[str, ...] = ("bias", "ramp", "noise-scale", "outage", "stuck")
+#: fault kinds of an integrated scenario: those, a noise ramp, and the SINS gyro-bias step
+INS_FAULT_KINDS: tuple[str, ...] = (
+    "bias",
+    "ramp",
+    "noise-scale",
+    "noise-ramp",
+    "outage",
+    "stuck",
+    "gyro-bias",
+)
 FigureKind = Literal["errors", "local-fused", "vb-noise"]
 FigureCondition = Literal["faults", "fault-free"]
+Correction = Literal["feedback", "output"]
 
 #: Most methods one figure compares: one line per method in every axes.
 MAX_FIGURE_METHODS = 4
 
+#: Reported output-error states of an integrated run (spec §11), in this order.
+METRIC_STATES = (
+    "pos_E_m", "pos_N_m", "pos_U_m",
+    "vel_E_m_s", "vel_N_m_s", "vel_U_m_s",
+    "att_E_arcmin", "att_N_arcmin", "att_U_arcmin",
+)  # fmt: skip
 
-@dataclass(frozen=True, slots=True)
-class PrivateStates:
-    """Sensor-specific states carried only by that sensor's local filter (spec §1.7).
+#: Derived metric quantities (m): horizontal sqrt(E² + N²) and 3-D position error (spec §11).
+POSITION_NORMS = ("pos_horizontal_m", "pos_3d_m")
 
-    Attributes
-    ----------
-    names : names of the p private states.
-    F : (p, p) transition block.  Q : (p, p) process noise.
-    x0 : (p,) initial mean.  P0 : (p, p) initial covariance.
-    H : (m, p) measurement columns acting on the private states.
-    """
-
-    names: tuple[str, ...]
-    F: np.ndarray
-    Q: np.ndarray
-    x0: np.ndarray
-    P0: np.ndarray
-    H: np.ndarray
-
-
-@dataclass(frozen=True, slots=True)
-class Sensor:
-    """One aiding sensor: ``z = H x + v``, ``v ~ N(0, R)`` (spec §1.1).
-
-    ``R`` is what the filters assume; ``R_true`` is what the simulator draws
-    (equal to ``R`` unless the scenario sets it), so mismatch studies need no
-    code change.
-    """
-
-    name: str
-    H: np.ndarray
-    R: np.ndarray
-    R_true: np.ndarray
-    every: int = 1
-    offset: int = 0
-    private: PrivateStates | None = None
-
-    @property
-    def dim(self) -> int:
-        """Measurement dimension m."""
-        return int(self.H.shape[0])
-
-    def available(self, steps: int) -> np.ndarray:
-        """Boolean (steps,) mask of the steps k = 1..steps with a measurement."""
-        k = np.arange(1, steps + 1)
-        return ((k - self.offset) % self.every == 0) & (k >= self.offset)
-
-
-@dataclass(frozen=True, slots=True)
-class LinearModel:
-    """Common-state model ``x_{k+1} = F x_k + w_k``, ``w ~ N(0, Q)``."""
-
-    states: tuple[str, ...]
-    F: np.ndarray
-    Q: np.ndarray
-    x0: np.ndarray
-    P0: np.ndarray
-    Q_true: np.ndarray
-
-    @property
-    def n(self) -> int:
-        """Number of common states."""
-        return len(self.states)
+#: Name that addresses the inertial system in a fault.
+SINS = "sins"
 
 
 @dataclass(frozen=True, slots=True)
 class Fault:
-    """A fault injected on one sensor over ``[start, end)`` seconds (spec §9.6).
+    """A fault injected on one sensor (or the SINS) over ``[start, end)`` seconds (§9.6).
 
-    ``magnitude`` (m,) is the additive offset for ``bias`` (its final value for
-    ``ramp``, which grows linearly from 0 over the window), the standard-deviation
-    scale factor for ``noise-scale``, and unused for ``outage`` and ``stuck``.
+    ``magnitude`` is in the sensor's measurement space (an aid's ``components``): the
+    additive offset for ``bias`` (its final value for ``ramp``, which grows linearly
+    from 0 over the window), the noise-std factor for ``noise-scale`` (reached at
+    ``end`` for ``noise-ramp``, which starts at 1), unused for ``outage`` and
+    ``stuck``; for ``gyro-bias`` on the SINS the (3,) body gyro-bias step in rad/s.
     """
 
     sensor: str
@@ -119,53 +99,15 @@ class Fault:
 
 
 @dataclass(frozen=True, slots=True)
-class Method:
-    """One fusion method to evaluate; every field has a documented default.
-
-    See ``docs/scenario-format.md`` for the meaning of each field.
-    """
-
-    name: str
-    architecture: Architecture = "federated"
-    mode: Mode = "fusion-reset"
-    reset_interval: int = 1
-    sharing: Sharing = "equal"
-    betas: tuple[float, ...] = ()
-    master_share: float = 0.0
-    trace_mode: TraceMode = "scaled"
-    detector: Detector = "none"
-    false_alarm_probability: float = 1e-3
-    window: int = 1
-    prior: Prior = "local"
-    n_on: int = 1
-    n_off: int = 5
-    state_test_reset: int = 100
-    adaptive_noise: AdaptiveNoise = "none"
-    vb_rho: float = 0.99
-    vb_iterations: int = 3
-    vb_sensors: tuple[str, ...] = ()
-    increment: Increment = "direct"
-    reconstructed: bool = False
-    rescale_factor: float = 0.5
-    model: str | None = None
-    threshold: float | None = None
-    uncovered: str = "renormalize"
-    isolation: Isolation = "standalone"
-    common_mode: CommonMode = "isolate"
-    common_mode_quorum: int | None = None
-
-
-@dataclass(frozen=True, slots=True)
 class FigureSpec:
-    """One figure a scenario asks for (``[[figures]]``, ``docs/scenario-format.md``).
+    """One figure of a run (``[[figures]]``), validated against the scenario.
 
     Attributes
     ----------
-    name : file name without extension (``<name>.png``).
-    title : the figure's title; empty = the scenario's description (or name).
-    methods : the methods compared, at most :data:`MAX_FIGURE_METHODS`, one line each per
-        axes; ``local-fused`` draws the local filters of the first one.
-    states : the states drawn, one panel each; empty = every state (kind's default).
+    name : file stem (``<name>.png``).
+    title : figure title (empty: the scenario's description or name).
+    methods : the methods it compares, at most :data:`MAX_FIGURE_METHODS`.
+    states : one panel per state (empty: every state).
     kind : ``errors`` (estimation error per state), ``local-fused`` (integrated: local and
         fused position errors, paper 001 Fig. 4-5) or ``vb-noise`` (integrated: VB noise σ
         of ``sensor``, paper 002 Fig. 3, 5).
@@ -190,61 +132,11 @@ class Evaluation:
     grace: float = 10.0
 
 
-@dataclass(frozen=True, slots=True)
-class Scenario:
-    """A complete, validated linear scenario.
-
-    ``figures`` are the figures a run draws (``[[figures]]``); empty = the default figures.
-    """
-
-    name: str
-    dt: float
-    steps: int
-    model: LinearModel
-    sensors: tuple[Sensor, ...]
-    faults: tuple[Fault, ...] = ()
-    methods: tuple[Method, ...] = ()
-    evaluation: Evaluation = field(default_factory=Evaluation)
-    description: str = ""
-    figures: tuple[FigureSpec, ...] = ()
-
-    @property
-    def times(self) -> np.ndarray:
-        """(steps,) epoch times t_k = k·dt in seconds."""
-        return self.dt * np.arange(1, self.steps + 1)
-
-    @property
-    def sensor_names(self) -> tuple[str, ...]:
-        return tuple(s.name for s in self.sensors)
-
-    def fault_mask(self, sensor: str | None = None, detectable_only: bool = False) -> np.ndarray:
-        """Boolean (steps,) mask of epochs inside a fault window.
-
-        Parameters
-        ----------
-        sensor : restrict to faults of this sensor (all sensors if None).
-        detectable_only : leave out outages (no data, nothing to detect).
-        """
-        return fault_window_mask(self.times, self.faults, sensor, detectable_only)
-
-    def without_faults(self) -> Scenario:
-        """The same scenario with no faults (the paper's Fig. 3 condition)."""
-        return Scenario(
-            self.name,
-            self.dt,
-            self.steps,
-            self.model,
-            self.sensors,
-            (),
-            self.methods,
-            self.evaluation,
-            self.description,
-            self.figures,
-        )
-
-
 def fault_window_mask(
-    times: np.ndarray, faults, sensor: str | None = None, detectable_only: bool = False
+    times: np.ndarray,
+    faults: Sequence[Fault],
+    sensor: str | None = None,
+    detectable_only: bool = False,
 ) -> np.ndarray:
     """Boolean mask of the ``times`` inside a fault window ``[start, end)``.
 
@@ -259,3 +151,174 @@ def fault_window_mask(
             continue
         mask |= (times >= f.start) & (times < f.end)
     return mask
+
+
+@dataclass(frozen=True, kw_only=True)
+class ScenarioBase:
+    """What both kinds of scenario have and what evaluation and reporting read.
+
+    ``methods`` are the methods' frozen configurations (:mod:`ftnav.fusion.config`);
+    ``learned`` the trained models some of them use, ``(method name,``
+    :class:`~ftnav.fusion.config.Learned` ``)`` pairs loaded and checked at the boundary.
+    """
+
+    name: str
+    dt: float
+    steps: int
+    faults: tuple[Fault, ...] = ()
+    methods: tuple[Any, ...] = ()
+    evaluation: Evaluation = field(default_factory=Evaluation)
+    description: str = ""
+    figures: tuple[FigureSpec, ...] = ()
+    learned: tuple[tuple[str, Any], ...] = ()
+
+    kind: ClassVar[str] = "linear"
+
+    @property
+    def times(self) -> np.ndarray:
+        """(steps,) epoch times t_k = k·dt in seconds."""
+        return self.dt * np.arange(1, self.steps + 1)
+
+    @property
+    def sensor_names(self) -> tuple[str, ...]:
+        raise NotImplementedError
+
+    @property
+    def metric_states(self) -> tuple[str, ...]:
+        """Names of the reported states (the columns of every per-state metric)."""
+        raise NotImplementedError
+
+    def learned_for(self, method: str) -> Any:
+        """The trained models of method ``method`` (None when it uses none)."""
+        return dict(self.learned).get(method)
+
+    def system(self) -> LinearSystem:
+        """The filters' system: the common model and the sensors (spec §1.1, §1.7)."""
+        raise NotImplementedError
+
+    def fault_mask(self, sensor: str | None = None, detectable_only: bool = False) -> np.ndarray:
+        """Boolean (steps,) mask of epochs inside a fault window.
+
+        Parameters
+        ----------
+        sensor : restrict to faults of this sensor (all sensors if None).
+        detectable_only : leave out outages (no data, nothing to detect).
+        """
+        return fault_window_mask(self.times, self.faults, sensor, detectable_only)
+
+    def without_faults(self) -> Self:
+        """The same scenario with no faults (the paper's Fig. 3 condition)."""
+        return replace(self, faults=())
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scenario(ScenarioBase):
+    """A complete, validated linear scenario: a model, sensors, faults and methods."""
+
+    model: LinearModel
+    sensors: tuple[Sensor, ...]
+
+    @property
+    def sensor_names(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.sensors)
+
+    @property
+    def metric_states(self) -> tuple[str, ...]:
+        return self.model.states
+
+    def system(self) -> LinearSystem:
+        return LinearSystem(self.model, self.sensors)
+
+
+@dataclass(frozen=True, slots=True)
+class AidSpec:
+    """One aid of an integrated scenario: its sensor model (:mod:`ftnav.sensors`), its
+    schedule in filter epochs."""
+
+    sensor: Any
+    every: int = 1
+    offset: int = 0
+
+    @property
+    def name(self) -> str:
+        return str(self.sensor.name)
+
+    @property
+    def dim(self) -> int:
+        return int(self.sensor.dim)
+
+    def __post_init__(self) -> None:
+        if getattr(self.sensor, "difference_factor", None) is not None and (
+            self.every != 1 or self.offset != 0
+        ):
+            raise ValueError(
+                f"{self.sensor.name}.markov: 'difference' needs the aid at every "
+                f"filter epoch (every = 1, offset = 0), got every = {self.every}, "
+                f"offset = {self.offset}"
+            )
+
+    def available(self, steps: int) -> np.ndarray:
+        """(steps,) bool schedule mask of the epochs k = 1..steps."""
+        k = np.arange(1, steps + 1)
+        return ((k - self.offset) % self.every == 0) & (k >= self.offset)
+
+
+@dataclass(frozen=True, kw_only=True)
+class InsScenario(ScenarioBase):
+    """A complete, validated integrated-navigation scenario.
+
+    Attributes
+    ----------
+    profile : flight profile (the truth); its ``dt`` is the IMU period.
+    imu : true IMU errors (simulator).  error_model : the filters' assumed model.
+    initial_sigma : (n,) σ of the initial INS errors in state units (spec §8.3 order);
+        each run draws its initial error from N(0, diag σ²) and the filters start
+        from ``P0 = diag σ²``.
+    aids : the aiding sensors.
+    correction : ``"feedback"`` (closed loop: the fused navigation errors are fed back
+        to the SINS and every local estimate is shifted by the same correction, spec
+        §6.2, §8.5) or ``"output"`` (the SINS runs free; its output is corrected).
+    discretization : ``"series"`` (order 5, PSINS kfc2d) or ``"van-loan"``.
+    test_profile : optional second flight for the "different trajectory" evaluation of
+        learned methods (paper 001).
+    algorithm : the strapdown algorithm (:mod:`ftnav.nav.mechanization`).
+    model_notes : the IMU errors the filters' error model cannot represent exactly, and
+        what it does instead (:func:`ftnav.io.ins_scenario_file.filter_model`).
+    """
+
+    profile: Profile
+    imu: ImuErrors
+    error_model: ErrorModelParams
+    initial_sigma: np.ndarray
+    aids: tuple[AidSpec, ...]
+    correction: Correction = "feedback"
+    discretization: Literal["series", "van-loan"] = "series"
+    test_profile: Profile | None = None
+    algorithm: str = "two-sample"
+    model_notes: tuple[str, ...] = ()
+
+    kind: ClassVar[str] = "integrated"
+
+    @property
+    def sensor_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.aids)
+
+    @property
+    def metric_states(self) -> tuple[str, ...]:
+        return METRIC_STATES
+
+    @property
+    def samples_per_epoch(self) -> int:
+        return int(round(self.dt / self.profile.dt))
+
+    def system(self) -> LinearSystem:
+        """The local SINS/aid filters' system: the error states (spec §8.3), ``P0 = diag σ²``,
+        each aid's noise and private states; Φ, Q and H come with every epoch."""
+        n = self.error_model.n
+        P0 = np.diag(np.asarray(self.initial_sigma[:n], float) ** 2)
+        model = LinearModel(self.error_model.names, None, None, np.zeros(n), P0, None)
+        sensors = tuple(
+            Sensor(a.name, None, a.sensor.R, a.sensor.R, a.every, a.offset, a.sensor.private)
+            for a in self.aids
+        )
+        return LinearSystem(model, sensors)

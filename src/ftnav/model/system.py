@@ -1,36 +1,111 @@
-"""Linear multi-sensor system as the filters see it (spec §1.1, §1.7).
+"""The multi-sensor system as the filters see it (spec §1.1, §1.7), and one epoch of it.
 
 The *augmented* state is ``[x_c; x_s1; x_s2; ...]``: the ``n_c`` common states
 followed by each sensor's private states (if any).  The centralized and the
 distributed filters work on the augmented state; local filter ``i`` of the
 federated filter carries ``[x_c; x_si]`` and fuses only ``x_c``.
 
-A model may be time-varying: :meth:`LinearSystem.transition` receives the step
-index ``k`` (1-based) and returns the matrices for the step ``k−1 → k``.  This
-class is the constant case; linearized INS error models provide the same
-interface.
+A system is *constant* (a linear scenario: ``F``, ``Q`` and every sensor's ``H``
+given) or *linearized* (integrated navigation: ``F``, ``Q`` and the sensors' ``H`` are
+None and come with each :class:`Epoch` as a :class:`Linearization`, per run).  The
+private states' blocks, the measurement noise and the initial covariance are constant
+in both.  An :class:`Epoch` is what the engine hands every architecture once per step.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import block_diag
 
-from ftnav.model.scenario import LinearModel, Scenario, Sensor
+__all__ = [
+    "Epoch",
+    "Linearization",
+    "LinearModel",
+    "LinearSystem",
+    "LocalModel",
+    "PrivateStates",
+    "Sensor",
+]
 
-__all__ = ["LinearSystem", "LocalModel", "TimeVaryingSystem", "Linearization"]
+
+@dataclass(frozen=True, slots=True)
+class PrivateStates:
+    """Sensor-specific states carried only by that sensor's local filter (spec §1.7).
+
+    Attributes
+    ----------
+    names : names of the p private states.
+    F : (p, p) transition block.  Q : (p, p) process noise.
+    x0 : (p,) initial mean.  P0 : (p, p) initial covariance.
+    H : (m, p) measurement columns acting on the private states.
+    """
+
+    names: tuple[str, ...]
+    F: np.ndarray
+    Q: np.ndarray
+    x0: np.ndarray
+    P0: np.ndarray
+    H: np.ndarray
+
+
+@dataclass(frozen=True, slots=True)
+class Sensor:
+    """One aiding sensor: ``z = H x + v``, ``v ~ N(0, R)`` (spec §1.1).
+
+    ``R`` is what the filters assume; ``R_true`` is what the simulator draws
+    (equal to ``R`` unless the scenario sets it), so mismatch studies need no
+    code change.  ``H`` is None for a sensor linearized at every epoch.
+    """
+
+    name: str
+    H: np.ndarray | None
+    R: np.ndarray
+    R_true: np.ndarray
+    every: int = 1
+    offset: int = 0
+    private: PrivateStates | None = None
+
+    @property
+    def dim(self) -> int:
+        """Measurement dimension m."""
+        return int(self.R.shape[0])
+
+    def available(self, steps: int) -> np.ndarray:
+        """Boolean (steps,) mask of the steps k = 1..steps with a measurement."""
+        k = np.arange(1, steps + 1)
+        return ((k - self.offset) % self.every == 0) & (k >= self.offset)
+
+
+@dataclass(frozen=True, slots=True)
+class LinearModel:
+    """Common-state model ``x_{k+1} = F x_k + w_k``, ``w ~ N(0, Q)``.
+
+    ``F``, ``Q`` and ``Q_true`` are None for a model linearized at every epoch.
+    """
+
+    states: tuple[str, ...]
+    F: np.ndarray | None
+    Q: np.ndarray | None
+    x0: np.ndarray
+    P0: np.ndarray
+    Q_true: np.ndarray | None
+
+    @property
+    def n(self) -> int:
+        """Number of common states."""
+        return len(self.states)
 
 
 class Linearization(NamedTuple):
     """One epoch's matrices of an error-state model linearized per run (spec §6.2, §8.4).
 
     An integrated-navigation filter linearizes the SINS error model and every aid's
-    measurement at each run's own INS solution, so the matrices carry the batch axis.
-    Every architecture accepts it in ``step(..., lin=...)``; all local filters and the
-    fusion centre then use the *same* matrices (identical linearization, spec §6.2).
+    measurement at each run's own INS solution, so the matrices carry the batch axis;
+    all local filters and the fusion centre use the *same* matrices (identical
+    linearization, spec §6.2).
 
     Attributes
     ----------
@@ -45,11 +120,38 @@ class Linearization(NamedTuple):
     H: tuple[np.ndarray, ...]
 
 
+class TimeVarying(NamedTuple):
+    """Per-epoch common ``(Φ_k, Q_k)`` (K, n_c, n_c) each of a time-varying linear model."""
+
+    Phi: np.ndarray
+    Q: np.ndarray
+
+
+class Epoch(NamedTuple):
+    """Everything an architecture receives for the step ``k−1 → k``.
+
+    Attributes
+    ----------
+    k : epoch index (1-based), at ``t_k``.
+    z : per sensor (B, m_i) measurement (NaN or garbage where not available).
+    available : (B, N) bool, a measurement is scheduled (schedule and outages).
+    labels : (N,) or (B, N) bool, labelled fault windows of a simulated stream (read
+        by the ``oracle`` detector only; all False for a recorded stream).
+    lin : the epoch's per-run matrices of a linearized system, None for a constant one.
+    """
+
+    k: int
+    z: tuple[np.ndarray, ...]
+    available: np.ndarray
+    labels: np.ndarray
+    lin: Linearization | None = None
+
+
 @dataclass(frozen=True, slots=True)
 class LocalModel:
     """Model of one local filter over ``[x_c; x_si]`` (dimension ``n_c + p_i``)."""
 
-    H: np.ndarray  # (m, n_c + p)
+    H: np.ndarray | None  # (m, n_c + p), None when linearized per epoch
     R: np.ndarray  # (m, m)
     x0: np.ndarray  # (n_c + p,)
     P0: np.ndarray  # (n_c + p, n_c + p)
@@ -64,32 +166,43 @@ class LocalModel:
 
 @dataclass(frozen=True)
 class LinearSystem:
-    """Constant linear system built from a scenario's model and sensors."""
+    """The filters' system: the common model and the sensors (constant or linearized)."""
 
     model: LinearModel
     sensors: tuple[Sensor, ...]
+    _blocks: tuple[tuple[np.ndarray, np.ndarray], ...] = field(init=False, repr=False)
+    _aug: dict[bool, tuple[np.ndarray, np.ndarray]] = field(init=False, repr=False)
+    _locals: tuple[LocalModel, ...] = field(init=False, repr=False)
 
-    def __post_init__(self):
-        # constant model: build the block matrices once
-        blocks = []
-        for i in range(len(self.sensors)):
-            lm = self.local(i)
-            blocks.append(
-                (block_diag(self.model.F, lm.F_private), block_diag(self.model.Q, lm.Q_private))
-            )
-        object.__setattr__(self, "_blocks", tuple(blocks))
-        aug = {}
-        for true in (False, True):
-            Q = self.model.Q_true if true else self.model.Q
-            aug[true] = (
-                block_diag(self.model.F, *self._private_blocks("F")),
-                block_diag(Q, *self._private_blocks("Q")),
-            )
-        object.__setattr__(self, "_aug", aug)
+    def __post_init__(self) -> None:
+        n = self.model.n
+        # a linearized model's common corner is replaced by the epoch's (Φ, Q)
+        F = np.zeros((n, n)) if self.model.F is None else self.model.F
+        Q = np.zeros((n, n)) if self.model.Q is None else self.model.Q
+        Q_true = Q if self.model.Q_true is None else self.model.Q_true
+        locals_ = tuple(self._make_local(i) for i in range(len(self.sensors)))
+        object.__setattr__(self, "_locals", locals_)
+        object.__setattr__(
+            self,
+            "_blocks",
+            tuple((block_diag(F, lm.F_private), block_diag(Q, lm.Q_private)) for lm in locals_),
+        )
+        object.__setattr__(
+            self,
+            "_aug",
+            {
+                true: (
+                    block_diag(F, *self._private_blocks("F")),
+                    block_diag(Q_true if true else Q, *self._private_blocks("Q")),
+                )
+                for true in (False, True)
+            },
+        )
 
-    @classmethod
-    def from_scenario(cls, scenario: Scenario) -> LinearSystem:
-        return cls(scenario.model, scenario.sensors)
+    @property
+    def linearized(self) -> bool:
+        """True when Φ, Q and H come with every epoch (integrated navigation)."""
+        return self.model.F is None
 
     @property
     def n_common(self) -> int:
@@ -110,56 +223,16 @@ class LinearSystem:
     def has_private(self) -> bool:
         return any(s.private is not None for s in self.sensors)
 
-    def compatibility(self) -> dict:
-        """What a learned model trained on this system records and later checks.
-
-        State and sensor names, measurement sizes and ``system_hash``, a SHA-256
-        fingerprint of the filters' model (F, Q, x0, P0, every H, R and private
-        block).  Faults, methods and the simulator's true noise are left out, so
-        a model trained on one scenario serves any scenario of the same system.
-        """
-        from ftnav.io.model_file import system_hash
-
-        parts = {
-            "states": list(self.model.states),
-            "F": self.model.F,
-            "Q": self.model.Q,
-            "x0": self.model.x0,
-            "P0": self.model.P0,
-        }
-        for s in self.sensors:
-            parts[f"sensor:{s.name}"] = {
-                "H": s.H,
-                "R": s.R,
-                "every": s.every,
-                "offset": s.offset,
-                "private": None
-                if s.private is None
-                else {
-                    "names": list(s.private.names),
-                    "F": s.private.F,
-                    "Q": s.private.Q,
-                    "x0": s.private.x0,
-                    "P0": s.private.P0,
-                    "H": s.private.H,
-                },
-            }
-        return {
-            "states": list(self.model.states),
-            "sensors": [s.name for s in self.sensors],
-            "measurement_dims": [s.dim for s in self.sensors],
-            "system_hash": system_hash(parts),
-        }
-
     # -- common / augmented matrices ---------------------------------------------
-    def transition(self, k: int, lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Common-state ``(F, Q)`` for the step ``k−1 → k`` (filter's assumed Q)."""
+    def transition(self, lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Common-state ``(F, Q)`` of the step (the filter's assumed Q)."""
         if lin is not None:
             return lin.Phi, lin.Q
+        assert self.model.F is not None and self.model.Q is not None, "linearized system"
         return self.model.F, self.model.Q
 
     def augmented_transition(
-        self, k: int, true: bool = False, lin: Linearization | None = None
+        self, true: bool = False, lin: Linearization | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Augmented ``(F, Q)``; ``true=True`` gives the simulator's ``Q_true``."""
         if lin is not None:
@@ -179,12 +252,13 @@ class LinearSystem:
         s = self.sensors[i]
         if lin is not None and self.n_aug == self.n_common:
             return lin.H[i]  # no private states: the augmented state is the common one
-        index = self.local(i).aug_index
+        index = self._locals[i].aug_index
         if lin is not None:
             Hl = lin.H[i]
             H = np.zeros(Hl.shape[:-1] + (self.n_aug,))
             H[..., index] = Hl
             return H
+        assert s.H is not None, "linearized sensor"
         H = np.zeros((s.dim, self.n_aug))
         H[:, : self.n_common] = s.H
         if s.private is not None:
@@ -193,34 +267,39 @@ class LinearSystem:
 
     def local_H(self, i: int, lin: Linearization | None = None) -> np.ndarray:
         """Local filter i's measurement matrix: (m, n_i), or the epoch's (B, m, n_i)."""
-        return self.local(i).H if lin is None else lin.H[i]
+        if lin is not None:
+            return lin.H[i]
+        H = self._locals[i].H
+        assert H is not None, "linearized sensor"
+        return H
 
     def local(self, i: int) -> LocalModel:
         """Local filter i's model over ``[x_c; x_si]``."""
+        return self._locals[i]
+
+    def _make_local(self, i: int) -> LocalModel:
         s = self.sensors[i]
         nc = self.n_common
         offset = nc
         for j in range(i):
-            if self.sensors[j].private is not None:
-                offset += len(self.sensors[j].private.names)
+            prev = self.sensors[j].private
+            if prev is not None:
+                offset += len(prev.names)
         if s.private is None:
             p = 0
             H, x0, P0 = s.H, self.model.x0, self.model.P0
             Fp = Qp = np.zeros((0, 0))
         else:
             p = len(s.private.names)
-            H = np.hstack([s.H, s.private.H])
+            H = None if s.H is None else np.hstack([s.H, s.private.H])
             x0 = np.concatenate([self.model.x0, s.private.x0])
             P0 = block_diag(self.model.P0, s.private.P0)
             Fp, Qp = s.private.F, s.private.Q
         index = np.concatenate([np.arange(nc), np.arange(offset, offset + p)]).astype(int)
         return LocalModel(H, s.R, x0, P0, Fp, Qp, index)
 
-    def _local_blocks(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-        return self._blocks[i]
-
     def local_transition(
-        self, i: int, k: int, common_scale=None, lin: Linearization | None = None
+        self, i: int, common_scale: np.ndarray | None = None, lin: Linearization | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Local ``(F_i, Q_i)``; the common block of Q is multiplied by ``common_scale``.
 
@@ -230,7 +309,7 @@ class LinearSystem:
         if lin is not None:
             Fi, Qi = _with_batch_common(*self._blocks[i], lin)
         else:
-            Fi, Qi = self._local_blocks(i, k)
+            Fi, Qi = self._blocks[i]
         if common_scale is None:
             return Fi, Qi
         nc = self.n_common
@@ -240,62 +319,6 @@ class LinearSystem:
         mask[:nc, :nc] = 1.0
         scale = np.asarray(common_scale, dtype=float)[..., None, None]
         return Fi, Qi * (1.0 + mask * (scale - 1.0))
-
-
-@dataclass(frozen=True)
-class TimeVaryingSystem(LinearSystem):
-    """Linear system whose common ``(Φ_k, Q_k)`` change every step (spec §8.4).
-
-    ``Phi[k−1]``, ``Qk[k−1]`` (each ``(K, n_c, n_c)``) drive the step ``k−1 → k``, e.g.
-    the discretized SINS error model evaluated along a trajectory
-    (:class:`ftnav.nav.error_model.SinsErrorModel`).  ``Qk`` is both the filters' and
-    the simulator's process noise.  Sensors, private states and every filter are used
-    unchanged: this is how the inertial error models plug into the estimation core.
-    """
-
-    Phi: np.ndarray | None = None
-    Qk: np.ndarray | None = None
-
-    def __post_init__(self):
-        n = self.model.n
-        if self.Phi is None or self.Qk is None:
-            raise ValueError("Phi, Qk: a time-varying system needs both")
-        Phi, Qk = np.asarray(self.Phi, dtype=float), np.asarray(self.Qk, dtype=float)
-        if Phi.ndim != 3 or Phi.shape[1:] != (n, n) or Qk.shape != Phi.shape:
-            raise ValueError(
-                f"Phi, Qk: expected (K, {n}, {n}) each, got {Phi.shape} and {Qk.shape}"
-            )
-        if not (np.isfinite(Phi).all() and np.isfinite(Qk).all()):
-            raise ValueError("Phi, Qk: contain NaN or inf")
-        object.__setattr__(self, "Phi", Phi)
-        object.__setattr__(self, "Qk", Qk)
-        LinearSystem.__post_init__(self)
-
-    @property
-    def steps(self) -> int:
-        return int(self.Phi.shape[0])
-
-    def transition(self, k: int, lin: Linearization | None = None) -> tuple[np.ndarray, np.ndarray]:
-        if lin is not None:
-            return lin.Phi, lin.Q
-        return self.Phi[k - 1], self.Qk[k - 1]
-
-    def _with_common(self, F: np.ndarray, Q: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """Constant blocks (private states) with the common corner replaced by step k's."""
-        nc = self.n_common
-        F, Q = F.copy(), Q.copy()
-        F[:nc, :nc], Q[:nc, :nc] = self.Phi[k - 1], self.Qk[k - 1]
-        return F, Q
-
-    def augmented_transition(
-        self, k: int, true: bool = False, lin: Linearization | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
-        if lin is not None:
-            return _with_batch_common(*self._aug[False], lin)
-        return self._with_common(*self._aug[False], k)
-
-    def _local_blocks(self, i: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-        return self._with_common(*self._blocks[i], k)
 
 
 def _with_batch_common(

@@ -36,8 +36,13 @@ from matplotlib.patches import Patch
 from ftnav.eval.evaluate import split_unit
 from ftnav.eval.metrics import position_norms
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
-from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
-from ftnav.model.scenario import MAX_FIGURE_METHODS, FigureSpec, Scenario
+from ftnav.model.scenario import (
+    MAX_FIGURE_METHODS,
+    METRIC_STATES,
+    POSITION_NORMS,
+    FigureSpec,
+    Scenario,
+)
 
 __all__ = [
     "default_figures",
@@ -214,7 +219,7 @@ def _unit_label(name: str) -> str:
 
 def _states(scenario, states: Sequence[str | int] | None) -> list[str]:
     """State names to draw (default: every state), from names or indices, checked."""
-    known = list(scenario.model.states)
+    known = list(scenario.metric_states)
     plottable = known + (list(POSITION_NORMS) if all(s in known for s in METRIC_STATES[:3]) else [])
     if states is None:
         return known
@@ -232,38 +237,25 @@ def _states(scenario, states: Sequence[str | int] | None) -> list[str]:
     return out
 
 
-def _state_error(
-    res: MethodResult, truth: np.ndarray, states: Sequence[str], name: str
-) -> np.ndarray:
-    """(B, K) error ``x̂ − x`` of one state, or a position norm (horizontal, 3-D)."""
+def _state_error(res: MethodResult, states: Sequence[str], name: str) -> np.ndarray:
+    """(B, K) error of one state, or a position norm (horizontal, 3-D)."""
     states = list(states)
     if name in POSITION_NORMS:
         idx = [states.index(s) for s in METRIC_STATES[:3]]
-        return position_norms(res.x[..., idx] - truth[..., idx])[..., POSITION_NORMS.index(name)]
-    j = states.index(name)
-    return res.x[..., j] - truth[..., j]
+        return position_norms(res.error[..., idx])[..., POSITION_NORMS.index(name)]
+    return res.error[..., states.index(name)]
 
 
 def _pool(result: ScenarioResult, fault_free: bool):
-    """Results, simulation, whether faults are shaded as injected, and the condition's words."""
+    """Results, whether faults are shaded as injected, and the condition's words."""
     sc = result.scenario
     if fault_free and result.fault_free:
-        return (
-            result.fault_free,
-            result.fault_free_simulation,
-            False,
-            "fault-free twin (same noise, faults removed)",
-        )
+        return result.fault_free, False, "fault-free twin (same noise, faults removed)"
     if fault_free and sc.faults:
-        return (
-            result.results,
-            result.simulation,
-            True,
-            "fault-free twin not computed: run WITH the faults",
-        )
+        return result.results, True, "fault-free twin not computed: run WITH the faults"
     if sc.faults:
-        return result.results, result.simulation, True, "with the faults (shaded)"
-    return result.results, result.simulation, False, "no fault in the scenario"
+        return result.results, True, "with the faults (shaded)"
+    return result.results, False, "no fault in the scenario"
 
 
 def _check_count(names: Sequence[str], what: str = "methods") -> None:
@@ -281,8 +273,8 @@ def _reference(scenario, names: Sequence[str]) -> str | None:
         if (
             m.name in names
             and m.architecture == "centralized"
-            and m.detector == "none"
-            and m.adaptive_noise == "none"
+            and m.detector.kind == "none"
+            and m.noise.kind == "none"
         ):
             return m.name
     return None
@@ -364,7 +356,7 @@ def error_figure(
     """
     sc = result.scenario
     names_st = _states(sc, states)
-    pool, sim, injected, condition = _pool(result, fault_free)
+    pool, injected, condition = _pool(result, fault_free)
     names = (
         _select(pool, methods) if methods is not None else list(method_groups(sc, list(pool))[0])
     )
@@ -378,7 +370,6 @@ def error_figure(
     fig, axs = _new_axes(
         n, axes, ncols, figsize=_grid_size(ncols, nrows, width=8.5 if ncols == 1 else 5.0)
     )
-    truth = sim.truth
     # earlier methods are drawn wider, so methods giving identical curves (common
     # without faults) show as nested bands instead of hiding each other
     widths = np.linspace(2.4 if len(names) > 1 else 1.0, 0.7, len(names))
@@ -388,7 +379,7 @@ def error_figure(
         ax_run = axs[per_state * i] if run0 else None
         ax_rms = axs[per_state * i + per_state - 1]
         for name, lw in zip(names, widths, strict=True):
-            err = _state_error(pool[name], truth, sc.model.states, st)
+            err = _state_error(pool[name], sc.metric_states, st)
             if ax_run is not None:
                 ax_run.plot(t, err[0], lw=lw, label=name, **styles[name])
             ax_rms.plot(t, np.sqrt(np.mean(err**2, axis=0)), lw=lw, label=name, **styles[name])

@@ -25,8 +25,8 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
-from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
-from ftnav.model.scenario import FigureSpec
+from ftnav.eval.montecarlo import ScenarioResult
+from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS, FigureSpec
 from ftnav.plot.figures import (
     _check_count,
     _method_styles,
@@ -40,7 +40,7 @@ from ftnav.plot.figures import (
     error_figure,
     method_groups,
 )
-from ftnav.sim.ins_data import fault_profiles
+from ftnav.sim.faults import fault_effect
 
 __all__ = [
     "local_fused_figure",
@@ -91,7 +91,7 @@ def method_error_figure(
 
 
 def local_fused_figure(
-    ir,
+    sr: ScenarioResult,
     method: str | Sequence[str],
     fault_free: bool = False,
     run: int = 0,
@@ -102,8 +102,8 @@ def local_fused_figure(
 
     Parameters
     ----------
-    ir : IntegratedResult
-        Output of :func:`ftnav.eval.integrated.run_ins_scenario`.
+    sr : ScenarioResult
+        Output of :func:`ftnav.eval.montecarlo.run_scenario` on an integrated scenario.
     method : str or sequence of str
         The method whose local filters are drawn, or several (at most
         ``MAX_FIGURE_METHODS``): the locals of the first and the fused estimate of each.
@@ -116,14 +116,12 @@ def local_fused_figure(
     title : str, optional
         First title line (default: the scenario's description or name).
     """
-    sr = ir.result
     sc = sr.scenario
     names = _names(method)
     _check_count(names, "method")
-    pool, _, injected, condition = _pool(sr, fault_free)
+    pool, injected, condition = _pool(sr, fault_free)
     names = _select(pool, names)
-    tracks = ir.local_fault_free if fault_free and sr.fault_free else ir.local
-    loc = tracks.get(names[0])
+    loc = pool[names[0]].local
     for s in states:
         if s not in METRIC_STATES[:3]:
             raise ValueError(f"states: expected position states {METRIC_STATES[:3]}, got {s!r}")
@@ -140,7 +138,7 @@ def local_fused_figure(
             for i, name in enumerate(sc.sensor_names):
                 ax.plot(
                     t,
-                    loc.pos[run, :, i, j],
+                    loc[run, :, i, j],
                     lw=0.8,
                     color=sensors[name],
                     alpha=0.8,
@@ -149,7 +147,7 @@ def local_fused_figure(
         for k, name in enumerate(names):
             ax.plot(
                 t,
-                pool[name].x[run, :, j],
+                pool[name].error[run, :, j],
                 lw=1.6 if k == 0 else 1.1,
                 color=colours[k],
                 linestyle="-" if k == 0 else "--",
@@ -184,7 +182,7 @@ def _true_sigma(aid, sc, sensor: str) -> np.ndarray | None:
     """(K, m) true white-noise σ of each measurement row, where the sensor model gives it."""
     if not hasattr(aid, "pos_white_sigma_m"):
         return None
-    _, scale = fault_profiles(sc.faults, sensor, sc.times, aid.dim)
+    scale = fault_effect(sc.faults, sensor, sc.times, aid.dim).scale[:, 0]
     white = np.concatenate(
         [
             np.broadcast_to(np.asarray(aid.pos_white_sigma_m, float), (3,)),
@@ -256,7 +254,7 @@ def vb_noise_figure(
     return fig
 
 
-def default_figures(ir) -> tuple[FigureSpec, ...]:
+def default_figures(sr: ScenarioResult) -> tuple[FigureSpec, ...]:
     """The figures of an integrated scenario without ``[[figures]]``.
 
     Per group of :func:`~ftnav.plot.figures.method_groups` (the centralized reference
@@ -265,7 +263,6 @@ def default_figures(ir) -> tuple[FigureSpec, ...]:
     groups; ``local_fused_<method>`` (and ``..._fault_free``) for every method with local
     filters; ``vb_noise_<method>_<aid>`` for every aid a method adapts the noise of.
     """
-    sr = ir.result
     sc = sr.scenario
     base = sc.description or sc.name
     groups = method_groups(sc, list(sr.results))
@@ -278,7 +275,7 @@ def default_figures(ir) -> tuple[FigureSpec, ...]:
             for q, states in QUANTITIES.items()
         ]
     for name in sr.results:
-        if ir.local.get(name) is None:
+        if sr.results[name].local is None:
             continue
         specs.append(
             FigureSpec(f"local_fused_{name}", base, (name,), ("pos_N_m", "pos_E_m"), "local-fused")
@@ -295,27 +292,27 @@ def default_figures(ir) -> tuple[FigureSpec, ...]:
                 )
             )
     for m in sc.methods:
-        if m.adaptive_noise == "none" or m.name not in sr.results:
+        if m.noise.kind == "none" or m.name not in sr.results:
             continue
-        for s in m.vb_sensors or sc.sensor_names:
+        for s in m.noise.sensors or sc.sensor_names:
             specs.append(
                 FigureSpec(f"vb_noise_{m.name}_{s}", base, (m.name,), (), "vb-noise", sensor=s)
             )
     return tuple(specs)
 
 
-def draw_figure(ir, spec: FigureSpec) -> Figure:
-    """The figure ``spec`` asks for, from an :class:`~ftnav.eval.integrated.IntegratedResult`."""
+def draw_figure(sr: ScenarioResult, spec: FigureSpec) -> Figure:
+    """The figure ``spec`` asks for, from an integrated run's result."""
     title = spec.title or None
     fault_free = spec.condition == "fault-free"
     if spec.kind == "local-fused":
         return local_fused_figure(
-            ir, spec.methods, fault_free, states=spec.states or ("pos_N_m", "pos_E_m"), title=title
+            sr, spec.methods, fault_free, states=spec.states or ("pos_N_m", "pos_E_m"), title=title
         )
     if spec.kind == "vb-noise":
-        return vb_noise_figure(ir.result, spec.methods, spec.sensor, title=title)
+        return vb_noise_figure(sr, spec.methods, spec.sensor, title=title)
     return error_figure(
-        ir.result,
+        sr,
         fault_free=fault_free,
         states=spec.states or None,
         methods=spec.methods,
@@ -324,14 +321,14 @@ def draw_figure(ir, spec: FigureSpec) -> Figure:
     )
 
 
-def save_integrated(ir, out_dir) -> list[pathlib.Path]:
+def save_integrated(sr: ScenarioResult, out_dir) -> list[pathlib.Path]:
     """Write ``<name>.png`` for every figure of the scenario's ``[[figures]]`` (default:
     :func:`default_figures`); returns the paths."""
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
-    for spec in ir.result.scenario.figures or default_figures(ir):
+    for spec in sr.scenario.figures or default_figures(sr):
         path = out_dir / f"{spec.name}.png"
-        draw_figure(ir, spec).savefig(path, dpi=_DPI)
+        draw_figure(sr, spec).savefig(path, dpi=_DPI)
         paths.append(path)
     return paths

@@ -18,14 +18,12 @@ def detector_figure(report, title: str = ""):
     ----------
     report : :class:`ftnav.fdi.training.DetectorReport` (held-out epochs).
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
     from sklearn.metrics import roc_auc_score, roc_curve
 
     sensors = list(report.roc)
-    fig, axes = plt.subplots(2, len(sensors), figsize=(4.2 * len(sensors), 7.5), squeeze=False)
+    fig = Figure(figsize=(4.2 * len(sensors), 7.5))
+    axes = fig.subplots(2, len(sensors), squeeze=False)
     for j, s in enumerate(sensors):
         y, rbf, chi2 = report.roc[s]
         ax = axes[0, j]
@@ -67,15 +65,13 @@ def detector_figure(report, title: str = ""):
 
 def fusion_figure(model, report, title: str = ""):
     """Held-out RMSE per configuration (bars per source) and the learned weights."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     states = report.states
     configs = report.configurations
     sources = list(report.rmse)
-    fig, axes = plt.subplots(2, len(states), figsize=(4.5 * len(states), 7.5), squeeze=False)
+    fig = Figure(figsize=(4.5 * len(states), 7.5))
+    axes = fig.subplots(2, len(states), squeeze=False)
     x = np.arange(len(configs))
     width = 0.8 / len(sources)
     for j, st in enumerate(states):

@@ -16,16 +16,14 @@ def trajectory_figure(traj, title: str = ""):
     The ground track is East/North (km) from the start point, computed with
     :func:`pymap3d.geodetic2enu` on the WGS-84 ellipsoid.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import pymap3d
+    from matplotlib.figure import Figure
 
     lat, lon, h = np.degrees(traj.p[:, 0]), np.degrees(traj.p[:, 1]), traj.p[:, 2]
     e, n, _ = pymap3d.geodetic2enu(lat, lon, h, lat[0], lon[0], h[0])
     t = traj.t
-    fig, ax = plt.subplots(2, 2, figsize=(11, 8), layout="constrained")
+    fig = Figure(figsize=(11, 8), layout="constrained")
+    ax = fig.subplots(2, 2)
     ax[0, 0].plot(e / 1e3, n / 1e3)
     ax[0, 0].plot(e[0] / 1e3, n[0] / 1e3, "o", label="start")
     ax[0, 0].set(xlabel="East (km)", ylabel="North (km)", title="ground track", aspect="equal")

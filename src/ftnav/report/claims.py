@@ -122,8 +122,8 @@ def _equivalence_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> 
         n
         for n, x in methods.items()
         if n in m
-        and x.detector == "none"
-        and x.adaptive_noise == "none"
+        and x.detector.kind == "none"
+        and x.noise.kind == "none"
         and m[n].max_rel_diff_to_centralized is not None
         and (
             (
@@ -153,7 +153,7 @@ def _equivalence_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> 
 
 def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> list[dict]:
     out = []
-    st = result.scenario.model.states[0]
+    st = result.scenario.metric_states[0]
 
     def win(name):  # in-window RMSE of the first state, with fault
         return m[name].rmse_fault[st]
@@ -250,7 +250,7 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
         plain = [
             n
             for n, x in ((x.name, x) for x in sc.methods)
-            if n in m and x.detector == "none" and m[n].rmse_fault
+            if n in m and x.detector.kind == "none" and m[n].rmse_fault
         ]
         if plain:
             ratios = {n: win(n) / ffwin(iso) for n in plain}
@@ -294,7 +294,7 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                         isolated >= 0.95 and readmitted >= 0.95,
                     )
                 )
-    rbf = next((x.name for x in sc.methods if x.detector == "rbf" and x.name in m), None)
+    rbf = next((x.name for x in sc.methods if x.detector.kind == "rbf" and x.name in m), None)
     faults = [f for f in sc.faults if f.kind != "outage"]
     rbf_claim = (
         "p000-rbf",
@@ -338,7 +338,7 @@ def _horizontal(rmse: dict[str, float]) -> float:
 
 def _window_rmse(res, t, start, end, skip=0.0) -> dict[str, float]:
     w = (t >= max(start, skip)) & (t < end)
-    e = res.x[:, w]
+    e = res.error[:, w]
     names = ("pos_E_m", "pos_N_m", "pos_U_m")
     return {n: float(np.sqrt(np.mean(e[..., j] ** 2))) for j, n in enumerate(names)}
 
@@ -474,7 +474,7 @@ def _paper002_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
     return out
 
 
-def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics], local) -> list[dict]:
+def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> list[dict]:
     """Paper 001 §4 (Fig. 4-5): federated filter with χ² fault detection, SINS/GPS/TAN/DNS."""
     sc = result.scenario
     out = []
@@ -482,7 +482,7 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics], local)
         (
             n
             for n, x in ((x.name, x) for x in sc.methods)
-            if x.architecture == "federated" and x.detector != "none" and n in m
+            if x.architecture == "federated" and x.detector.kind != "none" and n in m
         ),
         None,
     )
@@ -513,20 +513,16 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics], local)
                 "SINS fault window, where every residual is inconsistent",
             )
         )
-    if (
-        local is not None
-        and name is not None
-        and local.get(name) is not None
-        and name in result.fault_free
-    ):
+    if name is not None and result.results[name].local is not None and \
+            name in result.fault_free:
         t = sc.times
         w = t >= sc.evaluation.skip_initial
-        pos = local[name].pos[:, w]  # local tracks of the run with faults
+        pos = result.results[name].local[:, w]  # local tracks of the run with faults
         loc_h = {
             s: float(np.sqrt(np.mean(pos[:, :, i, 0] ** 2 + pos[:, :, i, 1] ** 2)))
             for i, s in enumerate(sc.sensor_names)
         }
-        ff = result.fault_free[name].x[:, w]
+        ff = result.fault_free[name].error[:, w]
         fused = float(np.sqrt(np.mean(ff[..., 0] ** 2 + ff[..., 1] ** 2)))
         out.append(
             _claim(
@@ -606,11 +602,11 @@ def _neural_vs_fkf(
 
 
 def check_claims(
-    result: ScenarioResult, metrics: dict[str, MethodMetrics], local=None, second=None
+    result: ScenarioResult, metrics: dict[str, MethodMetrics], second=None
 ) -> list[dict]:
     """All claims that can be checked on this run.
 
-    ``local``: integrated local tracks; ``second``: ``(result, metrics)`` of the same
+    ``second``: ``(result, metrics)`` of the same
     methods on a flight not used for training (paper 001).
     """
     claims = _equivalence_claims(result, metrics)
@@ -618,7 +614,7 @@ def check_claims(
     if "000" in papers:
         claims += _paper000_claims(result, metrics)
     if "001" in papers:
-        claims += _paper001_claims(result, metrics, local)
+        claims += _paper001_claims(result, metrics)
         claims += _neural_vs_fkf(result, metrics, "training flight", "p001-neural")
         if second is not None:
             claims += _neural_vs_fkf(

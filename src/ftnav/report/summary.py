@@ -29,7 +29,7 @@ import numpy as np
 
 from ftnav.eval.evaluate import MethodMetrics, split_unit
 from ftnav.eval.montecarlo import ScenarioResult
-from ftnav.model.ins_scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.scenario import POSITION_NORMS
 
 __all__ = [
     "Column",
@@ -90,17 +90,13 @@ def _state_column(name: str) -> Column:
 
 def _state_columns(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> tuple[Column, ...]:
     """Every state in model order; the horizontal and 3-D error after the position states."""
-    states = list(result.scenario.model.states)
+    states = list(result.scenario.metric_states)
     keys = set().union(*(m.rmse for m in metrics.values())) if metrics else set()
     norms = [k for k in POSITION_NORMS if k in keys]
     if norms and "pos_U_m" in states:
         i = states.index("pos_U_m") + 1
         states[i:i] = norms
     return tuple(_state_column(s) for s in states)
-
-
-def _is_navigation(states: Sequence[str]) -> bool:
-    return all(s in states for s in METRIC_STATES[:3])
 
 
 def fault_states(scenario) -> dict[str, str]:
@@ -112,15 +108,16 @@ def fault_states(scenario) -> dict[str, str]:
     the sensor measures most, ``argmax`` of the column norms of ``H``.  Outages and
     faults of a component that is not a sensor of the scenario are left out.
     """
-    states = tuple(scenario.model.states)
+    states = tuple(scenario.metric_states)
     out: dict[str, str] = {}
-    sensors = {s.name: s for s in scenario.sensors}
+    names = scenario.sensor_names
     for f in scenario.faults:
-        if f.kind == "outage" or f.sensor not in sensors or f.sensor in out:
+        if f.kind == "outage" or f.sensor not in names or f.sensor in out:
             continue
-        if _is_navigation(states):
+        if scenario.kind == "integrated":
             out[f.sensor] = POSITION_NORMS[0]
             continue
+        sensors = {s.name: s for s in scenario.sensors}
         H = np.asarray(sensors[f.sensor].H, dtype=float)
         mag = np.asarray(f.magnitude, dtype=float)
         if f.kind in ("bias", "ramp") and mag.shape == (H.shape[0],) and np.any(mag):
@@ -205,7 +202,7 @@ def summary_tables(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
 
 def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) -> Table:
     sc = result.scenario
-    n = len(sc.model.states)
+    n = len(sc.metric_states)
     cols = [Column("anees", "consistency", "ANEES", "ANEES", "ratio")]
     faulty = list(fault_states(sc))
     if any(m.detection for m in metrics.values()):
@@ -365,7 +362,7 @@ def _detector_rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
     ]
     rows = []
     own = fault_states(sc)
-    detectors = {m.name: m.detector for m in sc.methods}
+    detectors = {m.name: m.detector.kind for m in sc.methods}
     for name, m in metrics.items():
         if not m.detection:
             continue

@@ -22,7 +22,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ftnav.model.scenario import PrivateStates
+from ftnav.model.system import PrivateStates
 from ftnav.sensors.base import (
     N_STATES,
     AidErrors,

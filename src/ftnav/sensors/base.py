@@ -39,7 +39,7 @@ from typing import NamedTuple, Protocol, runtime_checkable
 import numpy as np
 
 from ftnav.core.markov import gauss_markov
-from ftnav.model.scenario import PrivateStates
+from ftnav.model.system import PrivateStates
 
 __all__ = [
     "N_STATES",

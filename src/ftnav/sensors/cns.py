@@ -42,7 +42,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
-from ftnav.model.scenario import PrivateStates
+from ftnav.model.system import PrivateStates
 from ftnav.nav.attitude import (
     attitude_error,
     dcm_to_euler,

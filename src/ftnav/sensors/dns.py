@@ -40,7 +40,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
-from ftnav.model.scenario import PrivateStates
+from ftnav.model.system import PrivateStates
 from ftnav.nav.attitude import quat_to_dcm
 from ftnav.sensors.base import (
     N_STATES,

@@ -37,7 +37,7 @@ from typing import ClassVar, Literal
 
 import numpy as np
 
-from ftnav.model.scenario import PrivateStates
+from ftnav.model.system import PrivateStates
 from ftnav.nav.earth import radii
 from ftnav.sensors.base import (
     N_STATES,

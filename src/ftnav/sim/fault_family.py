@@ -20,7 +20,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ftnav.model.scenario import Fault, Scenario
-from ftnav.sim.linear import Simulation, concat_simulations, simulate
+from ftnav.model.streams import concat_streams
+from ftnav.sim.linear import LinearTruth, Simulated, simulate
 
 __all__ = [
     "FaultFamily",
@@ -156,7 +157,7 @@ def fault_variants(
 
 def simulate_variants(
     scenario: Scenario, variants: list[FaultVariant], runs: int, seed: int, first_run: int = 0
-) -> tuple[Simulation, np.ndarray]:
+) -> tuple[Simulated, np.ndarray]:
     """Simulate ``runs`` runs of every variant as one batch.
 
     Variant ``v`` uses the run indices ``first_run + v·runs + r``, so every run of
@@ -164,8 +165,8 @@ def simulate_variants(
 
     Returns
     -------
-    simulation : batch of ``len(variants)·runs`` runs; ``oracle`` is per run
-        ``(K, B, N)``, the true fault windows of each run's variant.
+    simulated : the stream of ``len(variants)·runs`` runs (its ``labels`` per run,
+        ``(K, B, N)``: the true fault windows of each run's variant) and their truth.
     variant : (B,) int, the variant of each run.
     """
     if runs < 1:
@@ -174,7 +175,12 @@ def simulate_variants(
         simulate(replace(scenario, faults=v.faults), runs, seed, first_run + j * runs)
         for j, v in enumerate(variants)
     ]
-    return concat_simulations(*sims), np.repeat(np.arange(len(variants)), runs)
+    stream = concat_streams(*(t.stream for t in sims))
+    truth = LinearTruth(
+        np.concatenate([t.truth.states for t in sims]),
+        tuple(np.concatenate(p) for p in zip(*(t.truth.noise_free for t in sims), strict=True)),
+    )
+    return Simulated(stream, truth), np.repeat(np.arange(len(variants)), runs)
 
 
 def window_masks(

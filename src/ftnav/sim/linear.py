@@ -18,29 +18,31 @@ from typing import NamedTuple
 import numpy as np
 
 from ftnav.model.scenario import Scenario
-from ftnav.model.system import LinearSystem
+from ftnav.model.streams import MeasurementStream
+from ftnav.model.system import LinearSystem, TimeVarying
+from ftnav.sim.faults import fault_effect, hold_stuck
 
-__all__ = ["Simulation", "concat_simulations", "run_generator", "simulate"]
+__all__ = ["LinearTruth", "Simulated", "run_generator", "simulate"]
 
 
-class Simulation(NamedTuple):
-    """Simulated data for B runs and K steps.
+class LinearTruth(NamedTuple):
+    """The truth of B simulated runs of a linear scenario.
 
     Attributes
     ----------
-    truth : (B, K, n_aug) true augmented state at t_1..t_K.
-    z : per sensor (B, K, m_i) measurements (garbage where not available).
-    available : (B, K, N) bool, a measurement exists (schedule and outages).
-    oracle : (K, N) bool, true detectable fault windows per sensor (or (K, B, N)
-        per run, for a batch that concatenates simulations).
+    states : (B, K, n_aug) true augmented state at t_1..t_K.
     noise_free : per sensor (B, K, m_i) ideal measurements H x (for analysis).
     """
 
-    truth: np.ndarray
-    z: tuple[np.ndarray, ...]
-    available: np.ndarray
-    oracle: np.ndarray
+    states: np.ndarray
     noise_free: tuple[np.ndarray, ...]
+
+
+class Simulated(NamedTuple):
+    """A simulator's output: the stream the engine consumes and, apart, the truth."""
+
+    stream: MeasurementStream
+    truth: LinearTruth
 
 
 def run_generator(seed: int, run: int) -> np.random.Generator:
@@ -55,14 +57,19 @@ def _cholesky_psd(A: np.ndarray) -> np.ndarray:
 
 
 def simulate(
-    scenario: Scenario, runs: int, seed: int, first_run: int = 0, system: LinearSystem | None = None
-) -> Simulation:
+    scenario: Scenario,
+    runs: int,
+    seed: int,
+    first_run: int = 0,
+    transitions: TimeVarying | None = None,
+) -> Simulated:
     """Simulate ``runs`` Monte Carlo runs (indices ``first_run ..``) of a scenario.
 
-    ``system`` replaces the scenario's constant model, e.g. by a
-    :class:`~ftnav.model.system.TimeVaryingSystem` (same sensors and faults).
+    ``transitions`` gives a time-varying model's per-epoch common ``(Φ_k, Q_k)`` (the
+    simulator draws ``Q_k`` as the true process noise); the private states and the
+    sensors are the scenario's.
     """
-    system = LinearSystem.from_scenario(scenario) if system is None else system
+    system = LinearSystem(scenario.model, scenario.sensors)
     K, B, N = scenario.steps, runs, len(scenario.sensors)
     n = system.n_aug
     dims = [s.dim for s in scenario.sensors]
@@ -77,15 +84,20 @@ def simulate(
     v_all = draws[:, n + K * n :].reshape(B, K, sum(dims))
 
     truth = np.empty((B, K, n))
+    F_aug, Q_aug = system.augmented_transition(true=True)
     for k in range(1, K + 1):
-        F, Q = system.augmented_transition(k, true=True)
+        F, Q = F_aug, Q_aug
+        if transitions is not None:
+            F, Q = F.copy(), Q.copy()
+            nc = system.n_common
+            F[:nc, :nc], Q[:nc, :nc] = transitions.Phi[k - 1], transitions.Q[k - 1]
         x = np.einsum("ij,bj->bi", F, x) + np.einsum("ij,bj->bi", _cholesky_psd(Q), w[:, k - 1])
         truth[:, k - 1] = x
 
     t = scenario.times
     z, ideal = [], []
     available = np.empty((B, K, N), dtype=bool)
-    oracle = np.zeros((K, N), dtype=bool)
+    labels = np.zeros((K, N), dtype=bool)
     start = 0
     for i, s in enumerate(scenario.sensors):
         H = system.augmented_H(i)
@@ -94,55 +106,12 @@ def simulate(
             "ij,bkj->bki", np.linalg.cholesky(s.R_true), v_all[:, :, start : start + s.dim]
         )
         start += s.dim
-        avail = np.broadcast_to(s.available(K), (B, K)).copy()
-        for f in scenario.faults:
-            if f.sensor != s.name:
-                continue
-            win = (t >= f.start) & (t < f.end)
-            if f.kind == "noise-scale":
-                noise = np.where(win[None, :, None], noise * f.magnitude, noise)
-        zi = zi_ideal + noise
-        for f in scenario.faults:
-            if f.sensor != s.name:
-                continue
-            win = (t >= f.start) & (t < f.end)
-            if not win.any():
-                continue
-            if f.kind == "bias":
-                zi = zi + win[None, :, None] * f.magnitude
-            elif f.kind == "ramp":
-                frac = np.clip((t - f.start) / (f.end - f.start), 0.0, 1.0) * win
-                zi = zi + frac[None, :, None] * f.magnitude
-            elif f.kind == "outage":
-                avail &= ~win[None, :]
-            elif f.kind == "stuck":
-                k0 = int(np.argmax(win))
-                held = zi[:, max(k0 - 1, 0)].copy()
-                zi = np.where(win[None, :, None], held[:, None, :], zi)
-            if f.kind != "outage":
-                oracle[:, i] |= win
+        effect = fault_effect(scenario.faults, s.name, t, s.dim)
+        zi = hold_stuck(zi_ideal + noise * effect.scale[None] + effect.offset[None], effect)
         z.append(zi)
         ideal.append(zi_ideal)
-        available[:, :, i] = avail
-    return Simulation(truth, tuple(z), available, oracle, tuple(ideal))
-
-
-def concat_simulations(*sims: Simulation) -> Simulation:
-    """One simulation with the runs of each argument in turn.
-
-    The oracle becomes per run, ``(K, B_1 + B_2 + ..., N)``.
-    """
-
-    def per_run(s):
-        return np.broadcast_to(
-            s.oracle[:, None, :] if s.oracle.ndim == 2 else s.oracle,
-            (s.oracle.shape[0], s.truth.shape[0], s.oracle.shape[-1]),
-        )
-
-    return Simulation(
-        np.concatenate([s.truth for s in sims]),
-        tuple(np.concatenate(p) for p in zip(*(s.z for s in sims), strict=True)),
-        np.concatenate([s.available for s in sims]),
-        np.concatenate([per_run(s) for s in sims], axis=1),
-        tuple(np.concatenate(p) for p in zip(*(s.noise_free for s in sims), strict=True)),
+        available[:, :, i] = s.available(K)[None, :] & ~effect.outage[None, :]
+        labels[:, i] = effect.label
+    return Simulated(
+        MeasurementStream(tuple(z), available, labels), LinearTruth(truth, tuple(ideal))
     )

@@ -28,9 +28,14 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ftnav.core.lms import lms_train
-from ftnav.fusion.neural import FREE_INPUT, NeuralFusion, NeuronModel
-from ftnav.model.scenario import Method, Scenario
-from ftnav.model.system import LinearSystem
+from ftnav.engine.driver import run
+from ftnav.engine.linear import LinearModel
+from ftnav.fusion import registry
+from ftnav.fusion.config import Learned, OracleDetector, ResidualChi2
+from ftnav.fusion.neural import NeuralConfig, NeuralFusion
+from ftnav.fusion.neural_model import FREE_INPUT, NeuronModel
+from ftnav.io.learned import compatibility
+from ftnav.model.scenario import Scenario
 from ftnav.sim.fault_family import (
     HOLDOUT_OFFSET,
     FaultFamily,
@@ -124,7 +129,7 @@ def _training_epochs(scenario: Scenario, variants, s: FusionTraining):
     simulation); too few for the inputs raise ``ValueError`` naming ``runs``."""
     masks = _epoch_masks(scenario, variants, s.runs, s.skip_fraction)
     M = min(s.max_samples, *(int(m.sum()) for m in masks.values()))
-    n_in = len(scenario.sensors) + int(s.free_input)
+    n_in = len(scenario.sensor_names) + int(s.free_input)
     if M <= n_in:
         raise ValueError(
             f"runs: too few training epochs ({M}) for {n_in} inputs; "
@@ -139,16 +144,19 @@ def check_training(scenario: Scenario, settings: FusionTraining = FusionTraining
     _training_epochs(scenario, fault_variants(scenario, settings.family, rng), settings)
 
 
-def _inputs(system, sim, free_input, progress):
-    """Stacked local estimates (B, K, N_in, n_c) of independent local filters."""
-    from ftnav.eval.montecarlo import run_filter
+def _estimates(system, stream, steps, filt, progress) -> np.ndarray:
+    """(B, K, n_c) fused estimates of one filter over the stream."""
+    return run(LinearModel(system), stream, {"m": filt}, steps, progress)["m"].x
 
+
+def _inputs(system, stream, steps, free_input, progress):
+    """Stacked local estimates (B, K, N_in, n_c) of independent local filters."""
     collect = NeuralFusion(
-        system, Method(name="collect", architecture="neural"), collect=True, free_input=free_input
+        system, NeuralConfig(name="collect"), collect=True, free_input=free_input
     )
-    res = run_filter(collect, sim, system.n_common, progress)
-    B, K, _ = res.features.shape
-    return res.features.reshape(B, K, -1, system.n_common)
+    trace = run(LinearModel(system), stream, {"collect": collect}, steps, progress)["collect"]
+    B, K, _ = trace.features.shape
+    return trace.features.reshape(B, K, -1, system.n_common)
 
 
 def train_fusion(
@@ -160,19 +168,19 @@ def train_fusion(
 
     Returns
     -------
-    model : the trained banks (save with :meth:`NeuronModel.save`).
+    model : the trained banks (save with :func:`ftnav.io.learned.save_neuron_model`).
     report : held-out RMSE per configuration beside the local and centralized filters.
     """
     s = settings
-    system = LinearSystem.from_scenario(scenario)
+    system = scenario.system()
     nc, N = system.n_common, system.n_sensors
     rng = np.random.default_rng(np.random.SeedSequence(s.seed, spawn_key=(_WINDOW_STREAM,)))
     variants = fault_variants(scenario, s.family, rng)
     masks, M = _training_epochs(scenario, variants, s)
     configs = tuple(masks)
     sim, _ = simulate_variants(scenario, variants, s.runs, s.seed)
-    U = _inputs(system, sim, s.free_input, progress)  # (B, K, N_in, nc)
-    truth = sim.truth[..., :nc]
+    U = _inputs(system, sim.stream, scenario.steps, s.free_input, progress)  # (B, K, N_in, nc)
+    truth = sim.truth.states[..., :nc]
     pick = np.random.default_rng(np.random.SeedSequence(s.seed, spawn_key=(_SAMPLE_STREAM,)))
     Us, ts = [], []
     for c in configs:
@@ -220,17 +228,17 @@ def train_fusion(
         configs,
         patterns,
         inputs,
-        tuple(scenario.model.states),
+        tuple(system.model.states),
         weights,
         np.sqrt(lms.mse).reshape(C, nc),
-        system.compatibility(),
+        compatibility(system),
         provenance,
     )
     rmse = _held_out(scenario, system, model, variants, s, progress)
     report = FusionReport(
         rmse,
         configs,
-        tuple(scenario.model.states),
+        tuple(system.model.states),
         M,
         int(lms.epochs_run),
         float(lms.min_weight.min()),
@@ -241,37 +249,33 @@ def train_fusion(
 
 def _held_out(scenario, system, model, variants, s: FusionTraining, progress) -> dict:
     """Held-out RMSE ``[source][configuration][state]`` (see :class:`FusionReport`)."""
-    from ftnav.eval.montecarlo import build_filter, run_filter
-
     sim, _ = simulate_variants(scenario, variants, s.holdout_runs, s.seed, HOLDOUT_OFFSET)
-    nc = system.n_common
+    nc, K = system.n_common, scenario.steps
     masks = _epoch_masks(scenario, variants, s.holdout_runs, s.skip_fraction)
-    U = _inputs(system, sim, model.free_input, progress)
-    truth = sim.truth[..., :nc]
+    U = _inputs(system, sim.stream, K, model.free_input, progress)
+    truth = sim.truth.states[..., :nc]
     est = {name: U[:, :, i] for i, name in enumerate(model.inputs)}
-    base = Method(name="neural", architecture="neural")
-    for src, m in (
-        ("neural-oracle", replace(base, detector="oracle")),
+    chi2 = ResidualChi2(
+        kind="residual-chi2", false_alarm_probability=s.chi2_pfa, n_off=3, prior=s.chi2_prior
+    )
+    for src, filt in (
         (
-            "neural-chi2",
-            replace(
-                base,
-                detector="residual-chi2",
-                false_alarm_probability=s.chi2_pfa,
-                n_off=3,
-                prior=s.chi2_prior,
+            "neural-oracle",
+            NeuralFusion(
+                system,
+                NeuralConfig(name="neural", detector=OracleDetector(kind="oracle")),
+                Learned(fusion=model),
             ),
         ),
-        ("centralized", Method(name="ckf", architecture="centralized")),
+        (
+            "neural-chi2",
+            NeuralFusion(system, NeuralConfig(name="neural", detector=chi2), Learned(fusion=model)),
+        ),
+        ("centralized", registry.build(system, registry.method_config("centralized", name="ckf"))),
     ):
-        filt = (
-            NeuralFusion(system, m, model=model)
-            if m.architecture == "neural"
-            else build_filter(system, m)
-        )
-        est[src] = run_filter(filt, sim, nc, progress).x
+        est[src] = _estimates(system, sim.stream, K, filt, progress)
     rmse = {}
-    states = tuple(scenario.model.states)
+    states = tuple(system.model.states)
     for src, x in est.items():
         err2 = (x - truth) ** 2
         rmse[src] = {

@@ -17,46 +17,54 @@ from typing import NamedTuple
 import numpy as np
 
 from ftnav.model.flight import Profile
-from ftnav.model.ins_scenario import SINS, InsFault, InsScenario
+from ftnav.model.scenario import SINS, InsScenario
+from ftnav.model.streams import AidStream, ImuStream, InsStream
 from ftnav.nav import attitude
+from ftnav.nav.mechanization import InsState
 from ftnav.sensors.base import AidTruth
+from ftnav.sim.faults import fault_effect, hold_stuck
 from ftnav.sim.imu import ImuErrorTruth, simulate_imu_errors
 from ftnav.sim.trajectory import Trajectory, generate
 
-__all__ = ["InsData", "simulate_ins", "trajectory_of", "epoch_truth", "fault_profiles"]
+__all__ = [
+    "InsTruth",
+    "SimulatedIns",
+    "epoch_truth",
+    "initial_solution",
+    "simulate_ins",
+    "trajectory_of",
+]
 
 #: Stream numbers (spawn_key component) of the initial INS error draws.
 _INIT_STREAM = 900
 
 
-class InsData(NamedTuple):
-    """Data of B runs.
+class InsTruth(NamedTuple):
+    """The truth of B simulated runs of an integrated scenario.
 
     Attributes
     ----------
     trajectory : the true flight (shared by all runs).
-    truth : truth at the K filter epochs.
-    dtheta, dv : (B, K·n, 3) measured IMU increments (n samples per filter epoch).
-    imu_truth : the true IMU errors of each run; the Markov drifts (B, K, 3) at the K
+    epochs : the truth at the K filter epochs (:class:`~ftnav.sensors.base.AidTruth`).
+    imu : the true IMU errors of each run; the Markov drifts (B, K, 3) at the K
         filter epochs (the value over each epoch's last IMU interval).
-    init_error : (B, n) initial INS error, n the filter's states (only the 9 navigation
-        states are applied; the bias states are the IMU's own truth).
-    raw : per aid, the raw output at the K epochs (B, K, ...), NaN where there is none.
-    available : (B, K, N) bool, the aid has an output (schedule, outages).
-    oracle : (K, N) bool, true detectable fault windows per aid.
+    init_error : (B, n) initial INS error (the 9 navigation states are applied; the
+        bias states are the IMU's own truth).
     runs : the run indices.
     """
 
     trajectory: Trajectory
-    truth: AidTruth
-    dtheta: np.ndarray
-    dv: np.ndarray
-    imu_truth: ImuErrorTruth
+    epochs: AidTruth
+    imu: ImuErrorTruth
     init_error: np.ndarray
-    raw: tuple[np.ndarray, ...]
-    available: np.ndarray
-    oracle: np.ndarray
     runs: range
+
+
+class SimulatedIns(NamedTuple):
+    """A simulator's output: the stream the engine consumes and, apart, the truth."""
+
+    stream: InsStream
+    truth: InsTruth
 
 
 @lru_cache(maxsize=4)
@@ -72,31 +80,18 @@ def epoch_truth(traj: Trajectory, every: int, steps: int) -> AidTruth:
     return AidTruth(traj.t[idx], traj.p[idx], traj.v[idx], q)
 
 
-def _window(t: np.ndarray, f: InsFault) -> np.ndarray:
-    return (t >= f.start) & (t < f.end)
+def initial_solution(traj: Trajectory, init_error: np.ndarray) -> InsState:
+    """Truth at t = 0 plus each run's initial navigation error (spec §8.3 order)."""
+    e = init_error
+    B = e.shape[0]
+    q_true = attitude.euler_to_quat(traj.euler[0])
+    q = attitude.quat_mul(attitude.rotvec_to_quat(-e[:, 0:3]), np.broadcast_to(q_true, (B, 4)))
+    v = traj.v[0] + e[:, 3:6]
+    p = traj.p[0] + e[:, 6:9]
+    return InsState(q / np.linalg.norm(q, axis=-1, keepdims=True), v, p, np.zeros((B, 3)))
 
 
-def fault_profiles(faults, sensor: str, t: np.ndarray, m: int):
-    """Offset (K, m) and white-noise scale (K,) of an aid's faults (spec §9.6)."""
-    offset = np.zeros((t.size, m))
-    scale = np.ones(t.size)
-    for f in faults:
-        if f.sensor != sensor:
-            continue
-        w = _window(t, f)
-        frac = np.clip((t - f.start) / max(f.end - f.start, 1e-12), 0.0, 1.0)
-        if f.kind == "bias":
-            offset[w] += f.magnitude
-        elif f.kind == "ramp":
-            offset[w] += frac[w, None] * f.magnitude
-        elif f.kind == "noise-scale":
-            scale[w] *= float(f.magnitude[0])
-        elif f.kind == "noise-ramp":
-            scale[w] *= 1.0 + (float(f.magnitude[0]) - 1.0) * frac[w]
-    return offset, scale
-
-
-def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
+def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> SimulatedIns:
     """Simulate the IMU and every aid of ``scenario`` for the given runs."""
     sc = scenario
     traj = trajectory_of(sc.profile)
@@ -120,7 +115,8 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
     t_imu = traj.dt * np.arange(1, n_imu + 1)  # end time of each IMU interval
     for f in sc.faults:
         if f.sensor == SINS and f.kind == "gyro-bias":
-            dtheta[:, _window(t_imu, f)] += np.asarray(f.magnitude) * traj.dt
+            window = (t_imu >= f.start) & (t_imu < f.end)
+            dtheta[:, window] += np.asarray(f.magnitude) * traj.dt
     truth = epoch_truth(traj, n, K)
     n_states = sc.initial_sigma.shape[0]  # 18 or 15: the first 9 draws are the same
     init = (
@@ -134,31 +130,21 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> InsData:
         )
         * sc.initial_sigma
     )
-    raws, avail, oracle = (
-        [],
-        np.zeros((B, K, len(sc.aids)), bool),
-        np.zeros((K, len(sc.aids)), bool),
-    )
+    aids, labels = [], np.zeros((K, len(sc.aids)), bool)
     for i, aid in enumerate(sc.aids):
         s = aid.sensor
         err = s.simulate_errors(truth, seed, runs, i)
-        offset, scale = fault_profiles(sc.faults, s.name, truth.t, s.dim)
-        total = err.coloured + err.white * scale[None, :, None] + offset[None]
-        raw = np.array(s.output(truth, total, err.constants), dtype=float)
-        ok = np.broadcast_to(aid.available(K), (B, K)).copy()
-        for f in sc.faults:
-            if f.sensor != s.name:
-                continue
-            w = _window(truth.t, f)
-            if f.kind == "outage":
-                ok[:, w] = False
-            elif f.kind == "stuck":
-                first = int(np.argmax(w))
-                if w.any() and first > 0:
-                    raw[:, w] = raw[:, first - 1 : first]
-            if f.kind != "outage":
-                oracle[:, i] |= w
+        effect = fault_effect(sc.faults, s.name, truth.t, s.dim)
+        total = err.coloured + err.white * effect.scale[None] + effect.offset[None]
+        raw = hold_stuck(np.array(s.output(truth, total, err.constants), dtype=float), effect)
+        ok = aid.available(K)[None, :] & ~effect.outage[None, :] & np.ones((B, 1), bool)
         raw[~ok] = np.nan
-        raws.append(raw)
-        avail[:, :, i] = ok
-    return InsData(traj, truth, dtheta, dv, imu_truth, init, tuple(raws), avail, oracle, runs)
+        aids.append(AidStream(truth.t, raw, ok))
+        labels[:, i] = effect.label
+    stream = InsStream(
+        ImuStream(0.0, traj.dt, t_imu, dtheta, dv),
+        tuple(aids),
+        initial_solution(traj, init),
+        labels,
+    )
+    return SimulatedIns(stream, InsTruth(traj, truth, imu_truth, init, runs))

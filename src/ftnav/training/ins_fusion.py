@@ -12,7 +12,7 @@ filters, fused by inverse variances over the unflagged inputs with the true faul
 flags (``oracle``); its fused estimate is fed back, as in operation.  Targets are the
 true 18 error states (navigation errors before feedback, the IMU's true biases).  The
 neurons of each (configuration, state) pair are trained by projected LMS on centred
-inputs (spec §5.3), as :func:`ftnav.fusion.neural_training.train_fusion` does for
+inputs (spec §5.3), as :func:`ftnav.training.fusion.train_fusion` does for
 linear scenarios (step below).
 """
 
@@ -24,18 +24,21 @@ from dataclasses import replace
 import numpy as np
 
 from ftnav.core.lms import lms_train
-from ftnav.eval.integrated import build_ins_system, run_ins_methods
-from ftnav.fusion.neural import NeuralFusion, NeuronModel
-from ftnav.model.ins_scenario import SINS, InsFault, InsScenario
-from ftnav.model.scenario import Method
-from ftnav.sim.ins_data import simulate_ins
+from ftnav.engine import navigation_model
+from ftnav.engine.driver import iterate
+from ftnav.fusion.config import OracleDetector
+from ftnav.fusion.neural import NeuralConfig, NeuralFusion
+from ftnav.fusion.neural_model import NeuronModel
+from ftnav.model.scenario import SINS, Fault, InsScenario
+from ftnav.nav.mechanization import navigation_errors
+from ftnav.sim.ins import InsTruth, simulate_ins
 
 __all__ = ["train_ins_fusion", "ins_configurations"]
 
 _SAMPLE_STREAM = 0x4E49
 
 
-def ins_configurations(sc: InsScenario) -> list[tuple[str, np.ndarray, InsFault | None]]:
+def ins_configurations(sc: InsScenario) -> list[tuple[str, np.ndarray, Fault | None]]:
     """(name, flag pattern (N,), training fault) of every configuration with a fault to learn."""
     N = len(sc.aids)
     out = [("healthy", np.zeros(N, bool), None)]
@@ -73,9 +76,10 @@ def train_ins_fusion(
     for GPS / TAN / DNS against the optimum 0.94 / 0.03 / 0.02).  ``samples``, if given,
     receives the centred, scaled training arrays ``U`` (J, M, N_in) and ``t`` (J, M).
     """
-    system = build_ins_system(sc)
+    system = sc.system()
+    model_ = navigation_model(sc, system)
     nc = system.n_common
-    collect_method = Method(name="collect", architecture="neural", detector="oracle")
+    collect_method = NeuralConfig(name="collect", detector=OracleDetector(kind="oracle"))
     configs = ins_configurations(sc)
     end = sc.steps * sc.dt
     pick = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(_SAMPLE_STREAM,)))
@@ -83,13 +87,15 @@ def train_ins_fusion(
     for name, pattern, fault in configs:
         faults = () if fault is None else (replace(fault, start=fault_start, end=end + 1.0),)
         variant = replace(sc, faults=faults)
-        data = simulate_ins(variant, range(runs), seed)
+        sim = simulate_ins(variant, range(runs), seed)
         filt = NeuralFusion(system, collect_method, collect=True, untrained="inverse-variance")
         truth = np.empty((runs, sc.steps, nc))
-        res, _ = run_ins_methods(
-            {"collect": filt}, variant, data, system, progress, true_states=truth
-        )["collect"]
-        U = res.features.reshape(runs, sc.steps, -1, nc)  # (B, K, N_in, nc)
+        feats = np.empty((runs, sc.steps, system.n_sensors * nc))
+        for r in iterate(model_, sim.stream, {"collect": filt}, sc.steps, progress):
+            truth[:, r.k - 1] = true_states(sim.truth, r.nav, r.k, nc)
+            feats[:, r.k - 1] = r.outputs[0].features
+        res_features = feats
+        U = res_features.reshape(runs, sc.steps, -1, nc)  # (B, K, N_in, nc)
         t = sc.times
         window = t >= (skip if fault is None else fault_start + skip)
         u = U[:, window].reshape(-1, *U.shape[2:])
@@ -142,3 +148,20 @@ def train_ins_fusion(
         system.compatibility(),
         provenance,
     )
+
+
+def true_states(truth: InsTruth, nav, k: int, n: int) -> np.ndarray:
+    """(B, n) the true error state at epoch k: the navigation errors of the SINS (its first
+    B rows) before the correction, then the IMU's true biases as the error model's states
+    hold them (18 states: ε_b, ε_r, ∇ = constant + Markov accelerometer bias; 15 states:
+    ε and ∇ each constant + Markov)."""
+    tr, it = truth.epochs, truth.imu
+    B = it.gyro_bias.shape[0]
+    e = navigation_errors(nav.q[:B], nav.v[:B], nav.p[:B], tr.q[k - 1], tr.v[k - 1], tr.p[k - 1])
+    accel = it.accel_bias + it.accel_markov[:, k - 1]
+    gyro = (
+        [it.gyro_bias, it.gyro_markov[:, k - 1]]
+        if n == 18
+        else [it.gyro_bias + it.gyro_markov[:, k - 1]]
+    )
+    return np.concatenate([e, *gyro, accel], -1)

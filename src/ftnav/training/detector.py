@@ -22,17 +22,29 @@ Pipeline (:func:`train_detector`):
 from __future__ import annotations
 
 import math
-import tempfile
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ftnav.engine.driver import Trace, run
+from ftnav.engine.linear import LinearModel
 from ftnav.eval.metrics import detection_stats
 from ftnav.fdi.features import FEATURE_KINDS
 from ftnav.fdi.rbf import RBFModel, RBFNetwork
-from ftnav.model.scenario import Method, Scenario
+from ftnav.fusion import registry
+from ftnav.fusion.config import (
+    NOTHING_LEARNED,
+    Learned,
+    MethodBase,
+    OracleDetector,
+    RbfDetector,
+    ResidualChi2,
+)
+from ftnav.io.learned import compatibility
+from ftnav.model.scenario import Scenario
+from ftnav.model.streams import MeasurementStream
 from ftnav.model.system import LinearSystem
 from ftnav.sim.fault_family import (
     HOLDOUT_OFFSET,
@@ -42,7 +54,6 @@ from ftnav.sim.fault_family import (
     simulate_variants,
     window_masks,
 )
-from ftnav.sim.linear import Simulation
 
 __all__ = [
     "DetectorTraining",
@@ -125,18 +136,14 @@ class DetectorReport:
     train_samples: int
 
 
-def default_method(scenario: Scenario) -> Method:
+def default_method(scenario: Scenario) -> MethodBase:
     """The method a detector is trained for: the scenario's first RBF method, else
     paper 000's federated filter (fusion-reset, inverse-trace sharing)."""
     for m in scenario.methods:
-        if m.detector == "rbf":
+        if isinstance(m.detector, RbfDetector):
             return m
-    return Method(
-        name="fkf-inverse-trace-rbf",
-        architecture="federated",
-        sharing="inverse-trace",
-        detector="rbf",
-        n_off=3,
+    return registry.method_config(
+        "federated", name="fkf-inverse-trace-rbf", sharing="inverse-trace"
     )
 
 
@@ -144,19 +151,46 @@ def _rng(seed: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(_WINDOW_STREAM,)))
 
 
-def _collect(system, method, sim, kinds, progress):
-    from ftnav.eval.montecarlo import build_filter, run_filter
+def _with_detector(method: MethodBase, detector: Any) -> MethodBase:
+    return method.model_copy(update={"detector": detector})
 
-    filt = build_filter(system, method, features=kinds)
-    res = run_filter(filt, sim, system.n_common, progress)
-    labels = np.swapaxes(np.asarray(sim.oracle, dtype=bool), 0, 1)  # (B, K, N)
-    return res, labels
+
+def _rbf(s: DetectorTraining) -> RbfDetector:
+    return RbfDetector(kind="rbf", model="(in memory)", n_on=s.n_on, n_off=s.n_off)
+
+
+def _run(
+    system: LinearSystem,
+    method: MethodBase,
+    stream: MeasurementStream,
+    steps: int,
+    progress: Callable[[int], None] | None,
+    learned: Learned = NOTHING_LEARNED,
+    **kw: Any,
+) -> Trace:
+    filt = registry.build(system, method, learned, **kw)
+    return run(LinearModel(system), stream, {method.name: filt}, steps, progress)[method.name]
+
+
+def _collect(system, method, stream, steps, kinds, prior, progress):
+    """The method with the true fault windows as fault factors, reporting the features."""
+    trace = _run(
+        system,
+        _with_detector(method, OracleDetector(kind="oracle")),
+        stream,
+        steps,
+        progress,
+        features=kinds,
+        feature_prior=prior,
+    )
+    labels = np.swapaxes(np.asarray(stream.labels, dtype=bool), 0, 1)  # (B, K, N)
+    return trace, labels
 
 
 def train_detector(
     scenario: Scenario,
     settings: DetectorTraining = DetectorTraining(),
-    method: Method | None = None,
+    method: MethodBase | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> tuple[RBFModel, DetectorReport]:
     """Train an RBF detector for ``method`` on ``scenario``'s system (spec §4.2).
@@ -171,33 +205,36 @@ def train_detector(
 
     Returns
     -------
-    model : the trained detector (save it with :meth:`RBFModel.save`).
+    model : the trained detector (save it with :func:`ftnav.io.learned.save_rbf_model`).
     report : held-out metrics beside the chi-square test on the same runs.
     """
     method = default_method(scenario) if method is None else method
-    if method.architecture not in ("federated", "distributed"):
+    if (
+        method.architecture not in ("federated", "distributed")
+        or getattr(method, "mode", None) == "zero-reset"
+    ):
         raise ValueError(
             f"methods[{method.name}].architecture: the RBF detector's features "
-            "need local filters (federated or distributed)"
+            "need local filters with priors (federated or distributed, not zero-reset)"
         )
     s = settings
-    system = LinearSystem.from_scenario(scenario)
+    system = scenario.system()
+    K = scenario.steps
     kinds = tuple(s.features)
     variants = fault_variants(scenario, s.family, _rng(s.seed))
     sim, _ = simulate_variants(scenario, variants, s.runs, s.seed)
-    oracle_method = replace(method, detector="oracle", prior=s.prior, model=None)
-    res, labels = _collect(system, oracle_method, sim, kinds, progress)
+    res, labels = _collect(system, method, sim.stream, K, kinds, s.prior, progress)
     X = [res.features.reshape(-1, res.features.shape[-1])]
     Y = [labels.reshape(-1, labels.shape[-1])]
     net = RBFNetwork(s.n_centres, s.width, s.ridge, s.n_init, s.class_weight, random_state=s.seed)
     net.fit(np.concatenate(X), np.concatenate(Y))
-    compat = system.compatibility()
+    compat = compatibility(system)
     provenance = {
         "scenario": scenario.name,
         "method": method.name,
         "architecture": method.architecture,
-        "mode": method.mode,
-        "sharing": method.sharing,
+        "mode": getattr(method, "mode", None),
+        "sharing": getattr(method, "sharing", None),
         "runs_per_variant": s.runs,
         "seed": s.seed,
         "variants": [v.label for v in variants],
@@ -221,32 +258,26 @@ def train_detector(
             provenance,
         )
 
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "detector.npz"
-        for _ in range(s.closed_loop):
-            model_of(net).save(path)
-            loop = replace(
-                method, detector="rbf", model=str(path), threshold=None, n_on=s.n_on, n_off=s.n_off
-            )
-            res_loop, _ = _collect(system, loop, sim, None, progress)
-            X.append(res_loop.features.reshape(X[0].shape[0], -1))
-            Y.append(Y[0])
-            clean = np.concatenate([clean, clean[: Y[0].shape[0]]])
-            net = RBFNetwork(
-                s.n_centres, s.width, s.ridge, s.n_init, s.class_weight, random_state=s.seed
-            )
-            net.fit(np.concatenate(X), np.concatenate(Y))
-        model_of(net).save(path)
-        report = _held_out(
-            scenario,
-            system,
-            method,
-            variants,
-            s,
-            str(path),
-            progress,
-            train_samples=sum(x.shape[0] for x in X),
+    loop = _with_detector(method, _rbf(s))
+    for _ in range(s.closed_loop):
+        res_loop = _run(system, loop, sim.stream, K, progress, Learned(detector=model_of(net)))
+        X.append(res_loop.features.reshape(X[0].shape[0], -1))
+        Y.append(Y[0])
+        clean = np.concatenate([clean, clean[: Y[0].shape[0]]])
+        net = RBFNetwork(
+            s.n_centres, s.width, s.ridge, s.n_init, s.class_weight, random_state=s.seed
         )
+        net.fit(np.concatenate(X), np.concatenate(Y))
+    report = _held_out(
+        scenario,
+        system,
+        method,
+        variants,
+        s,
+        model_of(net),
+        progress,
+        train_samples=sum(x.shape[0] for x in X),
+    )
     summary = {
         "false_alarm": report.false_alarm,
         "rows": [
@@ -277,39 +308,42 @@ def _held_out(
     method,
     variants: list[FaultVariant],
     s: DetectorTraining,
-    model_path: str,
+    model: RBFModel,
     progress,
     train_samples: int,
 ) -> DetectorReport:
-    from ftnav.eval.montecarlo import build_filter, run_filter
-
     sim, vidx = simulate_variants(scenario, variants, s.holdout_runs, s.seed, HOLDOUT_OFFSET)
-    rbf = replace(
-        method, detector="rbf", model=model_path, threshold=None, n_on=s.n_on, n_off=s.n_off
-    )
-    chi2 = replace(
+    rbf = _with_detector(method, _rbf(s))
+    chi2 = _with_detector(
         method,
-        detector="residual-chi2",
-        prior="global",
-        false_alarm_probability=s.chi2_pfa,
-        n_on=s.n_on,
-        n_off=5,
-        model=None,
+        ResidualChi2(
+            kind="residual-chi2",
+            prior="global",
+            false_alarm_probability=s.chi2_pfa,
+            n_on=s.n_on,
+            n_off=5,
+        ),
     )
-    nc = system.n_common
+    K = scenario.steps
     results = {
-        name: run_filter(build_filter(system, m), sim, nc, progress)
-        for name, m in (("rbf", rbf), ("chi2", chi2))
+        "rbf": _run(system, rbf, sim.stream, K, progress, Learned(detector=model)),
+        "chi2": _run(system, chi2, sim.stream, K, progress),
     }
-    return _report(scenario, variants, vidx, sim, results, s.holdout_runs, train_samples)
+    return _report(scenario, variants, vidx, sim.stream, results, s.holdout_runs, train_samples)
 
 
 def _report(
-    scenario, variants, vidx, sim: Simulation, results, runs_per_variant: int, train_samples: int
+    scenario,
+    variants,
+    vidx,
+    stream: MeasurementStream,
+    results,
+    runs_per_variant: int,
+    train_samples: int,
 ) -> DetectorReport:
     t = scenario.times
     dt = scenario.dt
-    labels = np.swapaxes(np.asarray(sim.oracle, dtype=bool), 0, 1)  # (B, K, N)
+    labels = np.swapaxes(np.asarray(stream.labels, dtype=bool), 0, 1)  # (B, K, N)
     names = scenario.sensor_names
     rows = []
     groups: dict[tuple, list[int]] = {}

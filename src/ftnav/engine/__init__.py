@@ -1,0 +1,34 @@
+"""The navigation engine: one driver for every model and every fusion architecture.
+
+A *stream* of measurements (:mod:`ftnav.model.streams`: simulated or recorded) goes
+through a *model* (:mod:`ftnav.engine.linear`, :mod:`ftnav.engine.ins`) that turns it
+into epochs, and every method's filter steps on each epoch (:func:`ftnav.engine.driver.run`).
+No truth enters the engine.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ftnav.engine.ins import InsModel
+from ftnav.engine.linear import LinearModel
+from ftnav.model.system import LinearSystem
+
+__all__ = ["navigation_model"]
+
+
+def navigation_model(scenario: Any, system: LinearSystem | None = None) -> LinearModel | InsModel:
+    """The engine's model of a scenario: its linear system, or its closed-loop SINS."""
+    system = scenario.system() if system is None else system
+    if scenario.kind != "integrated":
+        return LinearModel(system)
+    return InsModel(
+        system,
+        scenario.error_model,
+        [a.sensor for a in scenario.aids],
+        scenario.dt,
+        scenario.samples_per_epoch,
+        scenario.correction,
+        scenario.discretization,
+        scenario.algorithm,
+    )

@@ -1,0 +1,240 @@
+"""The one driver loop: any navigation model, any stream, every architecture.
+
+:func:`iterate` steps every method on every epoch of a stream and yields what the
+epoch produced (:class:`EpochRecord`); :func:`run` collects those records into one
+:class:`Trace` per method.  The model (:class:`~ftnav.engine.linear.LinearModel`,
+:class:`~ftnav.engine.ins.InsModel`) turns the stream into epochs and, with feedback,
+takes the fused estimate back; the architectures (:mod:`ftnav.fusion.registry`)
+implement one protocol (:class:`~ftnav.fusion.protocol.Architecture`).  No truth
+enters: evaluation (:mod:`ftnav.eval`) reads the records or the trace afterwards.
+
+The loop over epochs is in Python; everything inside is batched over runs (and, for
+integrated navigation, over methods: every method's SINS is one batch).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from ftnav.core import kalman as kf
+from ftnav.fusion.protocol import Architecture, StepOutput
+from ftnav.model.system import Epoch, Linearization
+from ftnav.nav.mechanization import InsState
+
+__all__ = ["EpochRecord", "Trace", "covariance_ok", "iterate", "run"]
+
+
+class EpochRecord(NamedTuple):
+    """What one epoch produced.
+
+    Attributes
+    ----------
+    k : the epoch (1-based).
+    outputs : per method, its :class:`~ftnav.fusion.protocol.StepOutput`.
+    local : per method, (B, N, n) its local filters' estimates after the step (before
+        any feedback shift), or None (centralized, zero-reset).
+    nav : every method's navigation solution before the correction (methods × runs rows,
+        method-major), or None for a linear model.
+    solution : the corrected navigation solution (same rows), or None.
+    """
+
+    k: int
+    outputs: tuple[StepOutput, ...]
+    local: tuple[np.ndarray | None, ...]
+    nav: InsState | None
+    solution: InsState | None
+
+
+def _part(epoch: Epoch, rows: slice) -> Epoch:
+    """One method's rows of an epoch formed for every method's SINS at once."""
+    lin = epoch.lin
+    if lin is not None:
+        lin = Linearization(lin.Phi[rows], lin.Q[rows], tuple(h[rows] for h in lin.H))
+    return epoch._replace(
+        z=tuple(z[rows] for z in epoch.z), available=epoch.available[rows], lin=lin
+    )
+
+
+def covariance_ok(P: np.ndarray) -> bool:
+    """Symmetric and positive definite (Cholesky succeeds) for every run."""
+    if (
+        not np.allclose(P, kf.mT(P), rtol=0, atol=1e-12 * np.abs(P).max())
+        or not (np.diagonal(P, axis1=-2, axis2=-1) > 0).all()
+    ):
+        return False
+    try:
+        np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
+def _checked(name: str, k: int, out: StepOutput, check_spd: bool) -> None:
+    if not (np.isfinite(out.x).all() and np.isfinite(out.P).all()):
+        raise FloatingPointError(f"methods[{name}]: NaN or inf at epoch {k}")
+    if check_spd and not covariance_ok(out.P):
+        raise FloatingPointError(
+            f"methods[{name}]: covariance not symmetric positive definite at epoch {k}"
+        )
+
+
+def iterate(
+    model: Any,
+    stream: Any,
+    filters: Mapping[str, Architecture[Any]],
+    steps: int,
+    progress: Callable[[int], None] | None = None,
+    check_spd: bool = False,
+) -> Iterator[EpochRecord]:
+    """Step every method over ``steps`` epochs of ``stream``; yield each epoch's record.
+
+    ``model`` turns the stream into epochs (``start``, ``epoch``; with
+    ``per_method_rows`` an epoch holds every method's rows, method-major) and, when it
+    feeds back (``model.feedback``), takes the fused estimates back (``correct``); each
+    method's filter is then shifted by its own fused estimate of the first
+    ``model.n_fed`` states.  ``model.n_local`` states of the local estimates are kept
+    (None: the common states).  A NaN or inf output
+    raises ``FloatingPointError``; ``check_spd`` also requires every fused covariance
+    to be symmetric positive definite at every epoch.
+    """
+    names = list(filters)
+    M = len(names)
+    B = stream.batch
+    parts = [slice(j * B, (j + 1) * B) for j in range(M)]
+    mstate = model.start(stream, M)
+    states = [filters[nm].init(B) for nm in names]
+    n_local = model.n_local or model.system.n_common
+    for k in range(1, steps + 1):
+        mstate, epoch = model.epoch(mstate, stream, k, M)
+        outputs, local = [], []
+        for j, nm in enumerate(names):
+            e_j = _part(epoch, parts[j]) if model.per_method_rows else epoch
+            states[j], out = filters[nm].step(states[j], e_j)
+            _checked(nm, k, out, check_spd)
+            outputs.append(out)
+            local.append(filters[nm].local_estimates(states[j], n_local))
+            if progress is not None:
+                progress(1)
+        nav = getattr(mstate, "ins", None)
+        solution = None
+        if nav is not None:
+            fused = np.concatenate([o.x for o in outputs], 0)
+            if model.feedback:
+                for j, nm in enumerate(names):
+                    states[j] = filters[nm].shift(states[j], outputs[j].x[:, : model.n_fed])
+                mstate = model.correct(mstate, fused)
+            solution = model.output(mstate, fused)
+        yield EpochRecord(k, tuple(outputs), tuple(local), nav, solution)
+
+
+class Trace(NamedTuple):
+    """Per-epoch outputs of one method over B runs and K epochs (no reference needed).
+
+    Attributes
+    ----------
+    x : (B, K, n_c) fused estimate (an integrated model's error-state estimate).
+    P_diag : (B, K, n_c) its variances.
+    beta : (B, K, N) sharing coefficients, or None (not federated).
+    statistic, threshold : (B, K, N) detector statistic and threshold, or None.
+    raw_flag, flag : (B, K, N) detector flags before/after hysteresis, or None.
+    R_hat : per sensor (B, K, m_i) diagonal noise used (adapted under VB).
+    nan_count : (B, N) scheduled measurements that were NaN/inf (treated as missing).
+    features : (B, K, F) learned-detector features (spec §4.1), or None.
+    solution : the corrected navigation solution (q (B, K, 4), v, p (B, K, 3)), or None.
+    local : (B, K, N, n) local estimates, or None.
+    """
+
+    x: np.ndarray
+    P_diag: np.ndarray
+    beta: np.ndarray | None
+    statistic: np.ndarray | None
+    threshold: np.ndarray | None
+    raw_flag: np.ndarray | None
+    flag: np.ndarray | None
+    R_hat: tuple[np.ndarray, ...]
+    nan_count: np.ndarray
+    features: np.ndarray | None
+    solution: InsState | None
+    local: np.ndarray | None
+
+
+class _Recorder:
+    """One method's arrays, allocated on first use and filled in place."""
+
+    def __init__(self, B: int, K: int):
+        self.B, self.K = B, K
+        self.arrays: dict[str, np.ndarray] = {}
+        self.nan: np.ndarray | None = None
+
+    def put(self, key: str, k: int, value: np.ndarray | None, dtype: Any = float) -> None:
+        if value is None:
+            return
+        if key not in self.arrays:
+            self.arrays[key] = np.empty((self.B, self.K) + value.shape[1:], dtype=dtype)
+        self.arrays[key][:, k - 1] = value
+
+    def record(
+        self, k: int, out: StepOutput, local: np.ndarray | None, solution: InsState | None
+    ) -> None:
+        self.put("x", k, out.x)
+        self.put("P_diag", k, np.diagonal(out.P, axis1=-2, axis2=-1))
+        self.put("beta", k, out.beta)
+        d = out.detection
+        if d is not None:
+            self.put("statistic", k, d.statistic)
+            self.put("threshold", k, d.threshold)
+            self.put("raw_flag", k, d.raw, bool)
+            self.put("flag", k, d.flag, bool)
+        for i, r in enumerate(out.R_hat):
+            self.put(f"R{i}", k, r)
+        self.nan = out.nan.astype(int) if self.nan is None else self.nan + out.nan
+        self.put("features", k, out.features)
+        self.put("local", k, local)
+        if solution is not None:
+            for key in ("q", "v", "p"):
+                self.put(f"nav_{key}", k, getattr(solution, key))
+
+    def trace(self, n_sensors: int) -> Trace:
+        a = self.arrays
+        solution = None
+        if "nav_q" in a:
+            solution = InsState(a["nav_q"], a["nav_v"], a["nav_p"], np.zeros(a["nav_v"].shape))
+        assert self.nan is not None
+        return Trace(
+            a["x"],
+            a["P_diag"],
+            a.get("beta"),
+            a.get("statistic"),
+            a.get("threshold"),
+            a.get("raw_flag"),
+            a.get("flag"),
+            tuple(a[f"R{i}"] for i in range(n_sensors)),
+            self.nan,
+            a.get("features"),
+            solution,
+            a.get("local"),
+        )
+
+
+def run(
+    model: Any,
+    stream: Any,
+    filters: Mapping[str, Architecture[Any]],
+    steps: int,
+    progress: Callable[[int], None] | None = None,
+) -> dict[str, Trace]:
+    """Run every method over the stream; one :class:`Trace` per method (module docstring)."""
+    names = list(filters)
+    B = stream.batch
+    rec = {nm: _Recorder(B, steps) for nm in names}
+    for r in iterate(model, stream, filters, steps, progress):
+        for j, nm in enumerate(names):
+            sol = None
+            if r.solution is not None:
+                rows = slice(j * B, (j + 1) * B)
+                sol = InsState(*(a[rows] for a in r.solution))
+            rec[nm].record(r.k, r.outputs[j], r.local[j], sol)
+    return {nm: rec[nm].trace(model.system.n_sensors) for nm in names}

@@ -1,0 +1,203 @@
+"""The closed-loop SINS of the engine: mechanization, linearization, aids, feedback.
+
+Every method owns a SINS mechanization per run; the SINS of all methods are
+integrated, linearized and measured as one batch of ``methods × runs`` (lock-step).
+Per filter epoch k (spec §6.2, §8.4-§8.5):
+
+1. the error model is linearized at each run's INS solution at the start of the epoch
+   (specific force averaged over the epoch's increments) and discretized (spec §8.4);
+2. the SINS integrates the epoch's IMU increments (:mod:`ftnav.nav.mechanization`);
+3. each aid's nonlinear measurement ``z = INS − aid`` and its ``H`` are formed at the INS
+   solution (:mod:`ftnav.sensors`); gated epochs count as missing; an aid with a
+   differenced Markov error (GNSS ``markov = "difference"``) is differenced with its
+   previous epoch and the correction fed back since (Bryson-Henrikson);
+4. the filters step on these per-run matrices (every local filter and the centre use
+   the same ones, spec §6.2);
+5. with ``correction = "feedback"`` the fused navigation errors are fed back to the
+   SINS and every filter's estimates are shifted by the same correction; with
+   ``"output"`` the SINS runs free and its output is corrected.
+
+Aids are applied at the filter epochs ``t_k = k·dt``: every aid's time stamps must be
+epoch times (:meth:`InsModel.check`).  Nothing here reads a truth.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from ftnav.core import kalman as kf
+from ftnav.model.streams import InsStream
+from ftnav.model.system import Epoch, Linearization, LinearSystem
+from ftnav.nav import attitude
+from ftnav.nav.error_model import ErrorModelParams, discrete_model
+from ftnav.nav.mechanization import InsState, apply_correction, feedback, integrate
+
+__all__ = ["InsModel", "InsModelState", "N_NAV"]
+
+#: navigation error states fed back: attitude, velocity, position (spec §8.3 order)
+N_NAV = 9
+
+
+class InsModelState(NamedTuple):
+    """The SINS of every method and run, and the differencing memory of each aid.
+
+    Attributes
+    ----------
+    ins : the mechanization state of ``methods × runs`` rows, method-major.
+    previous : per aid, the last raw ``(z, H, usable)`` of a differenced aid, else None.
+    shift : (rows, n) the correction fed back after the last epoch (differencing needs it).
+    """
+
+    ins: InsState
+    previous: tuple[tuple[np.ndarray, np.ndarray, np.ndarray] | None, ...]
+    shift: np.ndarray | None
+
+
+def _tile(a: np.ndarray, M: int) -> np.ndarray:
+    return a if M == 1 else np.concatenate([a] * M, 0)
+
+
+class InsModel:
+    """Integrated navigation as the engine runs it (module docstring).
+
+    Parameters
+    ----------
+    system : the filters' system (linearized: Φ, Q and H come with every epoch).
+    error_model : the SINS error model the filters assume.
+    aids : the aid sensor models (:mod:`ftnav.sensors`), in stream order.
+    dt : filter period (s); ``samples_per_epoch`` IMU increments make one epoch.
+    correction : ``"feedback"`` or ``"output"``.
+    discretization : ``"series"`` or ``"van-loan"``; ``algorithm`` the strapdown algorithm.
+    """
+
+    per_method_rows = True
+    n_fed = N_NAV
+    n_local = N_NAV
+
+    def __init__(
+        self,
+        system: LinearSystem,
+        error_model: ErrorModelParams,
+        aids: Sequence[object],
+        dt: float,
+        samples_per_epoch: int,
+        correction: str = "feedback",
+        discretization: str = "series",
+        algorithm: str = "two-sample",
+    ):
+        self.system = system
+        self.error_model = error_model
+        self.aids = tuple(aids)
+        self.dt = float(dt)
+        self.spe = int(samples_per_epoch)
+        self.feedback = correction == "feedback"
+        self.discretization = discretization
+        self.algorithm = algorithm
+        self.every = self.spe // (2 if algorithm == "two-sample" else 1)
+        self.psi = [getattr(a, "difference_factor", None) for a in self.aids]
+
+    def check(self, stream: InsStream, steps: int) -> None:
+        """Refuse a stream the model cannot run: too short, aids off the epoch times."""
+        n_imu = stream.imu.dtheta.shape[1]
+        if n_imu < steps * self.spe:
+            raise ValueError(f"imu: {n_imu} increments, {steps} epochs need {steps * self.spe}")
+        t = stream.imu.t0 + self.dt * np.arange(1, steps + 1)
+        for i, aid in enumerate(stream.aids):
+            if aid.t.shape[0] < steps or not np.allclose(aid.t[:steps], t, atol=1e-9):
+                raise ValueError(f"aids[{i}].t: the aid must be sampled at the filter epochs")
+
+    def start(self, stream: InsStream, copies: int) -> InsModelState:
+        """Every method's SINS starts at the stream's initial solution."""
+        ins = InsState(*(_tile(a, copies) for a in stream.start))
+        return InsModelState(ins, (None,) * len(self.aids), None)
+
+    def epoch(
+        self, state: InsModelState, stream: InsStream, k: int, copies: int
+    ) -> tuple[InsModelState, Epoch]:
+        """Propagate every SINS over epoch k, linearize, form the aids' measurements."""
+        ins = state.ins
+        sl = slice((k - 1) * self.spe, k * self.spe)
+        dth = _tile(stream.imu.dtheta[:, sl], copies)
+        dvel = _tile(stream.imu.dv[:, sl], copies)
+        f_b = dvel.sum(1) / self.dt
+        C_bn = attitude.quat_to_dcm(ins.q)
+        Phi, Q = discrete_model(
+            ins.p[:, 0],
+            ins.p[:, 1],
+            ins.p[:, 2],
+            ins.v,
+            f_b,
+            C_bn,
+            self.error_model,
+            self.dt,
+            self.discretization,
+            5,
+        )
+        ins, _ = integrate(
+            ins, dth, dvel, stream.imu.dt, algorithm=self.algorithm, output_every=self.every
+        )
+        z, H, avail, previous = self._measure(state, stream, k, copies, ins, Phi)
+        epoch = Epoch(k, tuple(z), avail, stream.labels[k - 1], Linearization(Phi, Q, tuple(H)))
+        return InsModelState(ins, previous, state.shift), epoch
+
+    def _measure(
+        self,
+        state: InsModelState,
+        stream: InsStream,
+        k: int,
+        copies: int,
+        ins: InsState,
+        Phi: np.ndarray,
+    ):
+        """Each aid's ``z``, ``H`` and availability at the INS solution (module step 3)."""
+        n = self.system.n_common
+        rows = ins.q.shape[0]
+        z, H, avail = [], [], np.zeros((rows, len(self.aids)), bool)
+        previous = list(state.previous)
+        for i, (sensor, aid) in enumerate(zip(self.aids, stream.aids, strict=True)):
+            raw = _tile(aid.raw[:, k - 1], copies)
+            lin = sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw, nan=1.0))
+            ok = _tile(aid.available[:, k - 1], copies) & lin.valid & np.isfinite(lin.z).all(-1)
+            zi = lin.z
+            Hi = np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1))
+            if self.psi[i] is not None:  # measurement differencing of a Markov error (GNSS)
+                this = (zi, Hi, ok)
+                if previous[i] is None:
+                    ok = np.zeros_like(ok)  # nothing to difference with yet
+                else:
+                    z_prev, H_prev, ok_prev = previous[i]
+                    zi, Hi = kf.differenced_measurement(
+                        zi, Hi, z_prev, H_prev, Phi, self.psi[i], state.shift
+                    )
+                    ok = ok & ok_prev
+                previous[i] = this
+            z.append(np.where(ok[:, None], zi, np.nan))
+            H.append(Hi)
+            avail[:, i] = ok
+        return z, H, avail, tuple(previous)
+
+    def correct(self, state: InsModelState, fused: np.ndarray) -> InsModelState:
+        """Feed the fused navigation errors (rows, ≥ 9) back to every SINS (spec §8.5)."""
+        if not self.feedback:
+            return state
+        d = fused[:, :N_NAV]
+        ins = feedback(state.ins, d[:, 0:3], d[:, 3:6], d[:, 6:9])
+        shift = None
+        if any(p is not None for p in self.psi):
+            n = self.system.n_common
+            shift = np.concatenate([d, np.zeros((d.shape[0], n - N_NAV))], 1)
+        return InsModelState(ins, state.previous, shift)
+
+    def output(self, state: InsModelState, fused: np.ndarray) -> InsState:
+        """The corrected navigation solution: the SINS after feedback, or its output
+        corrected by the fused errors (``correction = "output"``)."""
+        if self.feedback:
+            return state.ins
+        d = fused[:, :N_NAV]
+        q, v, p = apply_correction(
+            state.ins.q, state.ins.v, state.ins.p, d[:, 0:3], d[:, 3:6], d[:, 6:9]
+        )
+        return state.ins._replace(q=q, v=v, p=p)

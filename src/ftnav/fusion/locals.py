@@ -1,0 +1,225 @@
+"""The bank of local filters every distributed architecture runs (spec §1.3, §6.1, §7).
+
+A *local filter* processes one sensor over ``[x_c; x_si]`` (common states, then the
+sensor's private states).  :class:`LocalBank` holds the N local models and the noise
+adaptation and does, for all N at once, what every architecture's epoch starts with:
+the usable measurements of the epoch (scheduled and finite; NaN counted), the
+measurement matrices, the prediction, the masked Kalman or variational-Bayes update,
+and the residual statistics of spec §3.1.  The update is done for the whole batch
+and then selected per run with a mask, so runs whose measurement is missing, NaN, or
+isolated keep their prior.  Shapes: batch B, common states ``n_c``, local states
+``n_i``, measurement ``m_i``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from ftnav.core import kalman as kf
+from ftnav.core import vb as vbk
+from ftnav.fusion.config import Noise, VbNoise
+from ftnav.fusion.protocol import select
+from ftnav.model.system import Epoch, Linearization, LinearSystem, Sensor
+
+__all__ = [
+    "LocalBank",
+    "LocalUpdate",
+    "Measurements",
+    "NoiseState",
+    "initial_noise",
+    "local_update",
+    "measurements",
+    "predicted_noise",
+    "residual_statistic",
+]
+
+Gaussian = tuple[np.ndarray, np.ndarray]
+
+
+class NoiseState(NamedTuple):
+    """Inverse-gamma posterior of a VB local filter (spec §7), (B, m) each."""
+
+    alpha: np.ndarray
+    beta: np.ndarray
+
+
+class LocalUpdate(NamedTuple):
+    """One local filter's update: posterior, NIS (0 where not updated), the noise used."""
+
+    x: np.ndarray
+    P: np.ndarray
+    nis: np.ndarray  # (B,) 0 where not updated
+    R: np.ndarray  # (B, m, m) noise used (adapted under VB)
+    noise: NoiseState | None
+
+
+class Measurements(NamedTuple):
+    """The epoch preamble: which measurements are used, which were NaN, their dof.
+
+    Attributes
+    ----------
+    usable : (B, N) bool, scheduled and finite.
+    nan : (B, N) bool, scheduled but NaN/inf (treated as missing, counted).
+    dof : (B, N) int, measurement dimension where usable, else 0.
+    """
+
+    usable: np.ndarray
+    nan: np.ndarray
+    dof: np.ndarray
+
+
+def measurements(epoch: Epoch, sensors: Sequence[Sensor]) -> Measurements:
+    """Usable, NaN and degrees-of-freedom masks of an epoch's measurements."""
+    finite = np.stack([np.isfinite(z).all(-1) for z in epoch.z], 1)
+    usable = epoch.available & finite
+    dims = np.array([s.dim for s in sensors])[None, :]
+    return Measurements(usable, epoch.available & ~finite, dims * usable)
+
+
+def initial_noise(R: np.ndarray, batch: int, alpha0: float = 1.0) -> NoiseState:
+    """VB prior with ``β₀/α₀`` equal to the nominal diagonal R (spec §7.2 [A])."""
+    m = R.shape[0]
+    alpha = np.full((batch, m), alpha0)
+    return NoiseState(alpha, alpha * np.diag(R)[None, :])
+
+
+def local_update(
+    x: np.ndarray,
+    P: np.ndarray,
+    z: np.ndarray,
+    use: np.ndarray,
+    H: np.ndarray,
+    R: np.ndarray,
+    noise: NoiseState | None,
+    vb: VbNoise | None = None,
+) -> LocalUpdate:
+    """Masked Kalman (or VB, spec §7.2) update of one local filter.
+
+    Parameters
+    ----------
+    x, P : (B, n), (B, n, n) prior.
+    z : (B, m) measurement; entries of runs with ``use`` False are ignored.
+    use : (B,) bool, runs that take the measurement.
+    H, R : (m, n) or (B, m, n), (m, m) model; R is the nominal noise.
+    noise : VB state, or None for a fixed-R filter.
+    vb : the VB settings when this filter adapts R.
+    """
+    z0 = np.where(use[:, None], z, 0.0)
+    if vb is None or noise is None:
+        up = kf.update(x, P, z0, H, R)
+        Rused = np.broadcast_to(R, (x.shape[0],) + R.shape)
+        new_noise = None
+    else:
+        a, b = vbk.vb_predict(noise.alpha, noise.beta, vb.rho)
+        up, a_post, b_post, R_post = vbk.vb_update(
+            x, P, z0, H, a, b, iterations=vb.iterations, variant=vb.variant
+        )
+        # no measurement: the noise posterior is only forgotten (spec §7.2 predict)
+        new_noise = NoiseState(select(use, a_post, a), select(use, b_post, b))
+        # the noise the posterior was computed with (what a CKF needs to reproduce it)
+        Rused = select(use, R_post, vbk.noise_estimate(a, b))
+    return LocalUpdate(
+        select(use, up.x, x), select(use, up.P, P), np.where(use, up.nis, 0.0), Rused, new_noise
+    )
+
+
+def predicted_noise(noise: NoiseState | None, R: np.ndarray, rho: float) -> np.ndarray:
+    """Noise the next update starts from: R, or ``R̂ = ρβ/(ρα + ½)`` under VB (spec §7.2)."""
+    if noise is None:
+        return R
+    return vbk.noise_estimate(rho * noise.alpha + 0.5, rho * noise.beta)
+
+
+def residual_statistic(
+    x: np.ndarray, P: np.ndarray, z: np.ndarray, use: np.ndarray, H: np.ndarray, R: np.ndarray
+) -> np.ndarray:
+    """NIS of a prior (B, n), (B, n, n) against z (B, m) (spec §3.1); 0 where not used."""
+    z0 = np.where(use[:, None], z, 0.0)
+    return np.where(use, kf.prior_nis(x, P, z0, H, R), 0.0)
+
+
+class LocalBank:
+    """The N local filters of an architecture: models, noise adaptation, their epoch.
+
+    Parameters
+    ----------
+    system : the system; local filter i carries ``[x_c; x_si]`` (``system.local(i)``).
+    noise : the method's noise adaptation; a filter adapts R when VB is on and its
+        sensor is listed (an empty list: every sensor).
+    augmented : the locals run on the whole augmented state (the distributed filter)
+        instead of ``[x_c; x_si]``.
+    """
+
+    def __init__(self, system: LinearSystem, noise: Noise, augmented: bool = False):
+        self.system = system
+        self.N = system.n_sensors
+        self.nc = system.n_common
+        self.augmented = augmented
+        self.models = [system.local(i) for i in range(self.N)]
+        self.vb = noise if isinstance(noise, VbNoise) else None
+        self.vb_on = [
+            self.vb is not None and (not self.vb.sensors or s.name in self.vb.sensors)
+            for s in system.sensors
+        ]
+        self.H_const = (
+            [system.augmented_H(i) if augmented else system.local(i).H for i in range(self.N)]
+            if not system.linearized
+            else None
+        )
+
+    @property
+    def sensors(self) -> tuple[Sensor, ...]:
+        return self.system.sensors
+
+    @property
+    def rho(self) -> float:
+        return 0.99 if self.vb is None else self.vb.rho
+
+    def initial_noise(self, batch: int) -> tuple[NoiseState | None, ...]:
+        """The VB prior of every adapting local filter (None for a fixed-R one)."""
+        return tuple(
+            initial_noise(s.R, batch) if on else None
+            for s, on in zip(self.sensors, self.vb_on, strict=True)
+        )
+
+    def H(self, lin: Linearization | None) -> list[np.ndarray]:
+        """Every local filter's measurement matrix of the epoch."""
+        if lin is None:
+            assert self.H_const is not None
+            return list(self.H_const)
+        if self.augmented:
+            return [self.system.augmented_H(i, lin) for i in range(self.N)]
+        return list(lin.H)
+
+    def update(
+        self,
+        i: int,
+        prior: Gaussian,
+        z: np.ndarray,
+        use: np.ndarray,
+        H: np.ndarray,
+        noise: NoiseState | None,
+    ) -> LocalUpdate:
+        """Local filter i's masked (VB) update from ``prior``."""
+        return local_update(
+            *prior, z, use, H, self.sensors[i].R, noise, self.vb if self.vb_on[i] else None
+        )
+
+    def noise_now(self, i: int, noise: NoiseState | None) -> np.ndarray:
+        """The noise local filter i's next update starts from (R, or the VB estimate)."""
+        return predicted_noise(noise, self.sensors[i].R, self.rho)
+
+    def residual(
+        self,
+        i: int,
+        prior: Gaussian,
+        z: np.ndarray,
+        use: np.ndarray,
+        H: np.ndarray,
+        noise: NoiseState | None,
+    ) -> np.ndarray:
+        """NIS of sensor i's measurement against ``prior`` (spec §3.1), 0 where unused."""
+        return residual_statistic(*prior, z, use, H, self.noise_now(i, noise))
