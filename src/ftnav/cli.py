@@ -436,8 +436,6 @@ def _staged(out: Path, *, folder: bool) -> Iterator[Path]:
                 os.replace(stage / name, home / name)
             stage.rmdir()
             return
-        from ftnav import __version__
-
         (stage / MANIFEST).write_text(
             json.dumps({"written_by": f"ftnav {__version__}", "files": names}, indent=1) + "\n"
         )

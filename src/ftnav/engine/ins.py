@@ -24,7 +24,7 @@ epoch times (:meth:`InsModel.check`).  Nothing here reads a truth.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import numpy as np
 
@@ -34,11 +34,15 @@ from ftnav.model.system import Epoch, Linearization, LinearSystem
 from ftnav.nav import attitude
 from ftnav.nav.error_model import ErrorModelParams, discrete_model
 from ftnav.nav.mechanization import InsState, apply_correction, feedback, integrate
+from ftnav.sensors.base import AidingSensor
 
 __all__ = ["InsModel", "InsModelState", "N_NAV"]
 
 #: navigation error states fed back: attitude, velocity, position (spec §8.3 order)
 N_NAV = 9
+
+
+Previous = tuple[tuple[np.ndarray, np.ndarray, np.ndarray] | None, ...]
 
 
 class InsModelState(NamedTuple):
@@ -52,7 +56,7 @@ class InsModelState(NamedTuple):
     """
 
     ins: InsState
-    previous: tuple[tuple[np.ndarray, np.ndarray, np.ndarray] | None, ...]
+    previous: Previous
     shift: np.ndarray | None
 
 
@@ -81,12 +85,12 @@ class InsModel:
         self,
         system: LinearSystem,
         error_model: ErrorModelParams,
-        aids: Sequence[object],
+        aids: Sequence[AidingSensor],
         dt: float,
         samples_per_epoch: int,
-        correction: str = "feedback",
-        discretization: str = "series",
-        algorithm: str = "two-sample",
+        correction: Literal["feedback", "output"] = "feedback",
+        discretization: Literal["van-loan", "series"] = "series",
+        algorithm: Literal["two-sample", "single-sample"] = "two-sample",
     ):
         self.system = system
         self.error_model = error_model
@@ -97,7 +101,9 @@ class InsModel:
         self.discretization = discretization
         self.algorithm = algorithm
         self.every = self.spe // (2 if algorithm == "two-sample" else 1)
-        self.psi = [getattr(a, "difference_factor", None) for a in self.aids]
+        self.psi: list[np.ndarray | None] = [
+            getattr(a, "difference_factor", None) for a in self.aids
+        ]
 
     def check(self, stream: InsStream, steps: int) -> None:
         """Refuse a stream the model cannot run: too short, aids off the epoch times."""
@@ -151,7 +157,7 @@ class InsModel:
         copies: int,
         ins: InsState,
         Phi: np.ndarray,
-    ):
+    ) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, Previous]:
         """Each aid's ``z``, ``H`` and availability at the INS solution (module step 3)."""
         n = self.system.n_common
         rows = ins.q.shape[0]
@@ -163,14 +169,15 @@ class InsModel:
             ok = _tile(aid.available[:, k - 1], copies) & lin.valid & np.isfinite(lin.z).all(-1)
             zi = lin.z
             Hi = np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1))
-            if self.psi[i] is not None:  # measurement differencing of a Markov error (GNSS)
+            psi, last = self.psi[i], previous[i]
+            if psi is not None:  # measurement differencing of a Markov error (GNSS)
                 this = (zi, Hi, ok)
-                if previous[i] is None:
+                if last is None:
                     ok = np.zeros_like(ok)  # nothing to difference with yet
                 else:
-                    z_prev, H_prev, ok_prev = previous[i]
+                    z_prev, H_prev, ok_prev = last
                     zi, Hi = kf.differenced_measurement(
-                        zi, Hi, z_prev, H_prev, Phi, self.psi[i], state.shift
+                        zi, Hi, z_prev, H_prev, Phi, psi, state.shift
                     )
                     ok = ok & ok_prev
                 previous[i] = this

@@ -22,6 +22,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ftnav import __version__
 from ftnav.eval.metrics import detection_stats, error_stats, nees_stats, position_norms
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
 from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS
@@ -198,8 +199,6 @@ def metrics_to_json(
     result: ScenarioResult, metrics: dict[str, MethodMetrics], claims: list[dict] | None = None
 ) -> dict:
     """The ``metrics.json`` document (stable contract; ``None`` is written as null)."""
-    from ftnav import __version__
-
     doc = {
         "scenario": result.scenario.name,
         "runs": result.runs,

@@ -14,6 +14,7 @@ import numpy as np
 from pydantic import model_validator
 
 from ftnav.core import kalman as kf
+from ftnav.core.kalman import Gaussian
 from ftnav.fdi.chi2 import DetectorState
 from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, RbfDetector, config_error
@@ -93,7 +94,9 @@ class CentralizedFilter:
         stat = (
             np.stack(
                 [
-                    bank.residual(i, (x, P), epoch.z[i], usable[:, i], Hs[i], state.noise[i])
+                    bank.residual(
+                        i, Gaussian(x, P), epoch.z[i], usable[:, i], Hs[i], state.noise[i]
+                    )
                     for i in range(N)
                 ],
                 1,
@@ -116,7 +119,7 @@ class CentralizedFilter:
         use = usable if det_out is None else usable & ~det_out.flag
         noise, R_hat = [], []
         for i in range(N):
-            up = bank.update(i, (x, P), epoch.z[i], use[:, i], Hs[i], state.noise[i])
+            up = bank.update(i, Gaussian(x, P), epoch.z[i], use[:, i], Hs[i], state.noise[i])
             x, P = up.x, up.P
             noise.append(up.noise)
             R_hat.append(np.diagonal(up.R, axis1=-2, axis2=-1))

@@ -22,6 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ftnav.core.kalman import Gaussian
 from ftnav.fdi.chi2 import ChiSquareDetector, DetectorOutput, DetectorState, state_statistic
 from ftnav.fdi.features import detector_features, whitened_innovation
 from ftnav.fdi.rbf import RBFDetector, RBFModel
@@ -29,8 +30,6 @@ from ftnav.fusion.config import Detector, RbfDetector, ResidualChi2, StateChi2
 from ftnav.fusion.locals import LocalBank, NoiseState
 from ftnav.fusion.protocol import with_common
 from ftnav.model.system import Epoch
-
-Gaussian = tuple[np.ndarray, np.ndarray]
 
 __all__ = ["Detection", "FeatureRequest", "StateTest", "epoch_features", "features_needed"]
 

@@ -27,17 +27,16 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ftnav.core import kalman as kf
+from ftnav.core.kalman import Gaussian
 from ftnav.core.linalg import spd_solve
 from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, config_error
 from ftnav.fusion.detection import Detection, epoch_features, features_needed
-from ftnav.fusion.locals import LocalBank, LocalUpdate, NoiseState, measurements
+from ftnav.fusion.locals import LocalBank, LocalUpdate, Measurements, NoiseState, measurements
 from ftnav.fusion.protocol import StepOutput, minus
 from ftnav.model.system import Epoch, LinearSystem
 
 __all__ = ["DistributedConfig", "DistributedFilter", "DistributedState", "check"]
-
-Gaussian = tuple[np.ndarray, np.ndarray]
 
 
 class DistributedConfig(MethodBase):
@@ -117,8 +116,9 @@ class DistributedFilter:
         self.q_scale = np.ones(N) if local_Q_scale is None else np.asarray(local_Q_scale, float)
         self.p_scale = np.ones(N) if local_P0_scale is None else np.asarray(local_P0_scale, float)
         self.detection = Detection(config.detector, learned.detector)
-        self.features = features_needed(self.detection, features,
-                                        feature_prior or self.detection.prior)
+        self.features = features_needed(
+            self.detection, features, feature_prior or self.detection.prior
+        )
         self.gamma = config.rescale_factor if config.mode == "rescale" else 1.0
 
     @property
@@ -171,7 +171,7 @@ class DistributedFilter:
                 self.features,
                 bank,
                 priors,
-                [(u.x, u.P) for u in posts],
+                [Gaussian(u.x, u.P) for u in posts],
                 prior_g,
                 epoch,
                 meas.usable,
@@ -202,7 +202,16 @@ class DistributedFilter:
             tuple(xs), tuple(Ps), xg, Pg, tuple(u.noise for u in updates), det_state, prop
         ), out
 
-    def _statistic(self, state, epoch, meas, priors, props, prior_g, Hs):
+    def _statistic(
+        self,
+        state: DistributedState,
+        epoch: Epoch,
+        meas: Measurements,
+        priors: Sequence[Gaussian],
+        props: Sequence[Gaussian],
+        prior_g: Gaussian,
+        Hs: Sequence[np.ndarray],
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[LocalUpdate] | None]:
         """(statistic, dof, tested, posteriors or None) of the epoch's test."""
         N, bank = self.N, self.bank
         if self.detection.residual:  # no other detector reads the residual statistic
@@ -231,12 +240,12 @@ class DistributedFilter:
     def _fuse(
         self,
         prior_g: Gaussian,
-        priors: list[Gaussian],
-        updates: list[LocalUpdate],
+        priors: Sequence[Gaussian],
+        updates: Sequence[LocalUpdate],
         use: np.ndarray,
         z: Sequence[np.ndarray],
-        Hs: list[np.ndarray],
-    ):
+        Hs: Sequence[np.ndarray],
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``Y⁺ = Y⁻ + Σ ΔY_i``, ``y⁺ = y⁻ + Σ Δy_i`` over the used measurements."""
         yg, Yg = kf.to_information(*prior_g)
         for i, up in enumerate(updates):

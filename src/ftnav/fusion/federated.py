@@ -31,8 +31,9 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ftnav.core import kalman as kf
+from ftnav.core.kalman import Gaussian
 from ftnav.core.sharing import information_content, sharing_coefficients
-from ftnav.fdi.chi2 import DetectorState
+from ftnav.fdi.chi2 import DetectorOutput, DetectorState
 from ftnav.fusion.config import (
     NOTHING_LEARNED,
     Count,
@@ -59,7 +60,6 @@ SHARE_TOL = 1e-9
 Sharing = Literal[
     "equal", "fixed", "information", "trace", "eigen-trace", "frobenius", "inverse-trace"
 ]
-Gaussian = tuple[np.ndarray, np.ndarray]
 
 #: the settings each mode reads (beyond name, architecture, detector and noise)
 MODE_SETTINGS: dict[str, tuple[str, ...]] = {
@@ -210,7 +210,12 @@ class _Locals(NamedTuple):
 
     @property
     def posts(self) -> list[Gaussian]:
-        return [(u.x, u.P) for u in self.updates]
+        return [Gaussian(u.x, u.P) for u in self.updates]
+
+
+def _constant(H: np.ndarray | None) -> np.ndarray:
+    assert H is not None  # a constant system's sensors carry their H
+    return H
 
 
 class FederatedFilter:
@@ -242,8 +247,9 @@ class FederatedFilter:
         self.bank = LocalBank(system, config.noise)
         self.detection = Detection(config.detector, learned.detector)
         self.global_prior = self.detection.prior == "global" and self.detection.residual
-        self.features = features_needed(self.detection, features,
-                                        feature_prior or self.detection.prior)
+        self.features = features_needed(
+            self.detection, features, feature_prior or self.detection.prior
+        )
         self.policy = IsolationPolicy(
             config.isolation, config.common_mode, config.common_mode_quorum, self.N
         )
@@ -252,7 +258,7 @@ class FederatedFilter:
             None
             if system.linearized
             else information_content(
-                [s.H for s in system.sensors], [s.R for s in system.sensors], self.scale
+                [_constant(s.H) for s in system.sensors], [s.R for s in system.sensors], self.scale
             )
         )
         self.beta_m = float(config.master_share)
@@ -336,10 +342,10 @@ class FederatedFilter:
         prior_g = kf.predict(state.xg, state.Pg, F, Q) if need_prior else None
         meas = measurements(epoch, self.system.sensors)
         loc = self._locals(state, epoch, meas.usable)
-        feats = (
-            None
-            if self.features is None
-            else epoch_features(
+        feats = None
+        if self.features is not None:
+            assert prior_g is not None  # need_prior holds whenever features are computed
+            feats = epoch_features(
                 self.features,
                 self.bank,
                 loc.priors,
@@ -350,7 +356,6 @@ class FederatedFilter:
                 state.noise,
                 loc.Hs,
             )
-        )
         det_state, det_out, flag = self._detect(state, epoch, meas, loc, prior_g, feats)
         xg, Pg, master = self._fuse(state, loc, flag, prior_g, F, Q)
         new = self._share(state, epoch.k, loc, flag, xg, Pg, master)
@@ -384,7 +389,7 @@ class FederatedFilter:
         loc: _Locals,
         prior_g: Gaussian | None,
         feats: np.ndarray | None,
-    ):
+    ) -> tuple[DetectorState | None, DetectorOutput | None, np.ndarray]:
         """The epoch's test statistic, the detector, the common-mode rule."""
         B, N = meas.usable.shape
         if not self.detection.residual:  # no other detector reads the statistic
@@ -426,10 +431,12 @@ class FederatedFilter:
         prior_g: Gaussian | None,
         F: np.ndarray,
         Q: np.ndarray,
-    ):
+    ) -> tuple[np.ndarray, np.ndarray, Gaussian | None]:
         """Information fusion over the active set and the master (spec §1.3 step 3)."""
         nc, N = self.nc, self.N
-        newly = state.active & flag  # flagged now: fused with its prior this epoch
+        newly = np.asarray(
+            state.active & flag, dtype=bool
+        )  # flagged now: fused with its prior this epoch
         xc = np.stack(
             [select(newly[:, i], loc.priors[i][0], loc.updates[i].x)[:, :nc] for i in range(N)], 1
         )
@@ -444,7 +451,7 @@ class FederatedFilter:
         if state.master is not None:
             master = kf.predict(state.master.x, state.master.P, F, Q / self.beta_m)
             y0, Y0 = kf.to_information(*master)
-        any_source = state.active.any(1) | (state.master is not None)
+        any_source = np.asarray(state.active.any(1) | (state.master is not None), dtype=bool)
         if not any_source.all():  # every local isolated: output the global prior
             Y0 = np.where(any_source[:, None, None], 0.0 if Y0 is None else Y0, np.eye(nc))
         xf, Pf = kf.fuse(xc, Pc, state.active.astype(float), y0, Y0)
@@ -501,7 +508,15 @@ class FederatedFilter:
             propagator=prop,
         )
 
-    def _reset(self, x, P, xg, Pg, beta, where):
+    def _reset(
+        self,
+        x: np.ndarray,
+        P: np.ndarray,
+        xg: np.ndarray,
+        Pg: np.ndarray,
+        beta: np.ndarray,
+        where: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Reset common block to ``x̂_g``, ``P_g/β`` (spec §1.2); cross block per §1.7."""
         nc = self.nc
         b = np.where(where, beta, 1.0)[:, None, None]
@@ -512,7 +527,7 @@ class FederatedFilter:
         if P.shape[-1] > nc:
             L_old = np.linalg.cholesky(P[:, :nc, :nc])
             L_new = np.linalg.cholesky(P_new_cc)
-            P_cs = L_new @ np.linalg.solve(L_old, P[:, :nc, nc:])
+            P_cs: np.ndarray = L_new @ np.linalg.solve(L_old, P[:, :nc, nc:])
             P_new[:, :nc, nc:] = P_cs
             P_new[:, nc:, :nc] = kf.mT(P_cs)
         P_new[:, :nc, :nc] = P_new_cc

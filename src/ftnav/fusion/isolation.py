@@ -11,15 +11,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Literal
 
 import numpy as np
 
+from ftnav.core.kalman import Gaussian
 from ftnav.fusion.protocol import select
 
 __all__ = ["IsolationPolicy"]
-
-Gaussian = tuple[np.ndarray, np.ndarray]
 
 
 class IsolationPolicy:
@@ -52,10 +52,11 @@ class IsolationPolicy:
         """(B, N) flags after the common-mode rule."""
         if not self.keep:
             return flag
-        return flag & ~(flag.sum(1, keepdims=True) >= self.quorum)
+        common = np.sum(flag, axis=1, keepdims=True) >= self.quorum
+        return np.asarray(flag & ~common, dtype=bool)
 
     def discard(
-        self, flag: np.ndarray, priors: list[Gaussian], posts: list[Gaussian]
+        self, flag: np.ndarray, priors: Sequence[Gaussian], posts: Sequence[Gaussian]
     ) -> tuple[list[np.ndarray], list[np.ndarray]]:
         """Each local's estimate after its flag: its prior where flagged under time-update."""
         xs = [p[0] for p in posts]

@@ -20,6 +20,7 @@ import numpy as np
 
 from ftnav.core import kalman as kf
 from ftnav.core import vb as vbk
+from ftnav.core.kalman import Gaussian
 from ftnav.fusion.config import Noise, VbNoise
 from ftnav.fusion.protocol import select
 from ftnav.model.system import Epoch, Linearization, LinearSystem, Sensor
@@ -35,8 +36,6 @@ __all__ = [
     "predicted_noise",
     "residual_statistic",
 ]
-
-Gaussian = tuple[np.ndarray, np.ndarray]
 
 
 class NoiseState(NamedTuple):
@@ -164,11 +163,9 @@ class LocalBank:
             self.vb is not None and (not self.vb.sensors or s.name in self.vb.sensors)
             for s in system.sensors
         ]
-        self.H_const = (
-            [system.augmented_H(i) if augmented else system.local(i).H for i in range(self.N)]
-            if not system.linearized
-            else None
-        )
+        self.H_const: list[np.ndarray] | None = None
+        if not system.linearized:
+            self.H_const = [self._constant_H(i, augmented) for i in range(self.N)]
 
     @property
     def sensors(self) -> tuple[Sensor, ...]:
@@ -184,6 +181,11 @@ class LocalBank:
             initial_noise(s.R, batch) if on else None
             for s, on in zip(self.sensors, self.vb_on, strict=True)
         )
+
+    def _constant_H(self, i: int, augmented: bool) -> np.ndarray:
+        H = self.system.augmented_H(i) if augmented else self.system.local(i).H
+        assert H is not None  # a constant system has constant H
+        return H
 
     def H(self, lin: Linearization | None) -> list[np.ndarray]:
         """Every local filter's measurement matrix of the epoch."""

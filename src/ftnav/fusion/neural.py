@@ -47,24 +47,24 @@ The χ² flags that pick the bank test each aid's residual (spec §3.1) against 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import ClassVar, Literal, NamedTuple
 
 import numpy as np
 from pydantic import Field, model_validator
 
 from ftnav.core import kalman as kf
+from ftnav.core.kalman import Gaussian
 from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, config_error
 from ftnav.fusion.detection import Detection
 from ftnav.fusion.isolation import IsolationPolicy
-from ftnav.fusion.locals import LocalBank, measurements
+from ftnav.fusion.locals import LocalBank, LocalUpdate, measurements
 from ftnav.fusion.neural_model import NeuronModel, select_weights
 from ftnav.fusion.protocol import StepOutput, minus, with_common
 from ftnav.model.system import Epoch, LinearSystem
 
 __all__ = ["NeuralConfig", "NeuralFusion", "NeuralState", "check"]
-
-Gaussian = tuple[np.ndarray, np.ndarray]
 
 
 class NeuralConfig(MethodBase):
@@ -79,8 +79,12 @@ class NeuralConfig(MethodBase):
     PRIORS: ClassVar[tuple[str, ...]] = ("local", "global", "intersection")
 
     architecture: Literal["neural"] = "neural"
-    model: str = Field(
-        description="trained neuron banks (ftnav train-fusion); relative to the scenario file"
+    model: str | None = Field(
+        default=None,
+        description=(
+            "trained neuron banks (ftnav train-fusion), relative to the scenario file; "
+            "required to run (the trainer builds the centre without one)"
+        ),
     )
     uncovered: str = Field(
         default="renormalize",
@@ -200,7 +204,7 @@ class NeuralFusion:
             state.detector, stat, meas.dof, meas.usable, epoch.labels
         )
         flags = np.zeros((stat.shape[0], N), dtype=bool) if det_out is None else det_out.flag
-        xs, Ps = self.policy.discard(flags, priors, [(u.x, u.P) for u in updates])
+        xs, Ps = self.policy.discard(flags, priors, [Gaussian(u.x, u.P) for u in updates])
         free = kf.Gaussian(*kf.predict(state.free.x, state.free.P, F, Q))
         xf, Pf, u = self._fuse(xs, Ps, free, flags)
         feats = np.swapaxes(u, 1, 2).reshape(u.shape[0], -1) if self.collect else None
@@ -209,7 +213,17 @@ class NeuralFusion:
         out = StepOutput(xf, Pf, None, det_out, R_hat, meas.nan, feats)
         return NeuralState(tuple(xs), tuple(Ps), free, xf, Pf, det_state), out
 
-    def _statistic(self, state, epoch, usable, priors, updates, Hs, F, Q) -> np.ndarray:
+    def _statistic(
+        self,
+        state: NeuralState,
+        epoch: Epoch,
+        usable: np.ndarray,
+        priors: Sequence[Gaussian],
+        updates: Sequence[LocalUpdate],
+        Hs: Sequence[np.ndarray],
+        F: np.ndarray,
+        Q: np.ndarray,
+    ) -> np.ndarray:
         """(B, N) residual statistic against the configured reference (module docstring)."""
         nc, prior = self.nc, self.detection.prior
         if prior == "local":
@@ -231,7 +245,13 @@ class NeuralFusion:
             1,
         )
 
-    def _fuse(self, xs, Ps, free: kf.Gaussian, flags: np.ndarray):
+    def _fuse(
+        self,
+        xs: Sequence[np.ndarray],
+        Ps: Sequence[np.ndarray],
+        free: Gaussian,
+        flags: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The bank of the flag pattern applied to the inputs; the bound on its error."""
         nc, N = self.nc, self.N
         u = [x[:, :nc] for x in xs]

@@ -9,6 +9,7 @@ file (npz arrays + JSON) is read and written by :mod:`ftnav.io.learned`; trainin
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -43,10 +44,10 @@ class NeuronModel:
     states: tuple[str, ...]
     weights: np.ndarray
     rmse: np.ndarray
-    compatibility: dict
-    training: dict
+    compatibility: dict[str, Any]
+    training: dict[str, Any]
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         C, N = self.patterns.shape
         if self.weights.shape != (C, len(self.states), len(self.inputs)):
             raise ValueError(
@@ -75,7 +76,7 @@ def select_weights(model: NeuronModel, flags: np.ndarray, uncovered: str) -> np.
     covered = match.any(1)
     W = model.weights[np.argmax(match, 1)]
     if covered.all():
-        return W
+        return np.asarray(W)
     if uncovered == "renormalize":
         keep = np.ones((flags.shape[0], len(model.inputs)))
         keep[:, : flags.shape[1]] = ~flags
@@ -84,4 +85,4 @@ def select_weights(model: NeuronModel, flags: np.ndarray, uncovered: str) -> np.
         fallback = np.where(total > 0, W0 / np.where(total > 0, total, 1.0), model.weights[0])
     else:
         fallback = np.broadcast_to(model.weights[model.configurations.index(uncovered)], W.shape)
-    return np.where(covered[:, None, None], W, fallback)
+    return np.asarray(np.where(covered[:, None, None], W, fallback))

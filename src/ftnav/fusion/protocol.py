@@ -14,6 +14,7 @@ from typing import NamedTuple, Protocol, TypeVar
 
 import numpy as np
 
+from ftnav.core.kalman import Gaussian
 from ftnav.fdi.chi2 import DetectorOutput
 from ftnav.model.system import Epoch
 
@@ -84,9 +85,7 @@ def select(mask: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(m, a, b)
 
 
-def with_common(
-    prior: tuple[np.ndarray, np.ndarray], xc: np.ndarray, Pc: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
+def with_common(prior: Gaussian, xc: np.ndarray, Pc: np.ndarray) -> Gaussian:
     """A local prior ``(x, P)`` with its common block replaced by ``(xc, Pc)``.
 
     Private states keep their prior; their cross-covariance with the common block
@@ -96,13 +95,13 @@ def with_common(
     nc = xc.shape[-1]
     x, P = prior
     if x.shape[-1] == nc:
-        return xc, Pc
+        return Gaussian(xc, Pc)
     x_g = np.concatenate([xc, x[:, nc:]], 1)
     P_g = P.copy()
     P_g[:, :nc, :nc] = Pc
     P_g[:, :nc, nc:] = 0.0
     P_g[:, nc:, :nc] = 0.0
-    return x_g, P_g
+    return Gaussian(x_g, P_g)
 
 
 def minus(x: np.ndarray, delta: np.ndarray) -> np.ndarray:

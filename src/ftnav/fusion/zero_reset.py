@@ -11,6 +11,7 @@ The residual test uses the fused prior (the locals have no prior of their own).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -26,6 +27,10 @@ from ftnav.fusion.protocol import StepOutput, minus, select
 from ftnav.model.system import Epoch, LinearSystem
 
 __all__ = ["ZeroResetFilter", "ZeroResetState"]
+
+
+#: an information vector and matrix ``(y, Y) = (P⁻¹ x, P⁻¹)`` (spec §1.6)
+Information = tuple[np.ndarray, np.ndarray]
 
 
 class ZeroResetState(NamedTuple):
@@ -83,7 +88,9 @@ class ZeroResetFilter:
         prior_g = kf.predict(state.xg, state.Pg, F, Q)
         meas = measurements(epoch, self.system.sensors)
         Hs = self.bank.H(epoch.lin)
-        priors, posts, R_hat = [], [], []
+        priors: list[Information] = []
+        posts: list[Information] = []
+        R_hat = []
         for i, s in enumerate(self.system.sensors):
             use = meas.usable[:, i]
             y, Y = kf.information_predict(state.y[i], state.Y[i], F, Q)
@@ -123,7 +130,13 @@ class ZeroResetFilter:
         return ZeroResetState(tuple(ys), tuple(Ys), master, xg, Pg, active_next, det_state), out
 
     def _fuse(
-        self, state: ZeroResetState, priors, posts, newly: np.ndarray, F: np.ndarray, Q: np.ndarray
+        self,
+        state: ZeroResetState,
+        priors: Sequence[Information],
+        posts: Sequence[Information],
+        newly: np.ndarray,
+        F: np.ndarray,
+        Q: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray, kf.Gaussian]:
         """``Y_g = Y_m + Σ_active Y_i`` (a newly flagged local with its prior)."""
         master_pr = kf.predict(state.master.x, state.master.P, F, Q)

@@ -121,6 +121,12 @@ def _reason(err: Mapping[str, Any]) -> str:
         return str(ctx["reason"])
     if kind == "extra_forbidden":
         return "unknown key"
+    if kind == "union_tag_invalid":
+        tag = str(ctx.get("tag"))
+        choices = re.findall(r"'((?:[^'\\]|\\.)*)'", str(ctx.get("expected_tags", "")))
+        close = difflib.get_close_matches(tag, choices, n=1, cutoff=0.6)
+        hint = f"did you mean {close[0]!r}? " if close else ""
+        return f"unknown value {tag!r} ({hint}expected one of: {', '.join(choices)})"
     if kind == "missing":
         return "missing required key"
     if kind == "literal_error":
@@ -177,6 +183,8 @@ def to_scenario_error(
     raw = tuple(err.get("loc", ()))
     if err["type"] == _CHECK:
         raw = raw + tuple(err["ctx"]["path"])
+    if err["type"] == "union_tag_invalid":  # the tag key itself is the field at fault
+        raw = raw + (str(err["ctx"]["discriminator"]).strip("'()_"),)
     loc, models = _walk(root, raw) if root is not None else (raw, [])
     path = format_loc(loc) or origin
     reason = _reason(err)

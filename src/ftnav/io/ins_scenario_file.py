@@ -42,6 +42,7 @@ from ftnav.model.scenario import (
     InsScenario,
 )
 from ftnav.nav.error_model import ErrorModelParams
+from ftnav.sensors.terrain import AnalyticTerrain, GridDem
 
 __all__ = [
     "parse_ins_scenario",
@@ -340,8 +341,6 @@ def initial_sigma(init: InitialFile, bias_sigma: np.ndarray) -> np.ndarray:
 
 
 def _terrain(t: TerrainFile, origin_lat: float, origin_lon: float, base: Path, origin: str):
-    from ftnav.sensors.terrain import AnalyticTerrain, GridDem
-
     if t.kind == "grid":
         if not t.path:
             raise _err("terrain.path", "required with kind = 'grid'", origin)

@@ -153,6 +153,11 @@ def load_neuron_model(path: str | Path, compat: Mapping[str, Any] | None = None)
 
 
 # --------------------------------------------------------------------------- a method
+def _named(e: ModelFileError, field: str) -> ModelFileError:
+    """The error of a model file named by the scenario field that names it, and its path."""
+    return ModelFileError(e.path, f"{e.reason} ({str(e.path)!r})", field=field)
+
+
 def learned_for(
     method: MethodBase, index: int, system: LinearSystem, base: Path | None = None
 ) -> Learned:
@@ -173,14 +178,17 @@ def learned_for(
         try:
             return Learned(detector=load_rbf_model(path(method.detector.model), compat))
         except ModelFileError as e:
-            raise ModelFileError(e.path, e.reason, field=field) from None
+            raise _named(e, field) from None
     if method.architecture == "neural":  # type: ignore[attr-defined]
         field = f"methods[{index}].model"
         if method.model is None:  # type: ignore[attr-defined]
-            raise ModelFileError("", "architecture 'neural' needs a trained model file "
-                                 "(ftnav train-fusion)", field=field)
+            raise ModelFileError(
+                "",
+                "architecture 'neural' needs a trained model file (ftnav train-fusion)",
+                field=field,
+            )
         try:
             return Learned(fusion=load_neuron_model(path(method.model), compat))  # type: ignore[attr-defined]
         except ModelFileError as e:
-            raise ModelFileError(e.path, e.reason, field=field) from None
+            raise _named(e, field) from None
     return NOTHING_LEARNED

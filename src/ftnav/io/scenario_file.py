@@ -30,6 +30,7 @@ from pydantic import (
     model_validator,
 )
 
+from ftnav.core.discretize import van_loan
 from ftnav.io.common import (
     PSD_RTOL,
     STRICT,
@@ -263,8 +264,6 @@ def _discretized(
     F_c: np.ndarray, Q_c: np.ndarray, dt: float, key: str, spd: bool
 ) -> tuple[np.ndarray, np.ndarray]:
     """Van Loan's discretization (spec §8.4) of (F_c, Q_c) over dt, Q checked."""
-    from ftnav.core.discretize import van_loan
-
     with np.errstate(all="ignore"):  # an overflow is reported below, as one line
         F, Q = van_loan(F_c, Q_c, dt)
     if not (np.all(np.isfinite(F)) and np.all(np.isfinite(Q))):

@@ -76,6 +76,15 @@ class EvaluationFile(BaseModel):
 def explain_method_key(key: str, model: type[BaseModel]) -> str | None:
     """Why ``key`` is refused in a method's table: a setting of another architecture (or
     of another mode), of the detector, of the noise model; None when it is unknown."""
+    for table in ("detector", "noise"):  # a table of one detector or noise kind
+        members = _members(MethodBase.model_fields[table].annotation)
+        if model in members:
+            others = [_kind(m) for m in members if key in m.model_fields]
+            if not others:
+                return None
+            return (
+                f"not a setting of the {_kind(model)!r} {table} (a setting of {', '.join(others)})"
+            )
     if not (isinstance(model, type) and issubclass(model, MethodBase)):
         return None
     arch = model.model_fields["architecture"].default
@@ -86,9 +95,16 @@ def explain_method_key(key: str, model: type[BaseModel]) -> str | None:
         annotation = MethodBase.model_fields[table].annotation
         kinds = [m for m in _members(annotation) if key in m.model_fields and key != "kind"]
         if kinds:
-            kind = get_args(kinds[0].model_fields["kind"].annotation)[0]
-            return f"a setting of the {table}: write {table} = {{kind = {kind!r}, {key} = ...}}"
+            return (
+                f"a setting of the {table}: write {table} = "
+                f"{{kind = {_kind(kinds[0])!r}, {key} = ...}}"
+            )
     return None
+
+
+def _kind(model: type[BaseModel]) -> str:
+    """The ``kind`` tag of a detector or noise model."""
+    return str(get_args(model.model_fields["kind"].annotation)[0])
 
 
 def _members(annotation: Any) -> list[type[BaseModel]]:

@@ -513,8 +513,7 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                 "SINS fault window, where every residual is inconsistent",
             )
         )
-    if name is not None and result.results[name].local is not None and \
-            name in result.fault_free:
+    if name is not None and result.results[name].local is not None and name in result.fault_free:
         t = sc.times
         w = t >= sc.evaluation.skip_initial
         pos = result.results[name].local[:, w]  # local tracks of the run with faults

@@ -29,6 +29,7 @@ from ftnav.engine.driver import iterate
 from ftnav.fusion.config import OracleDetector
 from ftnav.fusion.neural import NeuralConfig, NeuralFusion
 from ftnav.fusion.neural_model import NeuronModel
+from ftnav.io.learned import compatibility
 from ftnav.model.scenario import SINS, Fault, InsScenario
 from ftnav.nav.mechanization import navigation_errors
 from ftnav.sim.ins import InsTruth, simulate_ins
@@ -145,7 +146,7 @@ def train_ins_fusion(
         tuple(system.model.states),
         weights,
         rmse,
-        system.compatibility(),
+        compatibility(system),
         provenance,
     )
 
