@@ -27,11 +27,14 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from ftnav.eval.montecarlo import build_filter, run_filter
+from ftnav.engine import navigation_model
+from ftnav.engine.driver import Trace
+from ftnav.engine.driver import run as run_engine
 from ftnav.fdi.chi2 import state_statistic
-from ftnav.model.system import LinearModel, Sensor
-from ftnav.model.scenario import Method, Scenario
-from ftnav.model.system import LinearSystem
+from ftnav.fusion import registry
+from ftnav.fusion.config import MethodBase
+from ftnav.model.scenario import Scenario
+from ftnav.model.system import Epoch, LinearModel, Sensor
 from ftnav.sim.linear import simulate
 
 P_FA = 1e-2
@@ -49,7 +52,7 @@ def constant_acceleration(steps: int) -> Scenario:
     sensors = tuple(
         Sensor(f"z{i}", np.array([[h, 0.0, 0.0]]), R, R) for i, h in enumerate((1.0, 2.5, 0.5))
     )
-    return Scenario("ca", T, steps, model, sensors)
+    return Scenario(name="ca", dt=T, steps=steps, model=model, sensors=sensors)
 
 
 def mixing_model(steps: int) -> Scenario:
@@ -62,12 +65,15 @@ def mixing_model(steps: int) -> Scenario:
         Sensor("z0", np.array([[1.0, 0.0]]), np.eye(1), np.eye(1)),
         Sensor("z1", np.array([[0.0, 1.0]]), np.eye(1), np.eye(1)),
     )
-    return Scenario("mix", 1.0, steps, model, sensors)
+    return Scenario(name="mix", dt=1.0, steps=steps, model=model, sensors=sensors)
 
 
-def run(sc: Scenario, method: Method, runs: int, seed: int):
-    system = LinearSystem.from_scenario(sc)
-    return run_filter(build_filter(system, method), simulate(sc, runs, seed), system.n_common)
+def run(sc: Scenario, method: MethodBase, runs: int, seed: int) -> Trace:
+    """The engine's trace of one method over ``runs`` simulated runs of ``sc``."""
+    system = sc.system()
+    filters = {method.name: registry.build(system, method)}
+    stream = simulate(sc, runs, seed).stream
+    return run_engine(navigation_model(sc, system), stream, filters, sc.steps)[method.name]
 
 
 @pytest.fixture(scope="module")
@@ -81,12 +87,10 @@ def test_residual_test_false_alarm_rate_and_mean(ca, architecture):
     (centralized: common prior; distributed: each local filter's own prior)."""
     res = run(
         ca,
-        Method(
-            "r",
-            architecture=architecture,
-            detector="residual-chi2",
-            false_alarm_probability=P_FA,
-            n_on=10**9,
+        registry.method_config(
+            architecture,
+            name="r",
+            detector={"kind": "residual-chi2", "false_alarm_probability": P_FA, "n_on": 10**9},
         ),
         RUNS,
         seed=101,
@@ -106,13 +110,15 @@ def test_windowed_residual_test_false_alarm_rate(ca):
     W = 5
     res = run(
         ca,
-        Method(
-            "w",
-            architecture="centralized",
-            detector="residual-chi2",
-            false_alarm_probability=P_FA,
-            window=W,
-            n_on=10**9,
+        registry.method_config(
+            "centralized",
+            name="w",
+            detector={
+                "kind": "residual-chi2",
+                "false_alarm_probability": P_FA,
+                "window": W,
+                "n_on": 10**9,
+            },
         ),
         RUNS,
         seed=202,
@@ -138,13 +144,15 @@ def test_state_test_under_h0(scenario):
     reset = 100
     res = run(
         sc,
-        Method(
-            "s",
-            architecture="distributed",
-            detector="state-chi2",
-            false_alarm_probability=P_FA,
-            n_on=10**9,
-            state_test_reset=reset,
+        registry.method_config(
+            "distributed",
+            name="s",
+            detector={
+                "kind": "state-chi2",
+                "false_alarm_probability": P_FA,
+                "n_on": 10**9,
+                "reset": reset,
+            },
         ),
         RUNS,
         seed=303,
@@ -180,17 +188,21 @@ def test_brumback_srinath_covariance_is_conservative():
     """
     runs, steps = 1000, 40
     sc = mixing_model(steps)
-    sim = simulate(sc, runs, seed=4)
-    system = LinearSystem.from_scenario(sc)
-    filt = build_filter(system, Method("c", architecture="centralized"))
+    stream = simulate(sc, runs, seed=4).stream
+    system = sc.system()
+    filt = registry.build(system, registry.method_config("centralized", name="c"))
     state = filt.init(runs)
     xs, Ps = state.x.copy(), state.P.copy()
     F, Q = system.model.F, system.model.Q
     exact, bs = [], []
     for k in range(1, steps + 1):
-        state, out = filt.step(
-            state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], sim.oracle[k - 1]
+        epoch = Epoch(
+            k,
+            tuple(z[:, k - 1] for z in stream.z),
+            stream.available[:, k - 1],
+            stream.labels[k - 1],
         )
+        state, out = filt.step(state, epoch)
         xs, Ps = xs @ F.T, F @ Ps @ F.T + Q
         if k >= 10:
             exact.append(state_statistic(out.x, out.P, xs, Ps)[0])

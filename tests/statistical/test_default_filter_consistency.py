@@ -21,8 +21,8 @@ import warnings
 
 import pytest
 
-from ftnav.eval.integrated import run_ins_scenario
 from ftnav.eval.metrics import chi2_band, nees_stats
+from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.ins_scenario_file import ScenarioWarning, parse_ins_scenario
 from ftnav.model.imu import IMU_PRESETS
 from ftnav.scenarios import builtin_path
@@ -63,7 +63,7 @@ def test_centralized_anees_inside_the_band_with_the_default_filter(imu, states):
         states,
         default_gnss=imu == "default-gnss",
     )
-    res = run_ins_scenario(sc, 10, seed=1).result.results["ckf"]
+    res = run_scenario(sc, 10, seed=1).results["ckf"]
     stats = nees_stats(res.nees, 9, sc.times >= sc.evaluation.skip_initial)
     lo, hi = chi2_band(90, 10)
     assert lo <= stats.anees <= hi, f"ANEES {stats.anees:.2f} outside [{lo:.2f}, {hi:.2f}]"

@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 
 from ftnav.eval.evaluate import evaluate
-from ftnav.eval.integrated import run_ins_scenario
 from ftnav.eval.metrics import chi2_band
+from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.ins_scenario_file import parse_ins_scenario
 
 RUNS = 6
@@ -56,8 +56,8 @@ architecture = "centralized"
 
 def _run(markov: str, correction: str = "feedback"):
     sc = parse_ins_scenario(tomllib.loads(TEMPLATE.format(markov=markov, correction=correction)))
-    res = run_ins_scenario(sc, RUNS, seed=2).result
-    x = res.results["ckf"].x[:, 100:]
+    res = run_scenario(sc, RUNS, seed=2)
+    x = res.results["ckf"].error[:, 100:]
     return {
         "horizontal": float(np.sqrt(np.mean(x[..., 0] ** 2 + x[..., 1] ** 2))),
         "up": float(np.sqrt(np.mean(x[..., 2] ** 2))),

@@ -71,7 +71,7 @@ import numpy as np
 import pytest
 
 from ftnav.eval.evaluate import evaluate
-from ftnav.eval.integrated import run_ins_scenario
+from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.scenario_file import load_scenario
 from ftnav.model.scenario import SINS
 from ftnav.scenarios import builtin_path
@@ -87,15 +87,21 @@ AIDS = ("gps", "tan", "dns")
 def seed001():
     sc = load_scenario(builtin_path("seed001"))
     fkf, neural = (next(m for m in sc.methods if m.name == n) for n in (FKF, NEURAL))
-    assert neural.prior == "intersection" and neural.isolation == "time-update"
-    literal = dataclasses.replace(neural, name=LITERAL, prior="local")
+    assert neural.detector.prior == "intersection" and neural.isolation == "time-update"
+    literal = neural.model_copy(
+        update={"name": LITERAL, "detector": neural.detector.model_copy(update={"prior": "local"})}
+    )
     faults = tuple(f for f in sc.faults if f.sensor != SINS)
-    return dataclasses.replace(sc, steps=700, faults=faults, methods=(fkf, neural, literal))
+    # the literal variant fuses with the same trained neuron banks as neural-chi2
+    learned = sc.learned + ((LITERAL, sc.learned_for(NEURAL)),)
+    return dataclasses.replace(
+        sc, steps=700, faults=faults, methods=(fkf, neural, literal), learned=learned
+    )
 
 
 @pytest.fixture(scope="module")
 def result(seed001):
-    return run_ins_scenario(seed001, RUNS, seed=1, fault_free=False).result
+    return run_scenario(seed001, RUNS, seed=1, fault_free=False)
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ftnav.eval.integrated import run_ins_scenario
 from ftnav.eval.metrics import chi2_band, nees_stats
+from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.scenario_file import load_scenario
 from ftnav.model.scenario import METRIC_STATES
 from ftnav.scenarios import builtin_path
@@ -48,7 +48,7 @@ def test_vb_tracks_the_gnss_position_noise_step(seed002):
     gnss = sc.aids[sc.sensor_names.index("gnss")].sensor
     sigma0 = np.asarray(gnss.pos_white_sigma_m)
     assert np.allclose(gnss.pos_markov_sigma_m, 0.0) and np.allclose(sigma0, 1.4)
-    res = run_ins_scenario(sc, 3, seed=2, fault_free=False).result.results["dkf-vb"]
+    res = run_scenario(sc, 3, seed=2, fault_free=False).results["dkf-vb"]
     R_hat = res.R_hat[sc.sensor_names.index("gnss")]  # (B, K, 6) variances
     t = sc.times
     for t_check, truth in ((550.0, sigma0), (900.0, 5.0 * sigma0)):
@@ -80,7 +80,7 @@ def test_centralized_nees_is_consistent(seed002):
     ≈ 0.05: 0.8 is 3 standard deviations below the expected 0.95.
     """
     sc = dataclasses.replace(seed002, steps=600, faults=(), methods=(_method(seed002, "ckf"),))
-    res = run_ins_scenario(sc, 10, seed=1).result.results["ckf"]
+    res = run_scenario(sc, 10, seed=1).results["ckf"]
     assert res.nees.shape == (10, 600)
     window = sc.times >= sc.evaluation.skip_initial
     assert sc.evaluation.skip_initial == 60.0

@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ftnav.fdi.rbf import RBFModel
-from ftnav.fdi.training import DetectorTraining, train_detector
+from ftnav.io.learned import load_rbf_model
 from ftnav.io.scenario_file import load_scenario
 from ftnav.scenarios import builtin_path
+from ftnav.training.detector import DetectorTraining, train_detector
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +63,7 @@ def test_dominant_sensor_limit_is_shared_by_chi2(trained):
 def test_shipped_model_is_what_the_defaults_train(trained):
     """The built-in model is reproducible from ``ftnav train-detector seed000``."""
     model, _ = trained
-    shipped = RBFModel.load(builtin_path("seed000").parent / "models" / "seed000-rbf.npz")
+    shipped = load_rbf_model(builtin_path("seed000").parent / "models" / "seed000-rbf.npz")
     for name, a in model.network.to_arrays().items():
         np.testing.assert_allclose(
             shipped.network.to_arrays()[name],

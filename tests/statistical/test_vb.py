@@ -24,11 +24,11 @@ import pytest
 
 from ftnav.core import kalman as kf
 from ftnav.core import vb
-from ftnav.eval.montecarlo import run_filter
-from ftnav.fusion.distributed import DistributedFilter
+from ftnav.engine import navigation_model
+from ftnav.engine.driver import run as run_engine
+from ftnav.fusion import registry
+from ftnav.model.scenario import Scenario
 from ftnav.model.system import LinearModel, Sensor
-from ftnav.model.scenario import Method, Scenario
-from ftnav.model.system import LinearSystem
 from ftnav.sim.linear import simulate
 
 R_TRUE = np.array([4.0, 0.25])
@@ -163,23 +163,23 @@ def _scenario(steps):
     sensors = tuple(
         Sensor(f"z{i}", H, R, R_true, every=1 + (i == 2)) for i, (H, R, R_true) in enumerate(specs)
     )
-    return Scenario("vb", 1.0, steps, model, sensors)
+    return Scenario(name="vb", dt=1.0, steps=steps, model=model, sensors=sensors)
 
 
 def _ckf_with_logged_noise(sc, sim, R_hat):
     """Plain centralized KF (kernel calls only) with sensor i's R replaced by the logged
     diagonal R̂_i at every epoch; skips unscheduled measurements."""
-    B, K = sim.truth.shape[:2]
+    B, K = sim.truth.states.shape[:2]
     x = np.broadcast_to(sc.model.x0, (B, sc.model.n)).copy()
     P = np.broadcast_to(sc.model.P0, (B, sc.model.n, sc.model.n)).copy()
     xs, Ps = [], []
     for k in range(K):
         x, P = kf.predict(x, P, sc.model.F, sc.model.Q)
         for i, s in enumerate(sc.sensors):
-            if not sim.available[0, k, i]:
+            if not sim.stream.available[0, k, i]:
                 continue
             R = np.einsum("bi,ij->bij", R_hat[i][:, k], np.eye(s.dim))
-            up = kf.update(x, P, sim.z[i][:, k], s.H, R)
+            up = kf.update(x, P, sim.stream.z[i][:, k], s.H, R)
             x, P = up.x, up.P
         xs.append(x)
         Ps.append(P)
@@ -190,18 +190,18 @@ def _ckf_with_logged_noise(sc, sim, R_hat):
 @pytest.mark.parametrize("local_scale", [(1.0, 1.0), (4.0, 3.0)], ids=["same", "Qx4,P0x3"])
 def test_distributed_vb_equals_ckf_with_logged_noise(increment, local_scale):
     """§6.4 / §7.4 (f): the fused result equals a CKF run with R = blkdiag(R̂_i), R̂_i the
-    noise each VB local used at that epoch (``MethodResult.R_hat``), within 1e-9."""
+    noise each VB local used at that epoch (``Trace.R_hat``), within 1e-9."""
     sc = _scenario(300)
     sim = simulate(sc, 3, seed=8)
-    system = LinearSystem.from_scenario(sc)
+    system = sc.system()
     q, p = local_scale
-    filt = DistributedFilter(
+    filt = registry.build(
         system,
-        Method("vb", architecture="distributed", adaptive_noise="vb", increment=increment),
+        registry.method_config("distributed", name="vb", noise="vb", increment=increment),
         local_Q_scale=[q] * 3,
         local_P0_scale=[p] * 3,
     )
-    res = run_filter(filt, sim, system.n_common)
+    res = run_engine(navigation_model(sc, system), sim.stream, {"vb": filt}, sc.steps)["vb"]
     # the noise really adapted (otherwise the test would not need the logged R̂)
     assert np.abs(res.R_hat[0][:, -1] / np.diag(sc.sensors[0].R) - 1.0).max() > 0.2
     x_ref, P_ref = _ckf_with_logged_noise(sc, sim, res.R_hat)
