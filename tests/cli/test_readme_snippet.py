@@ -10,6 +10,7 @@ import re
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 import tomli_w
 
@@ -23,6 +24,11 @@ def _snippet() -> str:
     code = next(b for b in blocks if "load_scenario(" in b and "evaluate(" in b)
     assert '"my_model.toml"' in code and "runs=200" in code
     return code
+
+
+def _engine_snippet() -> str:
+    blocks = re.findall(r"```python\n(.*?)```", README, flags=re.S)
+    return next(b for b in blocks if "navigation_model(" in b)
 
 
 def _copy(name: str, tmp_path: Path, steps: int) -> Path:
@@ -53,6 +59,9 @@ def test_readme_python_snippet(name, steps, tmp_path, monkeypatch, capsys):
     metrics, sc = scope["metrics"], scope["sc"]
     assert set(metrics) == {m.name for m in sc.methods}
     ckf = metrics["ckf"]
-    assert set(ckf.rmse) >= set(sc.model.states)
+    assert set(ckf.rmse) >= set(sc.metric_states)
     assert all(v > 0 for v in ckf.rmse.values())
     assert str(ckf.rmse)[:20] in capsys.readouterr().out
+    exec(compile(_engine_snippet(), "README.md", "exec"), scope)  # the engine, after it
+    x = scope["traces"]["ckf"].x
+    assert x.shape[:2] == (3, sc.steps) and np.isfinite(x).all()

@@ -10,19 +10,21 @@ from __future__ import annotations
 
 from typing import Any
 
-from ftnav.engine.ins import InsModel
+from ftnav.engine.driver import NavigationModel
+from ftnav.engine.ins import InsModel, InsModelState
 from ftnav.engine.linear import LinearModel
 from ftnav.model.system import LinearSystem
 
 __all__ = ["navigation_model"]
 
 
-def navigation_model(scenario: Any, system: LinearSystem | None = None) -> LinearModel | InsModel:
+def navigation_model(scenario: Any, system: LinearSystem | None = None) -> NavigationModel[Any]:
     """The engine's model of a scenario: its linear system, or its closed-loop SINS."""
     system = scenario.system() if system is None else system
     if scenario.kind != "integrated":
-        return LinearModel(system)
-    return InsModel(
+        linear: NavigationModel[None] = LinearModel(system)
+        return linear
+    ins: NavigationModel[InsModelState] = InsModel(
         system,
         scenario.error_model,
         [a.sensor for a in scenario.aids],
@@ -32,3 +34,4 @@ def navigation_model(scenario: Any, system: LinearSystem | None = None) -> Linea
         scenario.discretization,
         scenario.algorithm,
     )
+    return ins

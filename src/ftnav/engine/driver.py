@@ -15,16 +15,67 @@ integrated navigation, over methods: every method's SINS is one batch).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 
 from ftnav.core import kalman as kf
 from ftnav.fusion.protocol import Architecture, StepOutput
-from ftnav.model.system import Epoch, Linearization
+from ftnav.model.system import Epoch, Linearization, LinearSystem
 from ftnav.nav.mechanization import InsState
 
-__all__ = ["EpochRecord", "Trace", "covariance_ok", "iterate", "run"]
+__all__ = ["EpochRecord", "NavigationModel", "Stream", "Trace", "covariance_ok", "iterate", "run"]
+
+M = TypeVar("M")  # the model's own state between epochs
+
+
+class Stream(Protocol):
+    """What the driver needs of a measurement stream (:mod:`ftnav.model.streams`)."""
+
+    @property
+    def batch(self) -> int:
+        """Runs in the stream (the leading axis of every array)."""
+        ...
+
+
+class NavigationModel(Protocol[M]):
+    """What turns a stream into epochs, and (integrated) takes the fused estimate back.
+
+    Attributes
+    ----------
+    system : the filters' system.
+    feedback : the fused estimate is fed back after each epoch (closed loop).
+    per_method_rows : an epoch holds every method's rows, method-major (each method
+        has its own SINS); else all methods see the same rows.
+    n_fed : states fed back (every filter is shifted by them).
+    n_local : states of the local estimates to keep (None: the common states).
+    """
+
+    system: LinearSystem
+    feedback: bool
+    per_method_rows: bool
+    n_fed: int
+    n_local: int | None
+
+    def start(self, stream: Any, copies: int) -> M:
+        """The model's state before the first epoch, for ``copies`` methods."""
+        ...
+
+    def epoch(self, state: M, stream: Any, k: int, copies: int) -> tuple[M, Epoch]:
+        """The epoch k (1-based) of the stream: measurements, availability, matrices."""
+        ...
+
+    def navigation(self, state: M) -> InsState | None:
+        """Every method's navigation solution before the correction, or None (linear)."""
+        ...
+
+    def correct(self, state: M, fused: np.ndarray) -> M:
+        """Feed every method's fused estimate (rows, n) back."""
+        ...
+
+    def output(self, state: M, fused: np.ndarray) -> InsState | None:
+        """The corrected navigation solution, or None (linear)."""
+        ...
 
 
 class EpochRecord(NamedTuple):
@@ -82,8 +133,8 @@ def _checked(name: str, k: int, out: StepOutput, check_spd: bool) -> None:
 
 
 def iterate(
-    model: Any,
-    stream: Any,
+    model: NavigationModel[Any],
+    stream: Stream,
     filters: Mapping[str, Architecture[Any]],
     steps: int,
     progress: Callable[[int], None] | None = None,
@@ -118,7 +169,7 @@ def iterate(
             local.append(filters[nm].local_estimates(states[j], n_local))
             if progress is not None:
                 progress(1)
-        nav = getattr(mstate, "ins", None)
+        nav = model.navigation(mstate)
         solution = None
         if nav is not None:
             fused = np.concatenate([o.x for o in outputs], 0)
@@ -220,8 +271,8 @@ class _Recorder:
 
 
 def run(
-    model: Any,
-    stream: Any,
+    model: NavigationModel[Any],
+    stream: Stream,
     filters: Mapping[str, Architecture[Any]],
     steps: int,
     progress: Callable[[int], None] | None = None,

@@ -77,9 +77,9 @@ class InsModel:
     discretization : ``"series"`` or ``"van-loan"``; ``algorithm`` the strapdown algorithm.
     """
 
-    per_method_rows = True
-    n_fed = N_NAV
-    n_local = N_NAV
+    per_method_rows: bool = True
+    n_fed: int = N_NAV
+    n_local: int | None = N_NAV
 
     def __init__(
         self,
@@ -185,6 +185,10 @@ class InsModel:
             H.append(Hi)
             avail[:, i] = ok
         return z, H, avail, tuple(previous)
+
+    def navigation(self, state: InsModelState) -> InsState:
+        """Every method's SINS solution before this epoch's correction."""
+        return state.ins
 
     def correct(self, state: InsModelState, fused: np.ndarray) -> InsModelState:
         """Feed the fused navigation errors (rows, ≥ 9) back to every SINS (spec §8.5)."""

@@ -26,9 +26,9 @@ class LinearModel:
     transitions : optional per-epoch common transitions of a time-varying model.
     """
 
-    feedback = False
-    per_method_rows = False
-    n_fed = 0
+    feedback: bool = False
+    per_method_rows: bool = False
+    n_fed: int = 0
     n_local: int | None = None
 
     def __init__(self, system: LinearSystem, transitions: TimeVarying | None = None):
@@ -38,6 +38,15 @@ class LinearModel:
             self._H = tuple(system.local_H(i) for i in range(system.n_sensors))
 
     def start(self, stream: MeasurementStream, copies: int) -> None:
+        return None
+
+    def navigation(self, state: None) -> None:
+        return None
+
+    def correct(self, state: None, fused: np.ndarray) -> None:
+        return None
+
+    def output(self, state: None, fused: np.ndarray) -> None:
         return None
 
     def epoch(

@@ -42,6 +42,11 @@ from ftnav.model.scenario import (
     InsScenario,
 )
 from ftnav.nav.error_model import ErrorModelParams
+from ftnav.sensors.ads import Barometer
+from ftnav.sensors.cns import StarTracker
+from ftnav.sensors.dns import Doppler
+from ftnav.sensors.gnss import Gnss
+from ftnav.sensors.tan import Tan
 from ftnav.sensors.terrain import AnalyticTerrain, GridDem
 
 __all__ = [
@@ -62,21 +67,15 @@ _DEG_H = _DEG / 3600.0
 _G = 9.80665
 
 
-_AID_CLASSES = {
-    "gnss": ("gnss", "Gnss"),
-    "tan": ("tan", "Tan"),
-    "dns": ("dns", "Doppler"),
-    "cns": ("cns", "StarTracker"),
-    "ads": ("ads", "Barometer"),
+#: every aid type of ``[[aids]]``: a new aid is its module in ftnav.sensors plus one line here
+AID_CLASSES: dict[str, type] = {
+    "gnss": Gnss,
+    "tan": Tan,
+    "dns": Doppler,
+    "cns": StarTracker,
+    "ads": Barometer,
 }
-AID_TYPES = tuple(_AID_CLASSES)
-
-
-def _aid_class(kind: str) -> type:
-    import importlib
-
-    module, cls = _AID_CLASSES[kind]
-    return getattr(importlib.import_module(f"ftnav.sensors.{module}"), cls)
+AID_TYPES = tuple(AID_CLASSES)
 
 
 class TerrainFile(BaseModel):
@@ -97,7 +96,7 @@ class AidFile(BaseModel):
     """``[[aids]]``: type, schedule and the sensor's own parameters."""
 
     model_config = ConfigDict(extra="allow", strict=True)
-    type: Literal["gnss", "tan", "dns", "cns", "ads"]
+    type: Literal[AID_TYPES]  # type: ignore[valid-type]
     name: str | None = None
     every: int = Field(default=1, ge=1)
     offset: int = Field(default=0, ge=0)
@@ -365,7 +364,7 @@ def sensor_from_table(
     kind: str, params: Mapping[str, Any], path: str, origin: str, terrain=None, dt: float = 1.0
 ):
     """Build one sensor from its TOML table; errors name ``path.<field>``."""
-    cls = _aid_class(kind)
+    cls = AID_CLASSES[kind]
     fields = {f.name for f in dataclasses.fields(cls)}
     kw = dict(params)
     for key in kw:
