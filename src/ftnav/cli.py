@@ -51,10 +51,10 @@ import numpy as np
 from tqdm import tqdm
 
 from ftnav import __version__
+from ftnav.eval import resources
 from ftnav.eval.evaluate import evaluate, metrics_to_json
 from ftnav.eval.montecarlo import build_filters, run_scenario
 from ftnav.eval.resources import (
-    available_memory_bytes,
     format_bytes,
     kernels_compiled,
     mark_kernels_compiled,
@@ -281,12 +281,13 @@ def _parser() -> _Parser:
     return p
 
 
-def _resolve(spec: str):
+def _resolve(spec: str, models: bool = True):
+    """The built-in scenario or scenario file ``spec``; ``models=False`` for training."""
     if spec in builtin_names():
-        return load_scenario(builtin_path(spec))
+        return load_scenario(builtin_path(spec), models)
     path = Path(spec)
     if path.suffix == ".toml" or path.exists():
-        return load_scenario(path)
+        return load_scenario(path, models)
     raise UsageError(
         f"scenario: {spec!r} is neither a built-in scenario "
         f"({', '.join(builtin_names())}) nor a TOML file"
@@ -310,7 +311,7 @@ def _build_filters(sc) -> None:
 
 def _check_memory(sc, runs: int, **options) -> None:
     """Refuse a run whose estimated peak memory exceeds what the machine has available."""
-    available = available_memory_bytes()
+    available = resources.available_memory_bytes()
     if available is None:
         return
     need = run_memory_bytes(sc, runs, **options)
@@ -588,7 +589,7 @@ def _cmd_trajectory(args) -> int:
         out = Path(args.out)
         _check_out_folder(out)
         need = trajectory_memory_bytes(profile, errors is not None)
-        available = available_memory_bytes()
+        available = resources.available_memory_bytes()
         if available is not None and need > available:
             raise UsageError(
                 f"profile: {profile.duration:g} s at {profile.imu_rate:g} Hz "
@@ -634,7 +635,7 @@ def _bar(total: int, quiet: bool, desc: str):
 
 def _cmd_train_detector(args) -> int:
     with _checking():
-        sc = _resolve(args.scenario)
+        sc = _resolve(args.scenario, models=False)
         out = args.out
         _check_out_file(out)
         if _integrated(sc):
@@ -687,7 +688,7 @@ def _cmd_train_detector(args) -> int:
 
 def _cmd_train_fusion(args) -> int:
     with _checking():
-        sc = _resolve(args.scenario)
+        sc = _resolve(args.scenario, models=False)
         out = args.out
         _check_out_file(out)
         if not _integrated(sc):

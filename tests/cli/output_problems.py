@@ -47,12 +47,11 @@ architecture = "centralized"
 name = "fkf"
 architecture = "federated"
 sharing = "inverse-trace"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 [[methods]]
 name = "dkf"
 architecture = "distributed"
-detector = "state-chi2"
+detector = { kind = "state-chi2" }
 """
 
 NORTH_RAMP = """
@@ -103,12 +102,11 @@ sharing = "inverse-trace"
 
 [[methods]]
 name = "fkf-oracle"
-detector = "oracle"
+detector = { kind = "oracle" }
 
 [[methods]]
 name = "fkf-chi2"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 
 [[methods]]
 name = "dkf"
@@ -153,15 +151,13 @@ architecture = "centralized"
 [[methods]]
 name = "fkf-chi2"
 architecture = "federated"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 isolation = "time-update"
 
 [[methods]]
 name = "dkf-vb"
 architecture = "distributed"
-adaptive_noise = "vb"
-vb_sensors = ["gnss"]
+noise = { kind = "vb", sensors = ["gnss"] }
 """
 
 
@@ -189,9 +185,9 @@ def north_ramp_run():
 
 @cache
 def integrated_run():
-    """(IntegratedResult, metrics) of :data:`INTEGRATED`, 2 runs, seed 3."""
+    """(ScenarioResult, metrics) of :data:`INTEGRATED`, 2 runs, seed 3."""
     from ftnav.eval.evaluate import evaluate
-    from ftnav.eval.integrated import run_ins_scenario
+    from ftnav.eval.montecarlo import run_scenario
 
-    ir = run_ins_scenario(integrated_scenario(), 2, 3)
-    return ir, evaluate(ir.result)
+    result = run_scenario(integrated_scenario(), runs=2, seed=3)
+    return result, evaluate(result)

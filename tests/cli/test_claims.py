@@ -15,7 +15,6 @@ import pytest
 
 from ftnav.cli import main
 from ftnav.eval.evaluate import evaluate
-from ftnav.eval.integrated import run_ins_scenario
 from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.scenario_file import load_scenario
 from ftnav.report.claims import check_claims, papers_of
@@ -101,13 +100,13 @@ def test_seed000_copy_ending_inside_the_grace_period_leaves_recovery_not_checked
 def short002():
     """seed002 cut to 1000 s: the noise step [600, 1500) s is cut, the ramp lies outside."""
     sc = replace(_builtin("seed002"), name="short002", steps=1000)
-    ir = run_ins_scenario(sc, 2, 1)
-    return ir, evaluate(ir.result)
+    result = run_scenario(sc, 2, 1)
+    return result, evaluate(result)
 
 
 def test_shortened_seed002_copy_checks_the_cut_window_and_not_the_one_outside(short002):
-    ir, metrics = short002
-    claims = {c["id"]: c for c in check_claims(ir.result, metrics, ir.local)}
+    result, metrics = short002
+    claims = {c["id"]: c for c in check_claims(result, metrics)}
     _never_nan_verdict(claims.values())
     for cid in (
         "p002-adaptive-noise-scale",
@@ -132,15 +131,15 @@ def test_shortened_seed002_copy_checks_the_cut_window_and_not_the_one_outside(sh
 
 
 def test_vb_claim_needs_300_s_of_the_noise_step(short002):
-    ir, metrics = short002
-    sc = ir.result.scenario
+    result, metrics = short002
+    sc = result.scenario
 
     def vb_note(start, end):
         faults = tuple(
             replace(f, start=start, end=end) if f.kind == "noise-scale" else f for f in sc.faults
         )
-        result = ir.result._replace(scenario=replace(sc, faults=faults))
-        claims = {c["id"]: c for c in check_claims(result, metrics)}
+        moved = result._replace(scenario=replace(sc, faults=faults))
+        claims = {c["id"]: c for c in check_claims(moved, metrics)}
         return claims["p002-vb-sigma"]["note"]
 
     assert vb_note(900.0, 1500.0) == (

@@ -73,10 +73,10 @@ def test_run_is_reproducible_and_run_i_is_the_same_alone(small, tmp_path):
     sc = load_scenario(small)
     a = run_scenario(sc, 4, seed=3, fault_free=False)
     b = run_scenario(sc, 4, seed=3, fault_free=False)
-    np.testing.assert_array_equal(a.results["fkf"].x, b.results["fkf"].x)
+    np.testing.assert_array_equal(a.results["fkf"].estimate, b.results["fkf"].estimate)
     alone = simulate(sc, 1, seed=3, first_run=2)
-    np.testing.assert_array_equal(alone.truth[0], a.simulation.truth[2])
-    np.testing.assert_array_equal(alone.z[0][0], a.simulation.z[0][2])
+    np.testing.assert_array_equal(alone.truth.states[0], a.truth.states[2])
+    np.testing.assert_array_equal(alone.stream.z[0][0], a.stream.z[0][2])
 
 
 def test_list_and_schema(capsys, tmp_path):
@@ -175,24 +175,31 @@ def test_console_script_bad_input_has_no_traceback(tmp_path):
 
 
 def test_nan_measurement_is_missing_and_counted(small):
-    from ftnav.eval.montecarlo import build_filter, run_filter
+    from ftnav.engine.driver import run
+    from ftnav.engine.linear import LinearModel
+    from ftnav.fusion import registry
+    from ftnav.fusion.config import NOTHING_LEARNED
     from ftnav.io.scenario_file import load_scenario
-    from ftnav.model.system import LinearSystem
     from ftnav.sim.linear import simulate
 
     sc = load_scenario(small)
-    system = LinearSystem.from_scenario(sc)
-    sim = simulate(sc, 3, seed=1)
-    z0 = sim.z[0].copy()
+    system = sc.system()
+    stream = simulate(sc, 3, seed=1).stream
+    z0 = stream.z[0].copy()
     z0[1, 10] = np.nan
     z0[2, 30:33] = np.inf
-    bad = sim._replace(z=(z0,) + sim.z[1:])
-    skipped = sim._replace(available=sim.available.copy())
+    bad = stream._replace(z=(z0,) + stream.z[1:])
+    skipped = stream._replace(available=stream.available.copy())
     skipped.available[1, 10, 0] = False
     skipped.available[2, 30:33, 0] = False
+
+    def run_filter(m, data):
+        filt = registry.build(system, m, sc.learned_for(m.name) or NOTHING_LEARNED)
+        return run(LinearModel(system), data, {m.name: filt}, sc.steps)[m.name]
+
     for m in sc.methods:
-        r = run_filter(build_filter(system, m), bad, 3)
-        ref = run_filter(build_filter(system, m), skipped, 3)
+        r = run_filter(m, bad)
+        ref = run_filter(m, skipped)
         assert np.isfinite(r.x).all() and np.isfinite(r.P_diag).all()
         assert r.nan_count[:, 0].tolist() == [0, 1, 3]
         np.testing.assert_array_equal(r.x, ref.x)  # NaN == missing measurement
@@ -231,9 +238,9 @@ def _crash(*args, **kwargs):
 
 
 def test_an_error_during_the_computation_is_an_internal_error(small, tmp_path, capsys, monkeypatch):
-    import ftnav.eval.montecarlo as mc
+    import ftnav.cli as cli
 
-    monkeypatch.setattr(mc, "run_scenario", _crash)
+    monkeypatch.setattr(cli, "run_scenario", _crash)
     assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert err == (
@@ -245,12 +252,12 @@ def test_an_error_during_the_computation_is_an_internal_error(small, tmp_path, c
 def test_a_value_error_during_the_computation_is_not_the_users_fault(
     small, tmp_path, capsys, monkeypatch
 ):
-    import ftnav.eval.montecarlo as mc
+    import ftnav.cli as cli
 
     def bug(*args, **kwargs):
         raise ValueError("x: a bug that looks like bad input")
 
-    monkeypatch.setattr(mc, "run_scenario", bug)
+    monkeypatch.setattr(cli, "run_scenario", bug)
     assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet"]) == 1
     assert capsys.readouterr().err.startswith(
         "ftnav: internal error, please report: ValueError: x: a bug"
@@ -260,12 +267,12 @@ def test_a_value_error_during_the_computation_is_not_the_users_fault(
 def test_a_value_error_while_building_the_filters_is_bad_input(
     small, tmp_path, capsys, monkeypatch
 ):
-    import ftnav.eval.montecarlo as mc
+    import ftnav.cli as cli
 
-    def refuse(system, method, features=None):
-        raise ValueError(f"methods[{method.name}].sharing: not for this system")
+    def refuse(scenario, system, methods, **kw):
+        raise ValueError(f"methods[{methods[0].name}].sharing: not for this system")
 
-    monkeypatch.setattr(mc, "build_filter", refuse)
+    monkeypatch.setattr(cli, "build_filters", refuse)
     assert main(["run", str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet"]) == 2
     assert capsys.readouterr().err == "ftnav: error: methods[ckf].sharing: not for this system\n"
     assert not (tmp_path / "o").exists()
@@ -273,7 +280,7 @@ def test_a_value_error_while_building_the_filters_is_bad_input(
 
 @pytest.mark.parametrize("where", ["before", "after"])
 def test_debug_shows_the_traceback_of_both_kinds(small, tmp_path, capsys, monkeypatch, where):
-    import ftnav.eval.montecarlo as mc
+    import ftnav.cli as cli
 
     def argv(*rest):
         head = ["--debug", "run"] if where == "before" else ["run"]
@@ -286,7 +293,7 @@ def test_debug_shows_the_traceback_of_both_kinds(small, tmp_path, capsys, monkey
     err = capsys.readouterr().err
     assert "Traceback (most recent call last)" in err
     assert err.splitlines()[-1].startswith("ftnav: error: faults[0].sensor: unknown sensor")
-    monkeypatch.setattr(mc, "run_scenario", _crash)
+    monkeypatch.setattr(cli, "run_scenario", _crash)
     assert main(argv(str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet")) == 1
     err = capsys.readouterr().err
     assert "Traceback (most recent call last)" in err and "in _crash" in err

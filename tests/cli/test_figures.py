@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from ftnav.eval.montecarlo import run_scenario
-from ftnav.model.scenario import MAX_FIGURE_METHODS, Fault, Method, Scenario
+from ftnav.fusion.registry import method_config
+from ftnav.model.scenario import MAX_FIGURE_METHODS, Fault, Scenario
 from ftnav.model.system import LinearModel, Sensor
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -31,16 +32,24 @@ def _tiny_scenario() -> Scenario:
     )
     faults = (Fault("pos1", "bias", 30.0, 50.0, np.array([60.0])),)
     methods = (
-        Method("centralized", architecture="centralized"),
-        Method(
-            "fed-inverse-trace-chi2",
+        method_config("centralized", name="centralized"),
+        method_config(
+            "federated",
+            name="fed-inverse-trace-chi2",
             sharing="inverse-trace",
-            detector="residual-chi2",
-            prior="global",
+            detector={"kind": "residual-chi2", "prior": "global"},
         ),
-        Method("fed-trace", sharing="trace"),
+        method_config("federated", name="fed-trace", sharing="trace"),
     )
-    return Scenario("tiny", 1.0, 100, model, sensors, faults, methods)
+    return Scenario(
+        name="tiny",
+        dt=1.0,
+        steps=100,
+        model=model,
+        sensors=sensors,
+        faults=faults,
+        methods=methods,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -185,14 +194,14 @@ def test_integrated_figures_per_state_and_titles_from_the_scenario(tmp_path):
 
     from ftnav.plot.integrated import default_figures, draw_figure, save_integrated
 
-    ir, _ = integrated_run()
-    specs = default_figures(ir)
+    result, _ = integrated_run()
+    specs = default_figures(result)
     names = [s.name for s in specs]
     assert names[:3] == ["errors_position", "errors_velocity", "errors_attitude"]
     assert "vb_noise_dkf-vb_gnss" in names and "local_fused_fkf-chi2" in names
-    n_aids = len(ir.result.scenario.sensor_names)
+    n_aids = len(result.scenario.sensor_names)
     for spec in specs:
-        fig = draw_figure(ir, spec)
+        fig = draw_figure(result, spec)
         title = fig.get_suptitle()
         assert "my-flight" in title and "Paper" not in title, spec.name
         lines = [_method_lines(ax) for ax in fig.axes]
@@ -200,12 +209,12 @@ def test_integrated_figures_per_state_and_titles_from_the_scenario(tmp_path):
             assert len(fig.axes) == len(spec.states)
             assert lines == [len(spec.methods)] * len(spec.states)
         elif spec.kind == "local-fused":
-            locals_ = n_aids if ir.local.get(spec.methods[0]) is not None else 0
+            locals_ = n_aids if result.results[spec.methods[0]].local is not None else 0
             assert lines == [locals_ + len(spec.methods)] * 2
         else:  # vb-noise: one panel per GNSS row, each method's sigma and the true sigma
             assert lines == [len(spec.methods) + 1] * 6
     assert [s.states for s in specs[:1]] == [("pos_E_m", "pos_N_m", "pos_U_m", "pos_horizontal_m")]
-    paths = save_integrated(ir, tmp_path)
+    paths = save_integrated(result, tmp_path)
     assert [p.name for p in paths] == [f"{n}.png" for n in names]
 
 
@@ -214,8 +223,8 @@ def test_integrated_local_fused_of_several_methods_and_bad_input():
 
     from ftnav.plot.integrated import local_fused_figure, method_error_figure, vb_noise_figure
 
-    ir, _ = integrated_run()
-    fig = local_fused_figure(ir, ["fkf-chi2", "ckf", "dkf-vb"], states=["pos_N_m"])
+    result, _ = integrated_run()
+    fig = local_fused_figure(result, ["fkf-chi2", "ckf", "dkf-vb"], states=["pos_N_m"])
     labels = [line.get_label() for line in fig.axes[0].get_lines()]
     assert labels == [
         "SINS/gnss local (fkf-chi2)",
@@ -225,10 +234,10 @@ def test_integrated_local_fused_of_several_methods_and_bad_input():
         "fused (dkf-vb)",
     ]
     with pytest.raises(ValueError, match="at most 4"):
-        local_fused_figure(ir, ["ckf"] * 5)
+        local_fused_figure(result, ["ckf"] * 5)
     with pytest.raises(ValueError, match="position states"):
-        local_fused_figure(ir, "ckf", states=["vel_E_m_s"])
+        local_fused_figure(result, "ckf", states=["vel_E_m_s"])
     with pytest.raises(ValueError, match="quantity"):
-        method_error_figure(ir.result, ["ckf"], "speed")
+        method_error_figure(result, ["ckf"], "speed")
     with pytest.raises(ValueError, match="unknown sensor"):
-        vb_noise_figure(ir.result, "dkf-vb", "cns")
+        vb_noise_figure(result, "dkf-vb", "cns")

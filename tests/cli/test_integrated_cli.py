@@ -55,15 +55,13 @@ architecture = "centralized"
 name = "fkf-chi2"
 architecture = "federated"
 mode = "fusion-reset"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 isolation = "time-update"
 
 [[methods]]
 name = "dkf-vb"
 architecture = "distributed"
-adaptive_noise = "vb"
-vb_sensors = ["gnss"]
+noise = { kind = "vb", sensors = ["gnss"] }
 """
 
 SEED001_LIKE = """
@@ -107,8 +105,7 @@ architecture = "centralized"
 name = "fkf-nr"
 architecture = "federated"
 mode = "no-reset"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 isolation = "time-update"
 """
 

@@ -13,8 +13,8 @@ import json
 import numpy as np
 
 from ftnav.cli import main
-from ftnav.eval.integrated import run_ins_scenario
-from ftnav.fusion.neural import NeuronModel
+from ftnav.eval.montecarlo import run_scenario
+from ftnav.io.learned import load_neuron_model
 from ftnav.io.scenario_file import load_scenario
 
 SMALL001 = """
@@ -70,24 +70,24 @@ def _write(tmp_path, duration=40.0, every=1, extra="", faults=FAULTS):
 
 def test_aid_every_second_epoch(tmp_path):
     sc = load_scenario(_write(tmp_path, duration=8.0, every=2, faults=""))
-    ir = run_ins_scenario(sc, 1, 3, fault_free=False)
-    avail = ir.result.simulation.data.available[0, :, 0]
+    result = run_scenario(sc, 1, 3, fault_free=False)
+    avail = result.stream.aids[0].available[0, :]
     np.testing.assert_array_equal(avail, np.arange(1, 9) % 2 == 0)
-    assert np.isfinite(ir.result.results["ckf"].x).all()
+    assert np.isfinite(result.results["ckf"].error).all()
 
 
 def test_train_fusion_then_run(tmp_path, capsys):
     path = _write(tmp_path, duration=220.0)
     out = tmp_path / "m.npz"
     assert main(["train-fusion", str(path), "--out", str(out), "--runs", "1", "--quiet"]) == 0
-    model = NeuronModel.load(out)
+    model = load_neuron_model(out)
     assert model.configurations == ("healthy", "gps", "sins")
     np.testing.assert_array_equal(model.patterns, [[False, False], [True, False], [True, True]])
     assert (model.weights >= 0).all()
     np.testing.assert_allclose(model.weights.sum(-1), 1.0, atol=1e-9)
     extra = (
         '[[methods]]\nname = "neural"\narchitecture = "neural"\n'
-        'detector = "residual-chi2"\nprior = "global"\nmodel = "m.npz"\n'
+        'detector = { kind = "residual-chi2", prior = "global" }\nmodel = "m.npz"\n'
     )
     path = _write(tmp_path, duration=60.0, extra=extra)
     assert (

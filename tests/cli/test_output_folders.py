@@ -58,37 +58,38 @@ def _crash(*args, **kwargs):
     raise RuntimeError("crashed on purpose")
 
 
-# command, target (folder or file below a new folder), refused argv, where to crash
+# command, target (folder or file below a new folder), refused argv, where to crash (the
+# name the command calls, in the module that calls it)
 COMMANDS = {
     "run": (
         "out",
         lambda i, o: ["run", i["bad"], "--out", o, "--quiet"],
         lambda i, o: ["run", i["scenario"], "--runs", "2", "--out", o, "--quiet"],
-        ("ftnav.eval.montecarlo", "run_scenario"),
+        ("ftnav.cli", "run_scenario"),
     ),
     "trajectory": (
         "out",
         lambda i, o: ["trajectory", i["profile"], "--out", o, "--imu", "x"],
         lambda i, o: ["trajectory", i["profile"], "--out", o],
-        ("ftnav.sim.trajectory", "generate"),
+        ("ftnav.cli", "generate"),
     ),
     "train-detector": (
         "out/det.npz",
         lambda i, o: ["train-detector", i["scenario"], "--out", o, "--method", "nope", "--quiet"],
         lambda i, o: ["train-detector", i["scenario"], "--out", o, "--quiet"],
-        ("ftnav.fdi.training", "train_detector"),
+        ("ftnav.cli", "train_detector"),
     ),
     "train-fusion": (
         "out/fus.npz",
         lambda i, o: ["train-fusion", i["bad"], "--out", o, "--quiet"],
         lambda i, o: ["train-fusion", i["scenario"], "--out", o, "--quiet"],
-        ("ftnav.fusion.neural_training", "train_fusion"),
+        ("ftnav.cli", "train_fusion"),
     ),
     "schema": (
         "out/schema.json",
         lambda i, o: ["schema", "--out", Path(o).parent],
         lambda i, o: ["schema", "--out", o],
-        ("ftnav.io.scenario_file", "scenario_json_schema"),
+        ("ftnav.cli", "scenario_json_schema"),
     ),
 }
 
@@ -152,14 +153,14 @@ def test_refused_or_crashed_run_leaves_the_earlier_results(
 
 
 def test_crash_while_writing_keeps_the_earlier_results(inputs, tmp_path, monkeypatch, capsys):
-    import ftnav.io.results as results
+    import ftnav.cli as cli
 
     out = tmp_path / "results"
     argv = _argv(["run", inputs["scenario"], "--runs", "2", "--out", out, "--quiet"])
     assert main(argv) == 0
     before = _snapshot(out)
     # the figures are written, then metrics.json fails
-    monkeypatch.setattr(results, "write_metrics", _crash)
+    monkeypatch.setattr(cli, "write_metrics", _crash)
     assert main(argv) == 1
     assert _snapshot(out) == before
     assert [p.name for p in out.iterdir() if ".ftnav-partial-" in p.name] == []

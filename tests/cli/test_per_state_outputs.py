@@ -92,24 +92,24 @@ def test_detection_columns_per_faulty_sensor():
 
 
 def test_integrated_tables_have_every_navigation_state_with_units():
-    ir, metrics = integrated_run()
-    tables = summary_tables(ir.result, metrics)
+    result, metrics = integrated_run()
+    tables = summary_tables(result, metrics)
     keys = [c.key for c in tables[0].columns]
     assert keys == [*METRIC_STATES[:3], *POSITION_NORMS, *METRIC_STATES[3:]]
     groups = {c.group for c in tables[0].columns}
     assert groups == {"position [m]", "velocity [m/s]", "attitude [arcmin]"}
-    assert fault_states(ir.result.scenario) == {"gnss": "pos_horizontal_m"}
+    assert fault_states(result.scenario) == {"gnss": "pos_horizontal_m"}
     assert "act on: pos_horizontal [m] (gnss)" in _table(tables, "Ratio").note
-    text = results_table(ir.result, metrics)
+    text = results_table(result, metrics)
     assert max(len(line) for line in text.splitlines()) <= 100
-    md = markdown_report(ir.result, metrics, [], [])
+    md = markdown_report(result, metrics, [], [])
     for label in ("pos_E [m]", "vel_N [m/s]", "att_U [arcmin]", "pos_horizontal [m]", "pos_3d [m]"):
         assert f"| {label} |" in md or f" {label} |" in md, label
 
 
 def test_wide_tables_are_split_into_column_blocks():
-    ir, metrics = integrated_run()
-    text = results_table(ir.result, metrics, width=60)
+    result, metrics = integrated_run()
+    text = results_table(result, metrics, width=60)
     first = text.split("RMSE inside")[0].splitlines()
     assert max(len(line) for line in first) <= 60
     assert sum(line.startswith("method") for line in first) >= 2  # two or more blocks
@@ -136,13 +136,12 @@ def test_split_unit_reads_the_unit_suffix(name, expected):
 
 
 def test_evaluate_adds_horizontal_and_3d_position_errors():
-    ir, metrics = integrated_run()
-    sr = ir.result
+    sr, metrics = integrated_run()
     sc = sr.scenario
     window = sc.times >= sc.evaluation.skip_initial
     in_fault = sc.fault_mask() & window
     for name, m in metrics.items():
-        e = sr.results[name].x[..., :3] - sr.simulation.truth[..., :3]
+        e = sr.results[name].error[..., :3]  # computed - true position
         horizontal = np.hypot(e[..., 0], e[..., 1])
         full = np.linalg.norm(e, axis=-1)
         for key, err in (("pos_horizontal_m", horizontal), ("pos_3d_m", full)):
@@ -153,7 +152,7 @@ def test_evaluate_adds_horizontal_and_3d_position_errors():
             assert m.max_abs_error[key] == pytest.approx(err[:, window].max())
         assert set(m.rmse_nofault) == set(METRIC_STATES) | set(POSITION_NORMS)
         ff = m.fault_free["rmse_fault_window"]
-        e_ff = sr.fault_free[name].x[..., :3] - sr.fault_free_simulation.truth[..., :3]
+        e_ff = sr.fault_free[name].error[..., :3]
         h_ff = error_stats(np.hypot(e_ff[..., 0], e_ff[..., 1])[..., None], in_fault).rmse[0]
         assert ff["pos_horizontal_m"] == pytest.approx(h_ff, rel=1e-12)
         assert m.rmse["pos_horizontal_m"] <= m.rmse["pos_3d_m"]
@@ -172,14 +171,16 @@ def test_estimates_nc_has_units_and_a_method_name_dimension(which, tmp_path):
     xr = pytest.importorskip("xarray")
     from ftnav.io.results import write_estimates
 
-    result = north_ramp_run()[0] if which == "linear" else integrated_run()[0].result
+    result = north_ramp_run()[0] if which == "linear" else integrated_run()[0]
     paths = write_estimates(result, tmp_path)
     assert [p.name for p in paths] == ["estimates.nc", "estimates_fault_free.nc"]
+    # a linear run's estimate x_hat; an integrated run's output errors (computed - true)
+    var, field = ("x_hat", "estimate") if which == "linear" else ("error", "error")
     with xr.open_dataset(paths[0]) as ds:
-        assert ds["x_hat"].dims == ("method_name", "run", "time", "state")
+        assert ds[var].dims == ("method_name", "run", "time", "state")
         assert ds["fault_flag"].dims == ("method_name", "run", "time", "sensor")
-        ckf = ds.x_hat.sel(method_name="ckf")  # no clash with .sel(method=...)
-        np.testing.assert_array_equal(ckf.values, result.results["ckf"].x)
+        ckf = ds[var].sel(method_name="ckf")  # no clash with .sel(method=...)
+        np.testing.assert_array_equal(ckf.values, getattr(result.results["ckf"], field))
         assert int(ds.fault_flag.sel(method_name="ckf").max()) == -1
         assert int(ds.fault_flag.sel(method_name="fkf-chi2").max()) == 1
         for name in [*ds.data_vars, *ds.coords]:

@@ -48,7 +48,7 @@ name = "ckf"
 architecture = "centralized"
 [[methods]]
 name = "fkf"
-detector = "residual-chi2"
+detector = {{ kind = "residual-chi2" }}
 """
 
 INTEGRATED = """

@@ -58,8 +58,7 @@ architecture = "centralized"
 name = "fkf-chi2"
 architecture = "federated"
 sharing = "inverse-trace"
-detector = "residual-chi2"
-prior = "global"
+detector = {{ kind = "residual-chi2", prior = "global" }}
 """
 
 LEARNED = """
@@ -67,15 +66,13 @@ LEARNED = """
 name = "fkf-rbf"
 architecture = "federated"
 sharing = "inverse-trace"
-detector = "rbf"
-model = "det.npz"
+detector = { kind = "rbf", model = "det.npz" }
 
 [[methods]]
 name = "neural"
 architecture = "neural"
 model = "fus.npz"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 """
 
 

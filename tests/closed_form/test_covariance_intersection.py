@@ -14,11 +14,14 @@ import numpy as np
 import pytest
 
 from ftnav.core import kalman as kf
-from ftnav.fusion.local import check_prior, with_common
-from ftnav.fusion.neural import NeuralFusion, NeuronModel
+from ftnav.fusion.config import Learned
+from ftnav.fusion.neural import NeuralFusion
+from ftnav.fusion.neural_model import NeuronModel
+from ftnav.fusion.protocol import with_common
+from ftnav.fusion.registry import method_config
+from ftnav.io.learned import compatibility
 from ftnav.io.scenario_file import load_scenario
-from ftnav.model.scenario import Method
-from ftnav.model.system import LinearSystem
+from ftnav.model.system import Epoch
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
 
@@ -102,14 +105,19 @@ def test_with_common_replaces_the_common_block_and_zeroes_the_cross_terms():
     np.testing.assert_array_equal(full[1], P[:, :3, :3])
 
 
+def _chi2(prior: str) -> dict:
+    return {"kind": "residual-chi2", "prior": prior}
+
+
 def test_prior_checks():
-    check_prior(Method(name="f", prior="global"))
+    """The residual test's reference is checked when the configuration is built."""
+    method_config("federated", name="f", detector=_chi2("global"))
     with pytest.raises(
         ValueError,
-        match=r"^methods\[f\]\.prior: 'intersection' is not "
-        r"available with architecture 'federated'",
+        match=r"^methods\[f\]\.detector\.prior: 'intersection' is not "
+        r"available with the federated architecture",
     ):
-        check_prior(Method(name="f", prior="intersection"))
+        method_config("federated", name="f", detector=_chi2("intersection"))
 
 
 def test_single_local_filter_intersection_is_its_own_prior():
@@ -117,7 +125,7 @@ def test_single_local_filter_intersection_is_its_own_prior():
     ``prior = "local"`` exactly (the oracle of the wiring in the neuron centre)."""
     sc = load_scenario(builtin_path("seed000"))
     sc = replace(sc, steps=40, sensors=sc.sensors[:1], faults=())
-    system = LinearSystem.from_scenario(sc)
+    system = sc.system()
     model = NeuronModel(
         ("healthy", "pos1"),
         np.array([[False], [True]]),
@@ -125,7 +133,7 @@ def test_single_local_filter_intersection_is_its_own_prior():
         tuple(system.model.states),
         np.ones((2, 3, 1)),
         np.ones((2, 3)),
-        system.compatibility(),
+        compatibility(system),
         {},
     )
     sim = simulate(sc, 4, seed=2)
@@ -133,14 +141,19 @@ def test_single_local_filter_intersection_is_its_own_prior():
     for prior in ("local", "intersection"):
         filt = NeuralFusion(
             system,
-            Method(name="n", architecture="neural", prior=prior, detector="residual-chi2"),
-            model=model,
+            method_config("neural", name="n", detector=_chi2(prior)),
+            Learned(fusion=model),
         )
         state, rows = filt.init(4), []
+        stream = sim.stream
         for k in range(1, sc.steps + 1):
-            state, out = filt.step(
-                state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], np.zeros(1, bool)
+            epoch = Epoch(
+                k,
+                tuple(z[:, k - 1] for z in stream.z),
+                stream.available[:, k - 1],
+                np.zeros(1, bool),
             )
+            state, out = filt.step(state, epoch)
             rows.append(out.detection.statistic)
         stats[prior] = np.array(rows)
     assert stats["local"].max() > 0

@@ -8,7 +8,7 @@ import pytest
 from ftnav.fdi.chi2 import apply_hysteresis
 from ftnav.fdi.features import detector_features, feature_names, whitened_innovation
 from ftnav.fdi.rbf import RBFDetector, RBFModel, RBFNetwork
-from ftnav.fusion.local import residual_statistic
+from ftnav.fusion.locals import residual_statistic
 
 
 def test_whitened_innovation_squared_norm_is_the_nis():

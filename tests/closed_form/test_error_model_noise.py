@@ -21,7 +21,6 @@ from ftnav.nav.error_model import (
     STATES_18,
     ErrorModelParams,
     NavState,
-    SinsErrorModel,
     continuous_model,
     discrete_model,
 )
@@ -59,7 +58,7 @@ def nav_batch(B=4, seed=0):
 def test_markov_states_are_stationary_at_sigma(method):
     """Discrete Lyapunov ``P = Φ P Φᵀ + Q_k`` on the Markov block gives σ² (and the block
     equals :func:`markov_discrete`)."""
-    Phi, Q = SinsErrorModel(PARAMS, T=1.0, method=method).transition(nav_batch())
+    Phi, Q = discrete_model(*nav_batch(), PARAMS, 1.0, method)
     sigma = np.concatenate([SIG_G, SIG_A])
     a, var = markov_discrete(sigma, np.concatenate([TAU_G, TAU_A]), 1.0)
     for b in range(Phi.shape[0]):
@@ -143,13 +142,12 @@ def test_nav_bias_frame_uses_identity():
     np.testing.assert_array_equal(F[:, :9, :9], F_body[:, :9, :9])
 
 
-def test_model_object_is_batched_and_feeds_predict():
-    """``SinsErrorModel.transition`` equals per-run :func:`discrete_model` calls and its
-    (B, n, n) output goes straight into :func:`ftnav.core.kalman.predict`."""
+def test_batched_model_feeds_predict():
+    """The batched :func:`discrete_model` equals per-run calls and its (B, n, n) output
+    goes straight into :func:`ftnav.core.kalman.predict`."""
     nav = nav_batch(5)
-    model = SinsErrorModel(PARAMS, T=1.0)
-    Phi, Q = model.transition(nav)
-    assert Phi.shape == Q.shape == (5, 18, 18) and model.n == 18
+    Phi, Q = discrete_model(*nav, PARAMS, 1.0)
+    assert Phi.shape == Q.shape == (5, 18, 18) and PARAMS.n == 18
     for b in range(5):
         Phi_b, Q_b = discrete_model(*(a[b] for a in nav), PARAMS, 1.0)
         np.testing.assert_allclose(Phi[b], Phi_b, rtol=1e-13, atol=1e-17)
@@ -176,12 +174,12 @@ def test_bad_inputs_raise():
     with pytest.raises(ValueError, match="accel_psd"):
         ErrorModelParams(accel_psd=[1.0, 2.0])
     with pytest.raises(ValueError, match="method"):
-        SinsErrorModel(PARAMS, T=1.0, method="euler")
-    with pytest.raises(ValueError, match="T must be"):
-        SinsErrorModel(PARAMS, T=0.0)
-    with pytest.raises(ValueError, match="order"):
-        SinsErrorModel(PARAMS, T=1.0, method="series", order=0)
+        discrete_model(*nav_batch(3), PARAMS, 1.0, method="euler")
     nav = nav_batch(3)
+    with pytest.raises(ValueError, match="T must be"):
+        discrete_model(*nav, PARAMS, 0.0)
+    with pytest.raises(ValueError, match="order"):
+        discrete_model(*nav, PARAMS, 1.0, method="series", order=0)
     with pytest.raises(ValueError, match="do not broadcast"):
         continuous_model(nav.L[:2], nav.lam, nav.h, nav.v_enu, nav.f_b, nav.C_bn, PARAMS)
     with pytest.raises(ValueError, match="C_bn"):

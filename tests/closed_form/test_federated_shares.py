@@ -13,9 +13,8 @@ import warnings
 import numpy as np
 
 from ftnav.fusion.federated import MIN_SHARE, FederatedFilter
-from ftnav.model.system import LinearModel, Sensor
-from ftnav.model.scenario import Method
-from ftnav.model.system import LinearSystem
+from ftnav.fusion.registry import method_config
+from ftnav.model.system import LinearModel, LinearSystem, Sensor
 
 
 def test_all_faulty_run_beside_a_floored_share_stays_zero_without_warning():
@@ -23,7 +22,8 @@ def test_all_faulty_run_beside_a_floored_share_stays_zero_without_warning():
     model = LinearModel(("s",), I1, I1, np.zeros(1), I1, I1)
     sensors = tuple(Sensor(f"p{i}", I1, I1, I1) for i in range(2))
     filt = FederatedFilter(
-        LinearSystem(model, sensors), Method("m", sharing="fixed", betas=(1e-7, 1.0 - 1e-7))
+        LinearSystem(model, sensors),
+        method_config("federated", name="m", sharing="fixed", betas=(1e-7, 1.0 - 1e-7)),
     )
     P = np.broadcast_to(I1, (2, 2, 1, 1))
     r = np.array([[1.0, 1.0], [0.0, 0.0]])  # run 0 healthy, run 1 every filter faulty

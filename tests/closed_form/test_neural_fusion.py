@@ -8,10 +8,14 @@ import numpy as np
 import pytest
 
 from ftnav.core import kalman as kf
-from ftnav.fusion.neural import NeuralFusion, NeuronModel, select_weights
+from ftnav.fusion.config import Learned
+from ftnav.fusion.neural import NeuralFusion
+from ftnav.fusion.neural_model import NeuronModel, select_weights
+from ftnav.fusion.registry import method_config
+from ftnav.io.learned import compatibility, save_neuron_model
 from ftnav.io.scenario_file import load_scenario
-from ftnav.model.scenario import Method
-from ftnav.model.system import LinearSystem
+from ftnav.io.sections import resolve_methods
+from ftnav.model.system import Epoch
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
 
@@ -33,7 +37,7 @@ def _model(system, weights, patterns=None, inputs=("pos1", "pos2", "pos3")):
         ("s", "v", "a"),
         weights,
         np.ones((C, 3)),
-        system.compatibility(),
+        compatibility(system),
         {},
     )
 
@@ -48,7 +52,7 @@ def _banks():
 
 
 def test_selection_rules(scenario):
-    system = LinearSystem.from_scenario(scenario)
+    system = scenario.system()
     W = _banks()
     model = _model(system, W)
     flags = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 0], [1, 1, 1]], bool)
@@ -65,24 +69,23 @@ def test_selection_rules(scenario):
 
 
 def test_fused_estimate_is_the_weighted_sum_of_independent_local_filters(scenario):
-    system = LinearSystem.from_scenario(scenario)
+    system = scenario.system()
     W = _banks()
     model = _model(system, W)
-    method = Method(name="n", architecture="neural", detector="oracle")
-    filt = NeuralFusion(system, method, model=model)
-    sim = simulate(scenario, 3, seed=5)
+    method = method_config("neural", name="n", detector="oracle")
+    filt = NeuralFusion(system, method, Learned(fusion=model))
+    stream = simulate(scenario, 3, seed=5).stream
     state = filt.init(3)
     x = [np.broadcast_to(system.model.x0, (3, 3)).copy() for _ in range(3)]
     P = [np.broadcast_to(system.model.P0, (3, 3, 3)).copy() for _ in range(3)]
-    F, Q = system.transition(1)
+    F, Q = system.transition()
     for k in range(1, scenario.steps + 1):
-        oracle = np.zeros(3, bool) if k < 30 else np.array([False, True, False])
-        state, out = filt.step(
-            state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], oracle
-        )
+        labels = np.zeros(3, bool) if k < 30 else np.array([False, True, False])
+        z = tuple(zi[:, k - 1] for zi in stream.z)
+        state, out = filt.step(state, Epoch(k, z, stream.available[:, k - 1], labels))
         for i, s in enumerate(system.sensors):  # plain independent Kalman filters
             xp, Pp = kf.predict(x[i], P[i], F, Q)
-            up = kf.update(xp, Pp, sim.z[i][:, k - 1], s.H, s.R)
+            up = kf.update(xp, Pp, stream.z[i][:, k - 1], s.H, s.R)
             x[i], P[i] = up.x, up.P
         w = W[0] if k < 30 else W[2]
         u = np.stack(x, -1)  # (B, n, N)
@@ -105,8 +108,8 @@ def test_bound_covers_any_correlation():
         assert w @ S @ w <= (w @ np.sqrt(np.diag(S))) ** 2 * (1 + 1e-12)
 
 
-def test_model_validation(scenario):
-    system = LinearSystem.from_scenario(scenario)
+def test_model_validation(scenario, tmp_path):
+    system = scenario.system()
     W = _banks()
     bad = W.copy()
     bad[0, 0] = [0.7, 0.7, -0.4]
@@ -116,8 +119,16 @@ def test_model_validation(scenario):
         _model(system, W, patterns=np.eye(4, 3, dtype=bool))
     with pytest.raises(ValueError, match="^weights: expected"):
         _model(system, W[:, :2])
-    model = _model(system, W)
+    # the trained banks are loaded and checked against the method at the boundary
+    path = save_neuron_model(_model(system, W), tmp_path / "banks.npz")
     with pytest.raises(ValueError, match=r"uncovered: expected 'renormalize' or one of"):
-        NeuralFusion(system, Method(name="n", architecture="neural", uncovered="sins"), model=model)
-    with pytest.raises(ValueError, match=r"^methods\[n\]\.detector:"):
-        NeuralFusion(system, Method(name="n", architecture="neural", detector="rbf", model="x.npz"))
+        resolve_methods(
+            (method_config("neural", name="n", model=str(path), uncovered="sins"),),
+            system,
+            None,
+            "<test>",
+        )
+    with pytest.raises(
+        ValueError, match=r"^methods\[n\]\.detector\.kind: 'rbf' is not a detector of the neural"
+    ):
+        method_config("neural", name="n", detector={"kind": "rbf", "model": "x.npz"})

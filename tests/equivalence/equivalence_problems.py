@@ -1,7 +1,9 @@
 """Random linear test problems and a step-by-step filter driver for the equivalence tests.
 
 Not a test module: imported by ``test_*.py`` in this folder (pytest puts the
-folder on ``sys.path``).
+folder on ``sys.path``).  :func:`drive` forms each epoch with the engine's linear model
+(:class:`ftnav.engine.linear.LinearModel`) and steps one filter on it, keeping the full
+fused covariance (the engine's trace keeps only its diagonal).
 """
 
 from __future__ import annotations
@@ -10,11 +12,15 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ftnav.engine.linear import LinearModel as EngineModel
 from ftnav.fusion.centralized import CentralizedFilter
+from ftnav.fusion.registry import method_config
 from ftnav.model.scenario import Fault, Scenario
-from ftnav.model.system import LinearModel, Sensor
-from ftnav.model.system import LinearSystem
-from ftnav.sim.linear import Simulation, simulate
+from ftnav.model.system import LinearModel, LinearSystem, Sensor, TimeVarying
+from ftnav.sim.linear import Simulated, simulate
+
+#: the plain centralized Kalman filter (no detector, fixed noise): the oracle
+CKF = method_config("centralized", name="ckf")
 
 
 def random_spd(rng: np.random.Generator, n: int, scale: float = 1.0) -> np.ndarray:
@@ -47,7 +53,14 @@ def random_scenario(
     for i, (m, e) in enumerate(zip(dims, every, strict=True)):
         R = random_spd(rng, m)
         sensors.append(Sensor(f"z{i}", rng.standard_normal((m, n)), R, R, every=e))
-    return Scenario("random", 1.0, steps, model, tuple(sensors), faults)
+    return Scenario(
+        name="random", dt=1.0, steps=steps, model=model, sensors=tuple(sensors), faults=faults
+    )
+
+
+def centralized(system: LinearSystem) -> CentralizedFilter:
+    """The plain centralized Kalman filter on ``system`` (the oracle of this folder)."""
+    return CentralizedFilter(system, CKF)
 
 
 class Trajectory(NamedTuple):
@@ -61,21 +74,25 @@ class Trajectory(NamedTuple):
 
 def drive(
     filt,
-    sim: Simulation,
+    sim: Simulated,
     available: np.ndarray | None = None,
-    oracle: np.ndarray | None = None,
+    labels: np.ndarray | None = None,
     keep_states: bool = False,
+    transitions: TimeVarying | None = None,
 ) -> Trajectory:
-    """Run ``filt`` epoch by epoch over ``sim`` (optionally with a replaced schedule/oracle)."""
-    available = sim.available if available is None else available
-    oracle = sim.oracle if oracle is None else oracle
-    B, K = sim.truth.shape[:2]
-    state = filt.init(B)
+    """Run ``filt`` epoch by epoch over ``sim``'s stream (optionally with a replaced
+    schedule or fault labels; ``transitions``: a time-varying model's ``(Φ_k, Q_k)``)."""
+    stream = sim.stream
+    if available is not None:
+        stream = stream._replace(available=available)
+    if labels is not None:
+        stream = stream._replace(labels=labels)
+    model = EngineModel(filt.system, transitions)
+    state = filt.init(stream.batch)
     xs, Ps, outs, states = [], [], [], []
-    for k in range(1, K + 1):
-        state, out = filt.step(
-            state, k, [z[:, k - 1] for z in sim.z], available[:, k - 1], oracle[k - 1]
-        )
+    for k in range(1, stream.epochs + 1):
+        _, epoch = model.epoch(None, stream, k, 1)
+        state, out = filt.step(state, epoch)
         xs.append(out.x)
         Ps.append(out.P)
         outs.append(out)
@@ -85,12 +102,12 @@ def drive(
 
 
 def centralized_skipping(
-    system: LinearSystem, sim: Simulation, sensor: int, first: int, last: int
+    system: LinearSystem, sim: Simulated, sensor: int, first: int, last: int
 ) -> Trajectory:
     """Plain centralized KF that ignores ``sensor`` on steps ``first..last`` (inclusive)."""
-    available = sim.available.copy()
+    available = sim.stream.available.copy()
     available[:, first - 1 : last, sensor] = False
-    return drive(CentralizedFilter(system), sim, available, np.zeros_like(sim.oracle))
+    return drive(centralized(system), sim, available, np.zeros_like(sim.stream.labels))
 
 
 def assert_same(traj: Trajectory, ref: Trajectory, rtol: float = 1e-9) -> None:
@@ -101,7 +118,7 @@ def assert_same(traj: Trajectory, ref: Trajectory, rtol: float = 1e-9) -> None:
     np.testing.assert_allclose(traj.P, ref.P, rtol=rtol, atol=rtol * P_scale)
 
 
-def simulate_problem(scenario: Scenario, runs: int = 3, seed: int = 11) -> Simulation:
+def simulate_problem(scenario: Scenario, runs: int = 3, seed: int = 11) -> Simulated:
     return simulate(scenario, runs, seed)
 
 

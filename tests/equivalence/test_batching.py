@@ -1,8 +1,10 @@
 """Batching is invisible: how runs are grouped never changes a run's result.
 
-Oracles: the same runs processed (a) in separate batches, (b) concatenated into one
-batch by :func:`run_scenario` (faulty and fault-free twin together) must agree exactly
-(runs are independent, and each row runs the same compiled code).  Worker processes:
+Oracles: the same runs processed (a) in separate batches (each simulated stream alone
+through the engine, :func:`ftnav.engine.driver.iterate`, scored against its truth),
+(b) concatenated into one batch by :func:`run_scenario` (faulty and fault-free twin
+together) must agree exactly (runs are independent, and each row runs the same
+compiled code).  Worker processes:
 ``tests/equivalence/test_workers.py``.
 """
 
@@ -13,9 +15,10 @@ import dataclasses
 import pytest
 from equivalence_problems import assert_identical
 
-from ftnav.eval.montecarlo import build_filter, run_filter, run_scenario
+from ftnav.engine.driver import iterate
+from ftnav.engine.linear import LinearModel
+from ftnav.eval.montecarlo import build_filters, run_scenario, score
 from ftnav.io.scenario_file import load_scenario
-from ftnav.model.system import LinearSystem
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
 
@@ -30,12 +33,19 @@ def scenario():
     return dataclasses.replace(sc, steps=600, methods=methods)
 
 
+def _alone(scenario, method, sim):
+    """One method's scored result on one simulated batch, run through the engine alone."""
+    system = scenario.system()
+    model = LinearModel(system)
+    records = iterate(model, sim.stream, build_filters(scenario, system, (method,)), scenario.steps)
+    return score(scenario, records, sim.truth, [method.name], sim.stream.batch, model)[method.name]
+
+
 def test_fault_free_twin_in_one_batch_equals_separate_batches(scenario):
     runs, seed = 5, 11
     res = run_scenario(scenario, runs, seed)
-    system = LinearSystem.from_scenario(scenario)
     sim = simulate(scenario, runs, seed)
     sim_ff = simulate(scenario.without_faults(), runs, seed)
     for m in scenario.methods:
-        assert_identical(res.results[m.name], run_filter(build_filter(system, m), sim, 3))
-        assert_identical(res.fault_free[m.name], run_filter(build_filter(system, m), sim_ff, 3))
+        assert_identical(res.results[m.name], _alone(scenario, m, sim))
+        assert_identical(res.fault_free[m.name], _alone(scenario, m, sim_ff))

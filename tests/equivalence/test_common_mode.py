@@ -17,8 +17,9 @@ import pytest
 from equivalence_problems import assert_same, drive, random_scenario, simulate_problem
 
 from ftnav.fusion.federated import FederatedFilter
-from ftnav.model.scenario import Fault, Method
-from ftnav.model.system import LinearSystem
+from ftnav.fusion.registry import method_config
+from ftnav.io.sections import resolve_methods
+from ftnav.model.scenario import Fault
 
 STEPS = 300
 
@@ -27,18 +28,20 @@ def _problem(sensors):
     rng = np.random.default_rng(4242)
     faults = tuple(Fault(f"z{i}", "bias", 100.0, 200.0, np.zeros(1)) for i in sensors)
     sc = random_scenario(rng, 3, [1, 1, 1], STEPS, faults=faults)
-    return LinearSystem.from_scenario(sc), simulate_problem(sc, runs=3, seed=5)
+    return sc.system(), simulate_problem(sc, runs=3, seed=5)
 
 
 def _fkf(system, **kw):
-    return FederatedFilter(
-        system, Method(name="f", architecture="federated", mode="fusion-reset", **kw)
-    )
+    """The fusion-reset federated filter with ``kw``, checked against the system as a
+    scenario's methods are (the refusal names the setting)."""
+    config = method_config("federated", name="f", mode="fusion-reset", **kw)
+    resolve_methods((config,), system, None, "<test>")
+    return FederatedFilter(system, config)
 
 
 def test_all_flagged_keep_equals_no_detector():
     system, sim = _problem([0, 1, 2])
-    assert sim.oracle[100:199].all()
+    assert sim.stream.labels[100:199].all()
     ref = drive(_fkf(system), sim)
     keep = drive(_fkf(system, detector="oracle", common_mode="keep"), sim)
     isolate = drive(_fkf(system, detector="oracle"), sim)
@@ -55,7 +58,7 @@ def test_single_flag_keep_equals_isolate():
 
 def test_quorum_of_flags_keep_equals_no_detector():
     system, sim = _problem([0, 1])
-    assert sim.oracle[100:199, :2].all() and not sim.oracle[:, 2].any()
+    assert sim.stream.labels[100:199, :2].all() and not sim.stream.labels[:, 2].any()
     ref = drive(_fkf(system), sim)
     quorum = drive(_fkf(system, detector="oracle", common_mode="keep", common_mode_quorum=2), sim)
     every = drive(_fkf(system, detector="oracle", common_mode="keep"), sim)

@@ -10,14 +10,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from equivalence_problems import assert_same, drive, random_scenario, simulate_problem
+from equivalence_problems import (
+    assert_same,
+    centralized,
+    drive,
+    random_scenario,
+    simulate_problem,
+)
 
 from ftnav.core.kalman import spd_inverse
-from ftnav.fusion.centralized import CentralizedFilter
+from ftnav.fusion import registry
 from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import MIN_SHARE, FederatedFilter
-from ftnav.model.scenario import Method
-from ftnav.model.system import LinearSystem
+from ftnav.fusion.registry import method_config
 
 STEPS = 400
 SHAPES = {"3x[1,1,1]": (3, [1, 1, 1]), "4x[2,1,3]": (4, [2, 1, 3]), "6x[3,3]": (6, [3, 3])}
@@ -29,25 +34,37 @@ def problem(request):
     n, dims = SHAPES[request.param]
     rng = np.random.default_rng([2024, n, len(dims)])
     sc = random_scenario(rng, n, dims, STEPS)
-    system = LinearSystem.from_scenario(sc)
+    system = sc.system()
     sim = simulate_problem(sc, runs=3, seed=n)
-    return system, sim, drive(CentralizedFilter(system), sim)
+    return system, sim, drive(centralized(system), sim)
 
 
 def _simplex(n_sensors: int, seed: int) -> tuple[float, ...]:
     return tuple(np.random.default_rng(seed).dirichlet(np.ones(n_sensors)))
 
 
-def federated_methods(N: int) -> dict[str, Method]:
+def federated(name: str, **settings):
+    """A federated method's configuration (only the settings its mode reads)."""
+    return method_config("federated", name=name, **settings)
+
+
+def distributed(name: str, **settings):
+    """A distributed method's configuration."""
+    return method_config("distributed", name=name, **settings)
+
+
+def federated_methods(N: int) -> dict:
     return {
-        "FR beta_m=0": Method("fr", sharing="equal"),
-        "FR beta_m=1/(N+1)": Method("frm", sharing="equal", master_share=1.0 / (N + 1)),
-        "FR fixed simplex": Method("fix", sharing="fixed", betas=_simplex(N, 1)),
-        "FR fixed simplex + master": Method(
-            "fixm", sharing="fixed", betas=_simplex(N, 2), master_share=0.3
+        "FR beta_m=0": federated("fr", sharing="equal"),
+        "FR beta_m=1/(N+1)": federated("frm", sharing="equal", master_share=1.0 / (N + 1)),
+        "FR fixed simplex": federated("fix", sharing="fixed", betas=_simplex(N, 1)),
+        # the fixed β over the locals are renormalized to 1 − β_m (spec §2): a
+        # configuration gives them already summing to 1 − β_m
+        "FR fixed simplex + master": federated(
+            "fixm", sharing="fixed", betas=tuple(0.7 * b for b in _simplex(N, 2)), master_share=0.3
         ),
-        "FR inverse-trace": Method("inv", sharing="inverse-trace"),
-        "ZR": Method("zr", mode="zero-reset"),
+        "FR inverse-trace": federated("inv", sharing="inverse-trace"),
+        "ZR": federated("zr", mode="zero-reset"),
     }
 
 
@@ -56,7 +73,7 @@ def test_federated_reset_every_epoch_equals_ckf(problem, name):
     """Spec §1.9 items 1-2: FR (any β, with/without master share) and ZR = CKF."""
     system, sim, ref = problem
     method = federated_methods(system.n_sensors)[name]
-    assert_same(drive(FederatedFilter(system, method), sim), ref)
+    assert_same(drive(registry.build(system, method), sim), ref)
 
 
 @pytest.mark.parametrize("increment", ["direct", "difference"])
@@ -68,7 +85,7 @@ def test_distributed_equals_ckf(problem, increment, local_scale):
     q, p = local_scale
     filt = DistributedFilter(
         system,
-        Method("d", architecture="distributed", increment=increment),
+        distributed("d", increment=increment),
         local_Q_scale=[q] * N,
         local_P0_scale=[p] * N,
     )
@@ -81,7 +98,7 @@ def test_distributed_unequal_local_settings_equals_ckf(problem):
     N = system.n_sensors
     filt = DistributedFilter(
         system,
-        Method("d", architecture="distributed"),
+        distributed("d"),
         local_Q_scale=np.linspace(0.5, 20.0, N),
         local_P0_scale=np.linspace(3.0, 0.5, N),
     )
@@ -101,19 +118,19 @@ def test_no_reset_with_zero_process_noise_equals_ckf():
     """Spec §1.9 item 3: NR with Q = 0 is exact (locals share only the prior)."""
     rng = np.random.default_rng(7)
     sc = random_scenario(rng, 3, [1, 1, 1], STEPS, Q=np.zeros((3, 3)))
-    system = LinearSystem.from_scenario(sc)
+    system = sc.system()
     sim = simulate_problem(sc, runs=3, seed=5)
-    ref = drive(CentralizedFilter(system), sim)
-    got = drive(FederatedFilter(system, Method("nr", mode="no-reset")), sim)
+    ref = drive(centralized(system), sim)
+    got = drive(FederatedFilter(system, federated("nr", mode="no-reset")), sim)
     assert_same(got, ref)
 
 
 @pytest.mark.parametrize(
     "method",
     [
-        Method("nr", mode="no-reset"),
-        Method("fr5", reset_interval=5),
-        Method("fr5inv", reset_interval=5, sharing="inverse-trace"),
+        federated("nr", mode="no-reset"),
+        federated("fr5", reset_interval=5),
+        federated("fr5inv", reset_interval=5, sharing="inverse-trace"),
     ],
     ids=["NR", "FR/5", "FR/5 inverse-trace"],
 )
@@ -141,7 +158,7 @@ def test_conservative_modes_bound_ckf_covariance(problem, method):
 def test_information_is_conserved_by_the_sharing(problem, rule, master_share):
     """After every reset ``Σ_j P_j⁻¹ (+ P_m⁻¹) = P_g⁻¹`` and ``Σβ + β_m = 1``."""
     system, sim, _ = problem
-    method = Method("c", sharing=rule, master_share=master_share)
+    method = federated("c", sharing=rule, master_share=master_share)
     filt = FederatedFilter(system, method)
     traj = drive(filt, sim, keep_states=True)
     for out, st in zip(traj.outputs[::7], traj.states[::7], strict=True):
@@ -170,10 +187,10 @@ def test_zero_fixed_share_excludes_the_sensor(problem):
     system, sim, _ = problem
     N = system.n_sensors
     betas = (0.0,) + _simplex(N - 1, 3)
-    got = drive(FederatedFilter(system, Method("f0", sharing="fixed", betas=betas)), sim)
-    available = sim.available.copy()
+    got = drive(FederatedFilter(system, federated("f0", sharing="fixed", betas=betas)), sim)
+    available = sim.stream.available.copy()
     available[:, :, 0] = False
-    ref = drive(CentralizedFilter(system), sim, available, np.zeros_like(sim.oracle))
+    ref = drive(centralized(system), sim, available, np.zeros_like(sim.stream.labels))
     assert_same(got, ref)
     assert (np.stack([o.beta for o in got.outputs], 1)[..., 0] == 0.0).all()
 
@@ -183,10 +200,10 @@ def test_inverse_trace_share_is_floored_not_lost():
     geometrically towards 0; the floor keeps it fused, so the output stays the CKF."""
     rng = np.random.default_rng([2024, 3, 3])
     sc = random_scenario(rng, 3, [1, 1, 1], STEPS)
-    system = LinearSystem.from_scenario(sc)
+    system = sc.system()
     sim = simulate_problem(sc, runs=3, seed=3)
-    got = drive(FederatedFilter(system, Method("inv", sharing="inverse-trace")), sim)
+    got = drive(FederatedFilter(system, federated("inv", sharing="inverse-trace")), sim)
     beta = np.stack([o.beta for o in got.outputs], 1)
     assert beta.min() == pytest.approx(MIN_SHARE)  # the collapse happens in this problem
     np.testing.assert_allclose(beta.sum(-1), 1.0, rtol=0, atol=1e-12)
-    assert_same(got, drive(CentralizedFilter(system), sim))
+    assert_same(got, drive(centralized(system), sim))

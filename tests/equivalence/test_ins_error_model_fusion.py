@@ -1,9 +1,11 @@
 """The 18-state SINS error model plugs into every fusion architecture (issue 3, item 6).
 
-Φ_k, Q_k come from :class:`~ftnav.nav.error_model.SinsErrorModel` evaluated along the
+Φ_k, Q_k come from :func:`~ftnav.nav.error_model.discrete_model` evaluated along the
 ``seed001`` flight (1 s steps, 300 s from take-off through the climb and a turn) and
-drive a :class:`~ftnav.model.system.TimeVaryingSystem` with three aids of paper 002's
-kind: GNSS velocity (δv), star-tracker attitude (φ) and barometric height (δh).
+drive a time-varying linear model (:class:`~ftnav.model.system.TimeVarying` per-epoch
+transitions, simulated by :func:`ftnav.sim.linear.simulate` and handed to the filters
+with every epoch by :class:`ftnav.engine.linear.LinearModel`) with three aids of paper
+002's kind: GNSS velocity (δv), star-tracker attitude (φ) and barometric height (δh).
 Oracle: fusion-reset federated (any β), zero-reset and distributed filters equal the
 centralized filter (spec §1.6, §6) within 1e-9, compared in units of the initial σ.
 """
@@ -12,17 +14,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from equivalence_problems import drive
+from equivalence_problems import centralized, drive
 
-from ftnav.fusion.centralized import CentralizedFilter
-from ftnav.fusion.distributed import DistributedFilter
-from ftnav.fusion.federated import FederatedFilter
+from ftnav.fusion import registry
+from ftnav.fusion.registry import method_config
 from ftnav.io.profile_file import resolve_profile
-from ftnav.model.system import LinearModel, Sensor
-from ftnav.model.scenario import Method, Scenario
-from ftnav.model.system import TimeVaryingSystem
+from ftnav.model.scenario import Scenario
+from ftnav.model.system import LinearModel, Sensor, TimeVarying
 from ftnav.nav import attitude as at
-from ftnav.nav.error_model import STATES_18, ErrorModelParams, NavState, SinsErrorModel
+from ftnav.nav.error_model import STATES_18, ErrorModelParams, NavState, discrete_model
 from ftnav.sim.linear import simulate
 from ftnav.sim.trajectory import generate
 
@@ -52,7 +52,7 @@ def problem():
         accel_markov_sigma=1e-4 * 9.80665,
         accel_markov_tau=1800.0,
     )
-    Phi, Qk = SinsErrorModel(params, 1.0).transition(nav)
+    Phi, Qk = discrete_model(*nav, params, 1.0)
     sig0 = (
         np.array([300, 300, 600] + [0.6] * 3 + [30, 30] + [5.0])
         * np.r_[[ARCSEC] * 3, [1.0] * 3, [ARCSEC] * 2, [1.0]]
@@ -66,10 +66,11 @@ def problem():
         Sensor("cns", e[0:3], (10 * ARCSEC) ** 2 * np.eye(3), (10 * ARCSEC) ** 2 * np.eye(3)),
         Sensor("baro", e[8:9], np.array([[25.0]]), np.array([[25.0]])),
     )
-    sc = Scenario("ins18", 1.0, SECONDS, model, sensors)
-    system = TimeVaryingSystem(model, sensors, Phi=Phi, Qk=Qk)
-    sim = simulate(sc, 2, 7, system=system)
-    return system, sim, sig0, drive(CentralizedFilter(system), sim)
+    sc = Scenario(name="ins18", dt=1.0, steps=SECONDS, model=model, sensors=sensors)
+    system = sc.system()
+    tv = TimeVarying(Phi, Qk)
+    sim = simulate(sc, 2, 7, transitions=tv)
+    return system, sim, sig0, tv, drive(centralized(system), sim, transitions=tv)
 
 
 def _assert_same_scaled(traj, ref, sig0, rtol=1e-9):
@@ -79,28 +80,25 @@ def _assert_same_scaled(traj, ref, sig0, rtol=1e-9):
 
 
 METHODS = {
-    "FR equal": Method("fr", sharing="equal"),
-    "FR inverse-trace + master": Method("frm", sharing="inverse-trace", master_share=0.25),
-    "ZR": Method("zr", mode="zero-reset"),
-    "distributed": Method("dkf", architecture="distributed"),
+    "FR equal": method_config("federated", name="fr", sharing="equal"),
+    "FR inverse-trace + master": method_config(
+        "federated", name="frm", sharing="inverse-trace", master_share=0.25
+    ),
+    "ZR": method_config("federated", name="zr", mode="zero-reset"),
+    "distributed": method_config("distributed", name="dkf"),
 }
 
 
 @pytest.mark.parametrize("name", list(METHODS))
 def test_fusion_on_the_sins_error_model_equals_ckf(problem, name):
-    system, sim, sig0, ref = problem
-    m = METHODS[name]
-    filt = (
-        DistributedFilter(system, m)
-        if m.architecture == "distributed"
-        else FederatedFilter(system, m)
-    )
-    _assert_same_scaled(drive(filt, sim), ref, sig0)
+    system, sim, sig0, tv, ref = problem
+    filt = registry.build(system, METHODS[name])
+    _assert_same_scaled(drive(filt, sim, transitions=tv), ref, sig0)
 
 
 def test_the_aided_filter_is_consistent(problem):
     """The centralized filter's attitude/velocity errors stay within 4σ of its covariance."""
-    system, sim, sig0, ref = problem
-    err = ref.x - sim.truth
+    system, sim, sig0, tv, ref = problem
+    err = ref.x - sim.truth.states
     sd = np.sqrt(np.diagonal(ref.P, axis1=-2, axis2=-1))
     assert (np.abs(err[..., :9]) < 4.5 * sd[..., :9]).mean() > 0.99

@@ -15,9 +15,10 @@ scheme is the distributed filter (spec §1.7, last sentence; §6.2).  The federa
 reset of spec §1.7 (PSINS cross-block transform) is documented as suboptimal, so it
 is not held to the centralized result there.
 
-Lock-step batching (module docstring of :mod:`ftnav.eval.integrated`): the SINS of all
-methods are integrated, linearized and measured as one batch of methods × runs, and
-each filter steps on its slice; a method's result must not depend on which other
+Lock-step batching (:class:`ftnav.engine.ins.InsModel`, driven by
+:func:`ftnav.engine.driver.iterate`): the SINS of all methods are integrated,
+linearized and measured as one batch of methods × runs, and each filter steps on its
+slice; a method's result must not depend on which other
 methods run beside it.
 """
 
@@ -29,25 +30,25 @@ import tomllib
 import numpy as np
 import pytest
 
-from ftnav.eval.integrated import run_ins_scenario
+from ftnav.eval.montecarlo import run_scenario
+from ftnav.fusion.registry import method_config
 from ftnav.io.ins_scenario_file import parse_ins_scenario
 from ftnav.io.scenario_file import load_scenario
-from ftnav.model.scenario import InsFault
-from ftnav.model.scenario import Method
+from ftnav.model.scenario import Fault
 from ftnav.scenarios import builtin_path
 
 TOL = 1e-6  # metric units: m, m/s, arcmin
 
-CKF = Method("ckf", architecture="centralized")
-FKF_FR = Method(
-    "fkf-fr",
-    architecture="federated",
+CKF = method_config("centralized", name="ckf")
+FKF_FR = method_config(
+    "federated",
+    name="fkf-fr",
     mode="fusion-reset",
     reset_interval=1,
     sharing="equal",
     detector="none",
 )
-DKF = Method("dkf", architecture="distributed", adaptive_noise="none")
+DKF = method_config("distributed", name="dkf", noise="none")
 
 PRIVATE = """
 kind = "integrated"
@@ -72,7 +73,7 @@ states = "augment"
 
 
 def _max_diff(result, name: str) -> float:
-    return float(np.abs(result.results[name].x - result.results["ckf"].x).max())
+    return float(np.abs(result.results[name].error - result.results["ckf"].error).max())
 
 
 @pytest.fixture(scope="module")
@@ -81,7 +82,7 @@ def seed002_output():
     sc = dataclasses.replace(
         sc, steps=200, faults=(), correction="output", methods=(CKF, FKF_FR, DKF)
     )
-    return run_ins_scenario(sc, 2, seed=11).result
+    return run_scenario(sc, 2, seed=11)
 
 
 @pytest.mark.parametrize("name", ["fkf-fr", "dkf"])
@@ -90,7 +91,7 @@ def test_fault_free_fusion_equals_centralized(seed002_output, name):
     res = seed002_output
     assert _max_diff(res, name) <= TOL
     # not vacuous: the navigation errors compared are metres, not zeros
-    assert np.abs(res.results["ckf"].x[..., :3]).max() > 0.5
+    assert np.abs(res.results["ckf"].error[..., :3]).max() > 0.5
     np.testing.assert_allclose(res.results[name].nees, res.results["ckf"].nees, rtol=1e-6)
 
 
@@ -99,9 +100,9 @@ def test_private_states_distributed_equals_centralized():
     sc = parse_ins_scenario(tomllib.loads(PRIVATE))
     assert [a.sensor.private is not None for a in sc.aids] == [True, True]
     sc = dataclasses.replace(sc, methods=(CKF, DKF))
-    res = run_ins_scenario(sc, 2, seed=5).result
+    res = run_scenario(sc, 2, seed=5)
     assert _max_diff(res, "dkf") <= TOL
-    assert np.abs(res.results["ckf"].x[..., :3]).max() > 0.5
+    assert np.abs(res.results["ckf"].error[..., :3]).max() > 0.5
 
 
 def test_methods_in_lock_step_equal_each_method_alone():
@@ -111,17 +112,17 @@ def test_methods_in_lock_step_equal_each_method_alone():
     methods = (named["ckf"], named["fkf-chi2"], named["dkf-vb"])
     gnss_bias = np.array([15.0, 15.0, 0.0, 0.0, 0.0, 0.0])
     faults = (
-        InsFault("gnss", "noise-scale", 40.0, 100.0, np.array([5.0])),
-        InsFault("gnss", "bias", 110.0, 130.0, gnss_bias),
+        Fault("gnss", "noise-scale", 40.0, 100.0, np.array([5.0])),
+        Fault("gnss", "bias", 110.0, 130.0, gnss_bias),
     )
     sc = dataclasses.replace(sc, steps=150, faults=faults, methods=methods)
     assert sc.correction == "feedback"
-    together = run_ins_scenario(sc, 2, seed=4, fault_free=False).result.results
+    together = run_scenario(sc, 2, seed=4, fault_free=False).results
     assert together["fkf-chi2"].flag.any()  # the detector acted: the batch is not trivial
     for m in methods:
-        alone = run_ins_scenario(sc, 2, seed=4, methods=(m,), fault_free=False).result.results
+        alone = run_scenario(sc, 2, seed=4, methods=(m,), fault_free=False).results
         a, b = together[m.name], alone[m.name]
-        assert np.abs(a.x - b.x).max() <= 1e-12
+        assert np.abs(a.error - b.error).max() <= 1e-12
         assert np.abs(a.nees - b.nees).max() <= 1e-12 * max(1.0, np.abs(b.nees).max())
         for ra, rb in zip(a.R_hat, b.R_hat, strict=True):
             np.testing.assert_allclose(ra, rb, rtol=1e-12, atol=0.0)

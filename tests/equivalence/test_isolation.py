@@ -1,8 +1,8 @@
 """Isolation, recovery and multi-rate sensors equal a centralized KF (spec §1.8-1.9, §6.3, §6.5).
 
 Oracle flags come from a zero-magnitude bias fault on sensor 2 (``z1``) over
-``[300, 500)`` s with ``dt = 1``: the data are untouched and ``sim.oracle`` is
-True on steps 300..499.  The reference is a plain centralized KF whose
+``[300, 500)`` s with ``dt = 1``: the data are untouched and the stream's fault
+``labels`` are True on steps 300..499.  The reference is a plain centralized KF whose
 schedule has sensor 2 removed on the corresponding steps.
 """
 
@@ -12,17 +12,18 @@ import numpy as np
 import pytest
 from equivalence_problems import (
     assert_same,
+    centralized,
     centralized_skipping,
     drive,
     random_scenario,
     simulate_problem,
 )
 
-from ftnav.fusion.centralized import CentralizedFilter
+from ftnav.fusion import registry
 from ftnav.fusion.distributed import DistributedFilter
 from ftnav.fusion.federated import FederatedFilter
-from ftnav.model.scenario import Fault, Method
-from ftnav.model.system import LinearSystem
+from ftnav.fusion.registry import method_config
+from ftnav.model.scenario import Fault
 
 STEPS = 700
 FIRST, END = 300, 500  # flagged steps FIRST..END-1
@@ -34,9 +35,9 @@ def flagged():
     rng = np.random.default_rng(606)
     fault = Fault("z1", "bias", float(FIRST), float(END), np.zeros(1))
     sc = random_scenario(rng, 3, [1, 1, 1], STEPS, faults=(fault,))
-    system = LinearSystem.from_scenario(sc)
+    system = sc.system()
     sim = simulate_problem(sc, runs=4, seed=9)
-    flags = sim.oracle[:, SENSOR]
+    flags = sim.stream.labels[:, SENSOR]
     assert flags.sum() == END - FIRST and flags[FIRST - 1] and not flags[END - 1]
     return system, sim
 
@@ -46,7 +47,11 @@ def test_federated_isolation_equals_ckf_skipping_one_extra_epoch(flagged):
     equals the CKF that skips sensor 2 on steps 300..500 inclusive, over 700 epochs."""
     system, sim = flagged
     got = drive(
-        FederatedFilter(system, Method("fr", sharing="inverse-trace", detector="oracle")), sim
+        FederatedFilter(
+            system,
+            method_config("federated", name="fr", sharing="inverse-trace", detector="oracle"),
+        ),
+        sim,
     )
     assert_same(got, centralized_skipping(system, sim, SENSOR, FIRST, END))
     beta = np.stack([o.beta for o in got.outputs], 1)  # (B, K, N)
@@ -61,7 +66,10 @@ def test_federated_isolation_any_rule(flagged, rule, master_share):
     system, sim = flagged
     got = drive(
         FederatedFilter(
-            system, Method("fr", sharing=rule, master_share=master_share, detector="oracle")
+            system,
+            method_config(
+                "federated", name="fr", sharing=rule, master_share=master_share, detector="oracle"
+            ),
         ),
         sim,
     )
@@ -76,7 +84,7 @@ def test_distributed_isolation_equals_ckf_without_extra_epoch(flagged, increment
     system, sim = flagged
     filt = DistributedFilter(
         system,
-        Method("d", architecture="distributed", detector="oracle", increment=increment),
+        method_config("distributed", name="d", detector="oracle", increment=increment),
         local_Q_scale=[1.0, 3.0, 1.0],
         local_P0_scale=[1.0, 2.0, 1.0],
     )
@@ -94,7 +102,7 @@ def test_distributed_isolation_equals_ckf_without_extra_epoch(flagged, increment
 def test_isolation_is_not_a_no_op(flagged):
     """Guard: skipping sensor 2 changes the centralized output (the tests above bite)."""
     system, sim = flagged
-    full = drive(CentralizedFilter(system), sim)
+    full = drive(centralized(system), sim)
     skipped = centralized_skipping(system, sim, SENSOR, FIRST, END - 1)
     assert np.abs(full.x - skipped.x).max() > 1e-3
 
@@ -108,35 +116,30 @@ def test_isolation_is_not_a_no_op(flagged):
 def multirate():
     rng = np.random.default_rng(31)
     sc = random_scenario(rng, 4, [2, 1, 1], 600, every=[1, 2, 3])
-    system = LinearSystem.from_scenario(sc)
+    system = sc.system()
     sim = simulate_problem(sc, runs=3, seed=4)
-    avail = sim.available[0]
+    avail = sim.stream.available[0]
     assert avail[:, 0].all() and avail[1::2, 1].all() and not avail[0::2, 1].any()
     assert avail[2::3, 2].all() and avail[:, 2].sum() == 200
-    return system, sim, drive(CentralizedFilter(system), sim)
+    return system, sim, drive(centralized(system), sim)
 
 
 @pytest.mark.parametrize(
     "method",
     [
-        Method("d", architecture="distributed"),
-        Method("dd", architecture="distributed", increment="difference"),
-        Method("fr", sharing="equal"),
-        Method("fri", sharing="inverse-trace"),
-        Method("frm", sharing="trace", master_share=0.25),
-        Method("zr", mode="zero-reset"),
+        method_config("distributed", name="d"),
+        method_config("distributed", name="dd", increment="difference"),
+        method_config("federated", name="fr", sharing="equal"),
+        method_config("federated", name="fri", sharing="inverse-trace"),
+        method_config("federated", name="frm", sharing="trace", master_share=0.25),
+        method_config("federated", name="zr", mode="zero-reset"),
     ],
     ids=lambda m: m.name,
 )
 def test_multirate_equals_centralized(multirate, method):
     """Sensors at 1, 1/2 and 1/3 Hz with a 1 Hz centre: every exact architecture = CKF."""
     system, sim, ref = multirate
-    filt = (
-        DistributedFilter(system, method)
-        if method.architecture == "distributed"
-        else FederatedFilter(system, method)
-    )
-    assert_same(drive(filt, sim), ref)
+    assert_same(drive(registry.build(system, method), sim), ref)
 
 
 # ---------------------------------------------------------------------------
@@ -151,14 +154,14 @@ def test_difference_equals_direct_increments(shape):
     n, dims = shape
     rng = np.random.default_rng([55, n])
     sc = random_scenario(rng, n, dims, 500)
-    system = LinearSystem.from_scenario(sc)
+    system = sc.system()
     sim = simulate_problem(sc, runs=3, seed=n)
     N = len(dims)
     kw = dict(local_Q_scale=np.linspace(1.0, 10.0, N), local_P0_scale=np.linspace(1.0, 50.0, N))
-    direct = drive(DistributedFilter(system, Method("a", architecture="distributed"), **kw), sim)
+    direct = drive(DistributedFilter(system, method_config("distributed", name="a"), **kw), sim)
     diff = drive(
         DistributedFilter(
-            system, Method("b", architecture="distributed", increment="difference"), **kw
+            system, method_config("distributed", name="b", increment="difference"), **kw
         ),
         sim,
     )
@@ -172,22 +175,32 @@ def test_no_reset_time_update_isolation_equals_the_missing_measurement(flagged, 
     same no-reset filter without a detector whose sensor 2 has no data while flagged
     (steps 300..499); the default standalone isolation drops it from the fusion instead."""
     system, sim = flagged
-    method = Method("nr", mode="no-reset", sharing=sharing)
+    method = method_config("federated", name="nr", mode="no-reset", sharing=sharing)
     got = drive(
         FederatedFilter(
             system,
-            Method(
-                "nr", mode="no-reset", sharing=sharing, detector="oracle", isolation="time-update"
+            method_config(
+                "federated",
+                name="nr",
+                mode="no-reset",
+                sharing=sharing,
+                detector="oracle",
+                isolation="time-update",
             ),
         ),
         sim,
     )
-    available = sim.available.copy()
+    available = sim.stream.available.copy()
     available[:, FIRST - 1 : END - 1, SENSOR] = False
-    ref = drive(FederatedFilter(system, method), sim, available, np.zeros_like(sim.oracle))
+    ref = drive(FederatedFilter(system, method), sim, available, np.zeros_like(sim.stream.labels))
     assert_same(got, ref)
     dropped = drive(
-        FederatedFilter(system, Method("nr", mode="no-reset", sharing=sharing, detector="oracle")),
+        FederatedFilter(
+            system,
+            method_config(
+                "federated", name="nr", mode="no-reset", sharing=sharing, detector="oracle"
+            ),
+        ),
         sim,
     )
     assert np.abs(dropped.x - ref.x).max() > 1e-6 * max(1.0, float(np.abs(ref.x).max()))

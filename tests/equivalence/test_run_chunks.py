@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ftnav.eval.integrated import CHUNK_BYTES, chunk_runs, run_ins_scenario
+from ftnav.eval.montecarlo import CHUNK_BYTES, chunk_runs, run_scenario
 from ftnav.io.scenario_file import load_scenario
 from ftnav.scenarios import builtin_path
 
@@ -24,11 +24,11 @@ def seed002():
 
 
 def test_runs_in_batches_equal_one_batch(seed002):
-    one = run_ins_scenario(seed002, 3, seed=5, chunk=3)
-    parts = run_ins_scenario(seed002, 3, seed=5, chunk=2)
-    assert one.result.simulation.data is not None and parts.result.simulation.data is None
+    one = run_scenario(seed002, 3, seed=5, chunk=3)
+    parts = run_scenario(seed002, 3, seed=5, chunk=2)
+    assert one.stream is not None and parts.stream is None
     for pool in ("results", "fault_free"):
-        a, b = getattr(one.result, pool), getattr(parts.result, pool)
+        a, b = getattr(one, pool), getattr(parts, pool)
         assert a.keys() == b.keys() and a
         for name in a:
             for fa, fb in zip(a[name], b[name], strict=True):
@@ -51,4 +51,4 @@ def test_default_batch_bounds_the_imu_memory(seed002):
     assert n * per_run <= CHUNK_BYTES < (n + 1) * per_run
     assert n == 62
     with pytest.raises(ValueError, match="chunk"):
-        run_ins_scenario(seed002, 2, seed=1, chunk=0)
+        run_scenario(seed002, 2, seed=1, chunk=0)

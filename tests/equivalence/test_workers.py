@@ -15,7 +15,6 @@ import pytest
 from equivalence_problems import assert_identical
 
 from ftnav.eval import montecarlo
-from ftnav.eval.integrated import run_ins_scenario
 from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.scenario_file import load_scenario
 from ftnav.parallel import default_workers, run_tasks, split_even
@@ -40,7 +39,7 @@ def test_linear_method_groups_in_two_processes_equal_one(monkeypatch):
     one = run_scenario(sc, 3, 5)
     two = run_scenario(sc, 3, 5, workers=2, progress=ticks.append)
     _assert_same_results(one, two)
-    np.testing.assert_array_equal(one.simulation.truth, two.simulation.truth)
+    np.testing.assert_array_equal(one.truth.states, two.truth.states)
     # every epoch of every method (faulty and fault-free in one batch) reported once
     assert sum(ticks) == len(keep) * sc.steps
 
@@ -48,15 +47,15 @@ def test_linear_method_groups_in_two_processes_equal_one(monkeypatch):
 def test_integrated_run_chunks_and_method_groups_in_two_processes_equal_one():
     sc = load_scenario(builtin_path("seed002"))
     sc = dataclasses.replace(sc, steps=120)
-    one = run_ins_scenario(sc, 3, 2)
-    by_runs = run_ins_scenario(sc, 3, 2, workers=2)  # chunks of 2 + 1 runs
-    by_methods = run_ins_scenario(sc, 1, 2, workers=2)  # one run: groups of methods
-    _assert_same_results(one.result, by_runs.result)
-    for name, loc in one.local.items():
-        assert (loc is None) == (by_runs.local[name] is None)
-    single = run_ins_scenario(sc, 1, 2)
-    _assert_same_results(single.result, by_methods.result)
-    assert by_runs.result.simulation.data is None
+    one = run_scenario(sc, 3, 2)
+    by_runs = run_scenario(sc, 3, 2, workers=2)  # chunks of 2 + 1 runs
+    by_methods = run_scenario(sc, 1, 2, workers=2)  # one run: groups of methods
+    _assert_same_results(one, by_runs)
+    for name, res in one.results.items():
+        assert (res.local is None) == (by_runs.results[name].local is None)
+    single = run_scenario(sc, 1, 2)
+    _assert_same_results(single, by_methods)
+    assert by_runs.stream is None
 
 
 def _fail(task, progress):

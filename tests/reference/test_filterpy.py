@@ -13,9 +13,9 @@ import pytest
 from scipy.linalg import block_diag
 
 from ftnav.fusion.centralized import CentralizedFilter
-from ftnav.model.system import LinearModel, Sensor
+from ftnav.fusion.registry import method_config
 from ftnav.model.scenario import Scenario
-from ftnav.model.system import LinearSystem
+from ftnav.model.system import Epoch, LinearModel, Sensor
 from ftnav.sim.linear import simulate
 
 filterpy_kalman = pytest.importorskip("filterpy.kalman")
@@ -44,7 +44,7 @@ def scenario():
         sensors.append(
             Sensor(f"z{i}", rng.standard_normal((m, n)), R, R, every=1 + (i == 2))
         )  # sensor 3 at half rate
-    return Scenario("filterpy", 1.0, STEPS, model, tuple(sensors))
+    return Scenario(name="filterpy", dt=1.0, steps=STEPS, model=model, sensors=tuple(sensors))
 
 
 def filterpy_run(sc: Scenario, z: list[np.ndarray], available: np.ndarray):
@@ -66,13 +66,14 @@ def filterpy_run(sc: Scenario, z: list[np.ndarray], available: np.ndarray):
 
 
 def ftnav_run(sc: Scenario, sim):
-    filt = CentralizedFilter(LinearSystem.from_scenario(sc))
-    state = filt.init(sim.truth.shape[0])
+    filt = CentralizedFilter(sc.system(), method_config("centralized", name="ckf"))
+    stream = sim.stream
+    state = filt.init(stream.batch)
     xs, Ps = [], []
     for k in range(1, STEPS + 1):
-        state, out = filt.step(
-            state, k, [z[:, k - 1] for z in sim.z], sim.available[:, k - 1], sim.oracle[k - 1]
-        )
+        z = tuple(zi[:, k - 1] for zi in stream.z)
+        epoch = Epoch(k, z, stream.available[:, k - 1], stream.labels[k - 1])
+        state, out = filt.step(state, epoch)
         xs.append(out.x)
         Ps.append(out.P)
     return np.stack(xs, 1), np.stack(Ps, 1)
@@ -81,7 +82,7 @@ def ftnav_run(sc: Scenario, sim):
 def test_centralized_equals_filterpy(scenario):
     sim = simulate(scenario, 1, seed=1)
     x, P = ftnav_run(scenario, sim)
-    x_ref, P_ref = filterpy_run(scenario, [z[0] for z in sim.z], sim.available[0])
+    x_ref, P_ref = filterpy_run(scenario, [z[0] for z in sim.stream.z], sim.stream.available[0])
     np.testing.assert_allclose(x[0], x_ref, rtol=1e-9, atol=1e-9 * np.abs(x_ref).max())
     np.testing.assert_allclose(P[0], P_ref, rtol=1e-9, atol=1e-9 * np.abs(P_ref).max())
 
@@ -94,12 +95,12 @@ def test_batched_runs_equal_single_runs(scenario):
     for b in range(B):
         one = simulate(scenario, 1, seed, first_run=b)
         # same random stream; BLAS may round a 1-row and a 3-row product differently
-        np.testing.assert_allclose(one.truth[0], sim.truth[b], rtol=1e-12, atol=1e-12)
-        for z1, z in zip(one.z, sim.z, strict=True):
+        np.testing.assert_allclose(one.truth.states[0], sim.truth.states[b], rtol=1e-12, atol=1e-12)
+        for z1, z in zip(one.stream.z, sim.stream.z, strict=True):
             np.testing.assert_allclose(z1[0], z[b], rtol=1e-12, atol=1e-12)
         x1, P1 = ftnav_run(scenario, one)
         np.testing.assert_allclose(x1[0], x[b], rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(P1[0], P[b], rtol=1e-12, atol=1e-12)
-        x_ref, P_ref = filterpy_run(scenario, [z[b] for z in sim.z], sim.available[b])
+        x_ref, P_ref = filterpy_run(scenario, [z[b] for z in sim.stream.z], sim.stream.available[b])
         np.testing.assert_allclose(x[b], x_ref, rtol=1e-9, atol=1e-9 * np.abs(x_ref).max())
         np.testing.assert_allclose(P[b], P_ref, rtol=1e-9, atol=1e-9 * np.abs(P_ref).max())

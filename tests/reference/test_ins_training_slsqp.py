@@ -2,7 +2,7 @@
 
 Oracle: ``scipy.optimize.minimize(method="SLSQP")`` of each neuron's mean squared
 residual on the simplex (``constrained_least_squares`` of ``test_lms_slsqp``), on the
-very samples :func:`ftnav.eval.ins_training.train_ins_fusion` trains on.  The local
+very samples :func:`ftnav.training.ins_fusion.train_ins_fusion` trains on.  The local
 estimates' errors differ by orders of magnitude (GPS tens of metres, Doppler hundreds),
 which is where a badly conditioned LMS step stalls: the per-sample normalized step
 (``"nlms"``, μ = 0.1, 200 epochs) left seed001's healthy δL neuron at 0.17 / 0.83 / 0.00
@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from test_lms_slsqp import constrained_least_squares
 
-from ftnav.eval.ins_training import train_ins_fusion
-from ftnav.fusion.neural import NeuronModel
+from ftnav.io.learned import load_neuron_model
 from ftnav.io.scenario_file import load_scenario
 from ftnav.scenarios import builtin_path
+from ftnav.training.ins_fusion import train_ins_fusion
 
 
 @pytest.fixture(scope="module")
@@ -54,6 +54,6 @@ def test_navigation_neurons_reach_the_constrained_least_squares_optimum(trained)
 def test_the_shipped_model_is_this_training(trained):
     """``scenarios/models/seed001-neural.npz`` is what the documented command produces."""
     model, _ = trained
-    shipped = NeuronModel.load(builtin_path("seed001").parent / "models" / "seed001-neural.npz")
+    shipped = load_neuron_model(builtin_path("seed001").parent / "models" / "seed001-neural.npz")
     assert shipped.configurations == model.configurations
     np.testing.assert_allclose(shipped.weights, model.weights, rtol=0, atol=1e-6)

@@ -36,10 +36,9 @@ from ftnav.sim.ins import trajectory_of
 def command(d, name):
     if args.get("chunk"):
         from ftnav.eval.evaluate import evaluate
-        from ftnav.eval.integrated import run_ins_scenario
+        from ftnav.eval.montecarlo import run_scenario
         from ftnav.io.scenario_file import load_scenario
-        ir = run_ins_scenario(load_scenario(args["path"]), args["runs"], 1, chunk=args["chunk"])
-        evaluate(ir.result)
+        evaluate(run_scenario(load_scenario(args["path"]), args["runs"], 1, chunk=args["chunk"]))
     else:
         assert main(["run", args["path"], "--runs", str(args["runs"]), "--out", d + name,
                      "--quiet", "--no-figures", *args["extra"]]) == 0
@@ -88,8 +87,7 @@ architecture = "centralized"
 [[methods]]
 name = "fkf"
 sharing = "inverse-trace"
-detector = "residual-chi2"
-prior = "global"
+detector = {{ kind = "residual-chi2", prior = "global" }}
 [[methods]]
 name = "dkf"
 architecture = "distributed"
@@ -117,8 +115,7 @@ name = "ckf"
 architecture = "centralized"
 [[methods]]
 name = "fkf"
-detector = "residual-chi2"
-prior = "global"
+detector = {{ kind = "residual-chi2", prior = "global" }}
 isolation = "time-update"
 """
 

@@ -95,8 +95,9 @@ BAD = [
     (
         "intersection prior outside the neuron centre",
         'architecture = "centralized"',
-        'architecture = "centralized"\nprior = "intersection"',
-        "methods[0].prior",
+        'architecture = "centralized"\n'
+        'detector = { kind = "residual-chi2", prior = "intersection" }',
+        "methods[0].detector.prior",
     ),
     (
         "quorum without the common-mode rule",

@@ -22,7 +22,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from ftnav.eval.integrated import run_ins_scenario
+from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.ins_scenario_file import parse_ins_scenario
 from ftnav.model.scenario import INS_FAULT_KINDS, SINS
 
@@ -69,8 +69,7 @@ name = "fkf-chi2"
 architecture = "federated"
 mode = "fusion-reset"
 sharing = "equal"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 isolation = "time-update"
 
 [[methods]]
@@ -78,8 +77,7 @@ name = "fkf-chi2-quorum"
 architecture = "federated"
 mode = "fusion-reset"
 sharing = "equal"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 isolation = "time-update"
 common_mode = "keep"
 common_mode_quorum = 4
@@ -87,8 +85,7 @@ common_mode_quorum = 4
 [[methods]]
 name = "dkf-vb"
 architecture = "distributed"
-adaptive_noise = "vb"
-vb_sensors = ["gnss"]
+noise = { kind = "vb", sensors = ["gnss"] }
 """
 
 #: bias / final ramp offset per aid, in its metric measurement space (m, m/s, rad)
@@ -132,11 +129,11 @@ def scenario():
 
 @pytest.fixture(scope="module")
 def results(scenario):
-    return run_ins_scenario(scenario, 1, seed=3, fault_free=False, check_spd=True).result
+    return run_scenario(scenario, 1, seed=3, fault_free=False, check_spd=True)
 
 
 def _horizontal(res) -> np.ndarray:
-    return np.hypot(res.x[..., 0], res.x[..., 1])
+    return np.hypot(res.error[..., 0], res.error[..., 1])
 
 
 def test_the_flight_has_every_fault_kind_on_every_sensor(scenario):
@@ -155,12 +152,10 @@ def test_every_fault_runs_finite_with_spd_covariances_and_bounded_error(scenario
     """
     outage = scenario.fault_mask("cns") & ~scenario.fault_mask("cns", detectable_only=True)
     assert outage.sum() == 90  # the CNS outage really removed its data
-    assert not results.simulation.data.available[
-        :, outage, scenario.sensor_names.index("cns")
-    ].any()
+    assert not results.stream.aids[scenario.sensor_names.index("cns")].available[:, outage].any()
     for name, res in results.results.items():
-        assert res.x.shape == (1, 3600, 9), name
-        for a in (res.x, res.P_diag, res.nees, *res.R_hat):
+        assert res.error.shape == (1, 3600, 9), name
+        for a in (res.error, res.P_diag, res.nees, *res.R_hat):
             assert np.isfinite(a).all(), name
         assert (res.P_diag > 0).all(), name
     h = _horizontal(results.results["dkf-vb"])
@@ -191,7 +186,7 @@ def test_common_mode_quorum_keeps_the_aids_through_the_sins_fault(scenario, resu
     """
     plain, quorum = results.results["fkf-chi2"], results.results["fkf-chi2-quorum"]
     before_sins = scenario.times < SINS_FAULT[0]
-    np.testing.assert_array_equal(quorum.x[:, before_sins], plain.x[:, before_sins])
+    np.testing.assert_array_equal(quorum.error[:, before_sins], plain.error[:, before_sins])
     assert (plain.flag[:, before_sins].sum(-1) < 4).all()
     assert (plain.flag[:, ~before_sins].sum(-1) >= 4).any()  # the rule has work to do
     h = _horizontal(quorum)

@@ -55,8 +55,7 @@ FEDERATED = """
 name = "fkf-chi2"
 architecture = "federated"
 sharing = "inverse-trace"
-detector = "residual-chi2"
-prior = "global"
+detector = { kind = "residual-chi2", prior = "global" }
 """
 
 RBF = """
@@ -64,8 +63,7 @@ RBF = """
 name = "fkf-rbf"
 architecture = "federated"
 sharing = "inverse-trace"
-detector = "rbf"
-model = {model}
+detector = {{ kind = "rbf", model = {model} }}
 """
 
 NEURAL = """
@@ -73,8 +71,7 @@ NEURAL = """
 name = "neural"
 architecture = "neural"
 model = {model}
-detector = "residual-chi2"
-prior = "global"
+detector = {{ kind = "residual-chi2", prior = "global" }}
 """
 
 
@@ -139,11 +136,15 @@ def _refused(argv, capsys, start: str) -> str:
     return err
 
 
+#: the model setting of each learned method: the second method of a refused file (after ckf)
+MODEL_FIELD = {"fkf-rbf": "methods[1].detector.model", "neural": "methods[1].model"}
+
+
 def _run_refused(scenario, tmp_path, capsys, method: str) -> str:
     return _refused(
         ["run", scenario, "--runs", "1", "--out", tmp_path / "out", "--no-figures", "--quiet"],
         capsys,
-        f"methods[{method}].model: ",
+        f"{MODEL_FIELD[method]}: ",
     )
 
 

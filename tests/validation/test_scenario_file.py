@@ -8,19 +8,28 @@ import math
 import pickle
 from collections.abc import Callable
 from dataclasses import fields
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from pydantic import BaseModel
 
+from ftnav.fdi.rbf import RBFModel, RBFNetwork
+from ftnav.fusion.centralized import CentralizedConfig
+from ftnav.fusion.config import FixedNoise, RbfDetector, ResidualChi2, StateChi2, VbNoise
+from ftnav.fusion.federated import FederatedConfig
+from ftnav.fusion.neural_model import NeuronModel
+from ftnav.fusion.registry import ARCHITECTURES
 from ftnav.io.common import ScenarioError
+from ftnav.io.learned import compatibility, save_neuron_model, save_rbf_model
 from ftnav.io.scenario_file import (
     load_scenario,
     parse_scenario,
     scenario_json_schema,
     scenario_to_dict,
 )
-from ftnav.model.scenario import Method, Scenario
+from ftnav.model.scenario import Scenario
 
 NAN = float("nan")
 INF = float("inf")
@@ -134,15 +143,16 @@ def _dup_method() -> dict:
     return d
 
 
-ENUMS = {
-    "architecture": "methods[2].architecture",
-    "mode": "methods[2].mode",
-    "sharing": "methods[2].sharing",
-    "trace_mode": "methods[2].trace_mode",
-    "detector": "methods[2].detector",
-    "prior": "methods[2].prior",
-    "adaptive_noise": "methods[2].adaptive_noise",
-    "increment": "methods[2].increment",
+#: each enumerated setting of a method (the settings that go with it) and its field path
+ENUMS: dict[str, tuple[dict[str, Any], str]] = {
+    "architecture": ({"architecture": "foo"}, "methods[2].architecture"),
+    "mode": ({"mode": "foo"}, "methods[2].mode"),
+    "sharing": ({"sharing": "foo"}, "methods[2].sharing"),
+    "trace_mode": ({"sharing": "trace", "trace_mode": "foo"}, "methods[2].trace_mode"),
+    "detector": ({"detector": {"kind": "foo"}}, "methods[2].detector.kind"),
+    "prior": ({"detector": {"kind": "residual-chi2", "prior": "foo"}}, "methods[2].detector.prior"),
+    "noise": ({"noise": {"kind": "foo"}}, "methods[2].noise.kind"),
+    "increment": ({"architecture": "distributed", "increment": "foo"}, "methods[2].increment"),
 }
 
 BAD: list[tuple[str, Callable[[], dict], str]] = [
@@ -357,33 +367,40 @@ BAD: list[tuple[str, Callable[[], dict], str]] = [
     *[
         (
             f"enum-{key}",
-            _add_method(**{key: "foo"}),
+            _add_method(**settings),
             "^"
             + path.replace("[", r"\[").replace("]", r"\]").replace(".", r"\.")
             + r": unknown value 'foo' \(expected one of: ",
         )
-        for key, path in ENUMS.items()
+        for key, (settings, path) in ENUMS.items()
     ],
-    ("enum-not-string", _add_method(detector=3), r"^methods\[2\]\.detector: unknown value"),
+    (
+        "enum-not-string",
+        _add_method(detector={"kind": 3}),
+        r"^methods\[2\]\.detector\.kind: unknown value",
+    ),
     (
         "rbf-without-model",
         _add_method(detector="rbf"),
-        r"^methods\[2\]\.model: detector 'rbf' needs a trained model file$",
+        r"^methods\[2\]\.detector\.model: missing required key$",
     ),
     (
         "neural-without-model",
         _add_method(architecture="neural"),
-        r"^methods\[2\]\.model: architecture 'neural' needs a trained model file$",
+        r"^methods\[2\]\.model: architecture 'neural' needs a trained model file "
+        r"\(ftnav train-fusion\)$",
     ),
     (
+        # a federated method has no model setting (the typed configuration refuses it)
         "model-unused",
         _add_method(model="x.npz"),
-        r"^methods\[2\]\.model: only used with detector = 'rbf' or architecture = 'neural'$",
+        r"^methods\[2\]\.model: not a setting of the federated architecture "
+        r"\(a setting of neural\)$",
     ),
     (
         "threshold-above-1",
-        _add_method(detector="rbf", model="x.npz", threshold=1.5),
-        r"^methods\[2\]\.threshold: ",
+        _add_method(detector={"kind": "rbf", "model": "x.npz", "threshold": 1.5}),
+        r"^methods\[2\]\.detector\.threshold: ",
     ),
     (
         "fixed-betas-count",
@@ -406,37 +423,42 @@ BAD: list[tuple[str, Callable[[], dict], str]] = [
         r"^methods\[2\]\.betas\[1\]: must be >= 0",
     ),
     (
+        # betas are a setting of the fixed rule only: the typed configuration refuses them
         "betas-without-fixed",
         _add_method(sharing="equal", betas=[0.5, 0.3, 0.2]),
-        r"^methods\[2\]\.betas: must be empty unless sharing = 'fixed'",
+        r"^methods\[2\]\.betas: only read with sharing = 'fixed' \(sharing is 'equal'\)$",
     ),
     ("master-share-one", _add_method(master_share=1.0), r"^methods\[2\]\.master_share: must be <"),
     (
         "rescale-not-reconstructed",
-        _add_method(mode="rescale"),
+        _add_method(architecture="distributed", mode="rescale"),
         r"^methods\[2\]\.mode: 'rescale' is a reconstruction \(spec §1\.5\); "
         r"set reconstructed = true to use it$",
     ),
     (
         "pfa-zero",
-        _add_method(false_alarm_probability=0.0),
-        r"^methods\[2\]\.false_alarm_probability: must be > 0",
+        _add_method(detector={"kind": "residual-chi2", "false_alarm_probability": 0.0}),
+        r"^methods\[2\]\.detector\.false_alarm_probability: must be > 0",
     ),
     (
         "pfa-one",
-        _add_method(false_alarm_probability=1.0),
-        r"^methods\[2\]\.false_alarm_probability: must be < 1",
+        _add_method(detector={"kind": "residual-chi2", "false_alarm_probability": 1.0}),
+        r"^methods\[2\]\.detector\.false_alarm_probability: must be < 1",
     ),
     (
         "pfa-nan",
-        _add_method(false_alarm_probability=NAN),
-        r"^methods\[2\]\.false_alarm_probability: is NaN or inf",
+        _add_method(detector={"kind": "residual-chi2", "false_alarm_probability": NAN}),
+        r"^methods\[2\]\.detector\.false_alarm_probability: is NaN or inf",
     ),
-    ("window-zero", _add_method(window=0), r"^methods\[2\]\.window: must be >= 1"),
+    (
+        "window-zero",
+        _add_method(detector={"kind": "residual-chi2", "window": 0}),
+        r"^methods\[2\]\.detector\.window: must be >= 1",
+    ),
     (
         "quorum-without-keep",
         _add_method(common_mode_quorum=2),
-        r"^methods\[2\]\.common_mode_quorum: only used with common_mode = 'keep'",
+        r"^methods\[2\]\.common_mode_quorum: only read with common_mode = 'keep'",
     ),
     (
         "quorum-one",
@@ -450,43 +472,73 @@ BAD: list[tuple[str, Callable[[], dict], str]] = [
     ),
     (
         "intersection-not-neural",
-        _add_method(prior="intersection"),
-        r"^methods\[2\]\.prior: 'intersection' \(covariance intersection of the local priors\) "
-        r"is only used with architecture = 'neural'$",
+        _add_method(detector={"kind": "residual-chi2", "prior": "intersection"}),
+        r"^methods\[2\]\.detector\.prior: 'intersection' is not available with the "
+        r"federated architecture \(expected one of \['local', 'global'\]\)$",
     ),
-    ("prior-unknown", _add_method(prior="fused"), r"^methods\[2\]\.prior: "),
+    (
+        "prior-unknown",
+        _add_method(detector={"kind": "residual-chi2", "prior": "fused"}),
+        r"^methods\[2\]\.detector\.prior: ",
+    ),
     ("reset-interval-zero", _add_method(reset_interval=0), r"^methods\[2\]\.reset_interval: "),
-    ("n_on-zero", _add_method(n_on=0), r"^methods\[2\]\.n_on: must be >= 1"),
-    ("n_off-zero", _add_method(n_off=0), r"^methods\[2\]\.n_off: must be >= 1"),
+    (
+        "n_on-zero",
+        _add_method(detector={"kind": "residual-chi2", "n_on": 0}),
+        r"^methods\[2\]\.detector\.n_on: must be >= 1",
+    ),
+    (
+        "n_off-zero",
+        _add_method(detector={"kind": "residual-chi2", "n_off": 0}),
+        r"^methods\[2\]\.detector\.n_off: must be >= 1",
+    ),
     (
         "state-test-reset-small",
-        _add_method(state_test_reset=4),
-        r"^methods\[2\]\.state_test_reset: must be >= 5",
+        _add_method(detector={"kind": "state-chi2", "reset": 4}),
+        r"^methods\[2\]\.detector\.reset: must be >= 5",
     ),
-    ("vb-rho-zero", _add_method(vb_rho=0.0), r"^methods\[2\]\.vb_rho: must be > 0"),
-    ("vb-rho-big", _add_method(vb_rho=1.5), r"^methods\[2\]\.vb_rho: must be <= 1"),
-    ("vb-iterations-zero", _add_method(vb_iterations=0), r"^methods\[2\]\.vb_iterations: "),
+    (
+        "vb-rho-zero",
+        _add_method(noise={"kind": "vb", "rho": 0.0}),
+        r"^methods\[2\]\.noise\.rho: must be > 0",
+    ),
+    (
+        "vb-rho-big",
+        _add_method(noise={"kind": "vb", "rho": 1.5}),
+        r"^methods\[2\]\.noise\.rho: must be <= 1",
+    ),
+    (
+        "vb-iterations-zero",
+        _add_method(noise={"kind": "vb", "iterations": 0}),
+        r"^methods\[2\]\.noise\.iterations: ",
+    ),
     (
         "vb-sensors-unknown",
-        _add_method(vb_sensors=["pos1", "gps"]),
-        r"^methods\[2\]\.vb_sensors\[1\]: unknown sensor 'gps' \(known: pos1, pos2, pos3\)$",
+        _add_method(noise={"kind": "vb", "sensors": ["pos1", "gps"]}),
+        r"^methods\[2\]\.noise\.sensors\[1\]: unknown sensor 'gps' \(known: pos1, pos2, pos3\)$",
     ),
     (
         "vb-sensors-duplicate",
-        _add_method(vb_sensors=["pos1", "pos1"]),
-        r"^methods\[2\]\.vb_sensors\[1\]: duplicate sensor 'pos1'$",
+        _add_method(noise={"kind": "vb", "sensors": ["pos1", "pos1"]}),
+        r"^methods\[2\]\.noise\.sensors\[1\]: duplicate sensor 'pos1'$",
     ),
     (
         "rescale-factor-one",
-        _add_method(rescale_factor=1.0),
+        _add_method(
+            architecture="distributed", mode="rescale", reconstructed=True, rescale_factor=1.0
+        ),
         r"^methods\[2\]\.rescale_factor: must be < 1",
     ),
     (
         "reconstructed-not-bool",
-        _add_method(reconstructed="yes"),
+        _add_method(architecture="distributed", mode="rescale", reconstructed="yes"),
         r"^methods\[2\]\.reconstructed: expected true or false",
     ),
-    ("method-model-not-string", _add_method(model=3), r"^methods\[2\]\.model: expected a string"),
+    (
+        "method-model-not-string",
+        _add_method(architecture="neural", model=3),
+        r"^methods\[2\]\.model: expected a string",
+    ),
     # --- evaluation
     (
         "skip-initial-too-long",
@@ -579,20 +631,55 @@ def test_base_parses_with_arrays_and_defaults() -> None:
     assert (f.sensor, f.kind, f.start, f.end) == ("pos1", "bias", 300.0, 500.0)
     assert f.magnitude.shape == (1,) and f.magnitude[0] == 60.0
     m0, m1 = sc.methods
-    assert (m0.name, m0.sharing, m0.detector) == (
+    assert (m0.name, m0.sharing, m0.detector.kind) == (
         "fkf-fault-factor",
         "inverse-trace",
         "residual-chi2",
     )
-    # every key not given takes the Method dataclass default
-    default = Method(name="ckf", architecture="centralized")
-    for fl in fields(Method):
-        assert getattr(m1, fl.name) == getattr(default, fl.name), fl.name
-    assert m1.betas == () and m1.vb_sensors == () and m1.model is None
+    # every key not given takes the configuration's default
+    assert isinstance(m0, FederatedConfig) and isinstance(m1, CentralizedConfig)
+    assert m0.detector == ResidualChi2(kind="residual-chi2")
+    default = CentralizedConfig(name="ckf")
+    for name in CentralizedConfig.model_fields:
+        assert getattr(m1, name) == getattr(default, name), name
+    assert m0.betas == () and m1.noise == FixedNoise() and m1.model_file is None
     assert sc.evaluation.skip_initial == 0.0 and sc.evaluation.grace == 10.0
 
 
-def test_optional_parts_parse() -> None:
+def _detector_file(d: dict, path: Path) -> Path:
+    """A small RBF detector model file for the system of ``d`` (the scenario loads it)."""
+    system = parse_scenario(d).system()
+    rng = np.random.default_rng(0)
+    N = system.n_sensors
+    net = RBFNetwork(n_centres=2, n_init=1, kmeans_samples=2, random_state=0)
+    net.fit(rng.normal(size=(8, N)), (rng.random((8, N)) > 0.5).astype(float))
+    model = RBFModel(
+        net, ("innovation",), "local", np.full(N, 0.5), 1, 5, compatibility(system), {}
+    )
+    return save_rbf_model(model, path)
+
+
+def _fusion_file(d: dict, path: Path) -> Path:
+    """A neuron fusion model file (healthy and pos1-faulty banks) for the system of ``d``."""
+    sc = parse_scenario(d)
+    system = sc.system()
+    N, n = system.n_sensors, len(sc.model.states)
+    patterns = np.zeros((2, N), dtype=bool)
+    patterns[1, 0] = True
+    model = NeuronModel(
+        ("healthy", "pos1"),
+        patterns,
+        sc.sensor_names,
+        sc.model.states,
+        np.full((2, n, N), 1.0 / N),
+        np.zeros((2, n)),
+        compatibility(system),
+        {},
+    )
+    return save_neuron_model(model, path)
+
+
+def test_optional_parts_parse(tmp_path) -> None:
     d = with_private()
     d["description"] = "with everything"
     d["model"]["Q_true"] = [[1.0, 0, 0], [0, 0.0, 0], [0, 0, 0.0]]  # PSD is enough
@@ -600,44 +687,64 @@ def test_optional_parts_parse() -> None:
     d["faults"] += [
         {"sensor": "pos2", "kind": "outage", "start": 10.0, "end": 20.0},
         {"sensor": "pos3", "kind": "noise-scale", "start": 10, "end": 2000.0, "magnitude": [3.0]},
-        {"sensor": "pos3", "kind": "stuck", "start": 5000.0, "end": 6000.0},  # after the run
     ]
+    # the distributed and the federated settings are settings of two methods now
     d["methods"].append(
         {
             "name": "everything",
             "architecture": "distributed",
             "mode": "rescale",
             "reconstructed": True,
-            "sharing": "fixed",
-            "betas": [0.5, 0.25, 0.15],
-            "master_share": 0.1,
-            "trace_mode": "raw",
-            "detector": "state-chi2",
-            "prior": "global",
-            "adaptive_noise": "vb-literal",
-            "vb_sensors": ["pos2"],
+            "detector": {"kind": "state-chi2"},
+            "noise": {"kind": "vb-literal", "sensors": ["pos2"], "rho": 1.0},
             "increment": "difference",
             "rescale_factor": 0.0,
-            "vb_rho": 1.0,
         }
     )
     d["methods"].append(
-        {"name": "learned", "detector": "rbf", "model": "detector.npz", "threshold": 0.6}
+        {
+            "name": "everything-federated",
+            "architecture": "federated",
+            "sharing": "fixed",
+            "betas": [0.5, 0.25, 0.15],
+            "master_share": 0.1,
+            "detector": {"kind": "residual-chi2", "prior": "global"},
+        }
+    )
+    d["methods"].append(
+        {"name": "raw-trace", "architecture": "federated", "sharing": "trace", "trace_mode": "raw"}
     )
     d["evaluation"] = {"skip_initial": 50.0, "grace": 0.0}
-    sc = parse_scenario(d)
+    _detector_file(d, tmp_path / "detector.npz")
+    d["methods"].append(
+        {
+            "name": "learned",
+            "detector": {"kind": "rbf", "model": "detector.npz", "threshold": 0.6},
+        }
+    )
+    # a fault starting after the run is refused (issue 13 point 10)
+    late = copy.deepcopy(d)
+    late["faults"].append({"sensor": "pos3", "kind": "stuck", "start": 5000.0, "end": 6000.0})
+    with pytest.raises(ScenarioError, match=r"^faults\[3\]\.start: ") as info:
+        parse_scenario(late, base=tmp_path)
+    assert "\n" not in str(info.value)
+    sc = parse_scenario(d, base=tmp_path)
     p = sc.sensors[0].private
     assert p is not None and p.names == ("b1",)
     assert p.F.shape == p.Q.shape == p.P0.shape == p.H.shape == (1, 1) and p.x0.shape == (1,)
     assert sc.sensors[1].R_true[0, 0] == 60.0 and sc.sensors[1].every == 5
-    outage, noise, stuck = sc.faults[1:]
+    outage, noise = sc.faults[1:]
     np.testing.assert_array_equal(outage.magnitude, [0.0])
     assert noise.start == 10.0 and isinstance(noise.start, float)
-    assert stuck.start > sc.dt * sc.steps
-    me = sc.methods[-2]
-    assert me.betas == (0.5, 0.25, 0.15) and me.vb_sensors == ("pos2",)
-    assert me.reconstructed and me.mode == "rescale" and me.model is None
-    assert sc.methods[-1].model == "detector.npz" and sc.methods[-1].threshold == 0.6
+    me, fed, raw = sc.methods[-4:-1]
+    assert fed.betas == (0.5, 0.25, 0.15) and me.noise.sensors == ("pos2",)
+    assert fed.master_share == 0.1 and fed.detector.prior == "global"
+    assert raw.trace_mode == "raw" and me.detector.kind == "state-chi2"
+    assert me.noise.kind == "vb-literal" and me.noise.rho == 1.0
+    assert me.increment == "difference" and me.rescale_factor == 0.0
+    assert me.reconstructed and me.mode == "rescale" and me.model_file is None
+    learned = sc.methods[-1]
+    assert learned.detector.model == "detector.npz" and learned.detector.threshold == 0.6
     assert sc.evaluation.skip_initial == 50.0 and sc.description == "with everything"
 
 
@@ -680,22 +787,18 @@ def test_round_trip(make: Callable[[], dict]) -> None:
     again = parse_scenario(copy.deepcopy(d))
     _assert_same(sc, again)
     assert scenario_to_dict(again) == d
-    assert "model" not in d["methods"][0]  # unset optional string is left out (no TOML null)
+    # an unset optional setting is left out (no TOML null)
+    assert "common_mode_quorum" not in d["methods"][0]
 
 
-def test_round_trip_all_options() -> None:
+def test_round_trip_all_options(tmp_path) -> None:
     d = with_private()
     d["methods"].append(
-        {"name": "x", "sharing": "fixed", "betas": [0.2, 0.3, 0.5], "vb_sensors": ["pos1"]}
-    )
-    d["methods"].append(
         {
-            "name": "learned",
-            "architecture": "neural",
-            "model": "m.npz",
-            "uncovered": "pos1",
-            "detector": "residual-chi2",
-            "prior": "intersection",
+            "name": "x",
+            "sharing": "fixed",
+            "betas": [0.2, 0.3, 0.5],
+            "noise": {"kind": "vb", "sensors": ["pos1"]},
         }
     )
     d["methods"].append(
@@ -707,8 +810,18 @@ def test_round_trip_all_options() -> None:
         }
     )
     d["model"]["Q_true"] = [[2.0, 0, 0], [0, 0.0, 0], [0, 0, 0.0]]
-    sc = parse_scenario(d)
-    _assert_same(sc, parse_scenario(scenario_to_dict(sc)))
+    _fusion_file(d, tmp_path / "m.npz")
+    d["methods"].append(
+        {
+            "name": "learned",
+            "architecture": "neural",
+            "model": "m.npz",
+            "uncovered": "pos1",
+            "detector": {"kind": "residual-chi2", "prior": "intersection"},
+        }
+    )
+    sc = parse_scenario(d, base=tmp_path)
+    _assert_same(sc, parse_scenario(scenario_to_dict(sc), base=tmp_path))
 
 
 # ---------------------------------------------------------------------- files
@@ -756,7 +869,7 @@ magnitude = [60.0]
 [[methods]]
 name = "fkf-fault-factor"
 sharing = "inverse-trace"
-detector = "residual-chi2"
+detector = { kind = "residual-chi2" }
 
 [evaluation]
 skip_initial = 10.0
@@ -880,26 +993,36 @@ def test_json_schema_covers_integrated_files() -> None:
     assert ins.get("additionalProperties") is False
     for key in ("filter", "aids", "faults", "methods", "terrain", "imu"):
         assert key in ins["properties"], key
-    # both kinds share the method table
-    assert ins["properties"]["methods"]["items"] == {"$ref": "#/$defs/MethodFile"}
+    # both kinds share the method table (one configuration per architecture)
+    items = schema["$defs"]["ScenarioFile"]["properties"]["methods"]["items"]
+    assert ins["properties"]["methods"]["items"] == items
+    assert items["oneOf"] == [
+        {"$ref": f"#/$defs/{entry.config.__name__}"} for entry in ARCHITECTURES.values()
+    ]
     text = json.dumps(schema)
     assert "gyro-bias" in text and "duration_s" in text
 
 
 def test_method_defaults_match_dataclass() -> None:
-    """The file format's method defaults are the Method dataclass defaults."""
+    """The file format's method defaults are the defaults of each architecture's
+    configuration (and of the detector and noise settings)."""
     schema = scenario_json_schema()
-    method_props = schema["$defs"]["MethodFile"]["properties"]
-    for fl in fields(Method):
-        if fl.name == "name":
-            continue
-        default = method_props[fl.name].get("default")
-        expected = fl.default
-        if isinstance(expected, tuple):
-            expected = list(expected)
-        assert default == expected or (
-            isinstance(default, float) and math.isclose(default, expected)
-        ), fl.name
+    models = [entry.config for entry in ARCHITECTURES.values()]
+    models += [ResidualChi2, StateChi2, RbfDetector, VbNoise]
+    for model in models:
+        props = schema["$defs"][model.__name__]["properties"]
+        for name, fl in model.model_fields.items():
+            if fl.is_required():
+                continue
+            default = props[name].get("default")
+            expected = fl.default
+            if isinstance(expected, BaseModel):
+                expected = expected.model_dump()
+            if isinstance(expected, tuple):
+                expected = list(expected)
+            assert default == expected or (
+                isinstance(default, float) and math.isclose(default, expected)
+            ), f"{model.__name__}.{name}"
 
 
 def test_documented_example_is_valid(tmp_path) -> None:

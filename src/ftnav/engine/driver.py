@@ -212,8 +212,12 @@ class Trace(NamedTuple):
     local: np.ndarray | None
 
 
-class _Recorder:
-    """One method's arrays, allocated on first use and filled in place."""
+class Recorder:
+    """One method's per-epoch arrays, allocated on first use and filled in place.
+
+    The engine's :func:`run` records a whole :class:`Trace` with it; evaluation records
+    the outputs that need no reference (:meth:`outputs`) beside its own scores.
+    """
 
     def __init__(self, B: int, K: int):
         self.B, self.K = B, K
@@ -227,11 +231,8 @@ class _Recorder:
             self.arrays[key] = np.empty((self.B, self.K) + value.shape[1:], dtype=dtype)
         self.arrays[key][:, k - 1] = value
 
-    def record(
-        self, k: int, out: StepOutput, local: np.ndarray | None, solution: InsState | None
-    ) -> None:
-        self.put("x", k, out.x)
-        self.put("P_diag", k, np.diagonal(out.P, axis1=-2, axis2=-1))
+    def outputs(self, k: int, out: StepOutput) -> None:
+        """Epoch k's sharing, detection, noise, NaN count and features."""
         self.put("beta", k, out.beta)
         d = out.detection
         if d is not None:
@@ -243,6 +244,14 @@ class _Recorder:
             self.put(f"R{i}", k, r)
         self.nan = out.nan.astype(int) if self.nan is None else self.nan + out.nan
         self.put("features", k, out.features)
+
+    def record(
+        self, k: int, out: StepOutput, local: np.ndarray | None, solution: InsState | None
+    ) -> None:
+        """Epoch k's whole output of one method (:meth:`outputs`, estimate, solution)."""
+        self.put("x", k, out.x)
+        self.put("P_diag", k, np.diagonal(out.P, axis1=-2, axis2=-1))
+        self.outputs(k, out)
         self.put("local", k, local)
         if solution is not None:
             for key in ("q", "v", "p"):
@@ -280,7 +289,7 @@ def run(
     """Run every method over the stream; one :class:`Trace` per method (module docstring)."""
     names = list(filters)
     B = stream.batch
-    rec = {nm: _Recorder(B, steps) for nm in names}
+    rec = {nm: Recorder(B, steps) for nm in names}
     for r in iterate(model, stream, filters, steps, progress):
         for j, nm in enumerate(names):
             sol = None

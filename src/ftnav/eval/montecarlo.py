@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ftnav.engine import navigation_model
-from ftnav.engine.driver import EpochRecord, iterate
+from ftnav.engine.driver import EpochRecord, Recorder, iterate
 from ftnav.eval.metrics import nees
 from ftnav.eval.navigation import N_NAV, metric_errors, metric_variances
 from ftnav.fusion import registry
@@ -142,39 +142,18 @@ def chunk_runs(sc: Any, twin: bool = True) -> int:
 
 # --------------------------------------------------------------------------- scoring
 class _Scores:
-    """One method's per-epoch scores, filled in place as the epochs come."""
+    """One method's per-epoch scores, filled in place as the epochs come; the outputs
+    that need no reference go to an engine :class:`~ftnav.engine.driver.Recorder`."""
 
-    def __init__(self, B: int, K: int, n: int, dims: Sequence[int], local: bool):
-        self.B, self.K = B, K
+    def __init__(self, B: int, K: int, n: int, n_sensors: int):
         self.error, self.P = np.empty((B, K, n)), np.empty((B, K, n))
         self.nees = np.empty((B, K))
-        self.R_hat = [np.empty((B, K, m)) for m in dims]
-        self.nan = np.zeros((B, len(dims)), dtype=int)
-        self.extra: dict[str, np.ndarray] = {}
-        self.want_local = local
-
-    def _put(self, key: str, k: int, value: np.ndarray | None, dtype: Any = float) -> None:
-        if value is None:
-            return
-        if key not in self.extra:
-            self.extra[key] = np.empty((self.B, self.K) + value.shape[1:], dtype=dtype)
-        self.extra[key][:, k - 1] = value
-
-    def outputs(self, k: int, out: Any) -> None:
-        self._put("beta", k, out.beta)
-        d = out.detection
-        if d is not None:
-            self._put("statistic", k, d.statistic)
-            self._put("threshold", k, d.threshold)
-            self._put("raw_flag", k, d.raw, bool)
-            self._put("flag", k, d.flag, bool)
-        for i, r in enumerate(out.R_hat):
-            self.R_hat[i][:, k - 1] = r
-        self.nan += out.nan
-        self._put("features", k, out.features)
+        self.n_sensors = n_sensors
+        self.rec = Recorder(B, K)
 
     def result(self) -> MethodResult:
-        e = self.extra
+        e = self.rec.arrays
+        assert self.rec.nan is not None
         return MethodResult(
             self.error,
             self.P,
@@ -184,8 +163,8 @@ class _Scores:
             e.get("threshold"),
             e.get("raw_flag"),
             e.get("flag"),
-            tuple(self.R_hat),
-            self.nan,
+            tuple(e[f"R{i}"] for i in range(self.n_sensors)),
+            self.rec.nan,
             e.get("features"),
             e.get("local"),
             e.get("estimate"),
@@ -195,16 +174,16 @@ class _Scores:
 def _score_linear(
     records, truth: LinearTruth, names: list[str], B: int, K: int, nc: int, dims: Sequence[int]
 ) -> dict[str, MethodResult]:
-    scores = {nm: _Scores(B, K, nc, dims, False) for nm in names}
+    scores = {nm: _Scores(B, K, nc, len(dims)) for nm in names}
     for r in records:
         k = r.k
         for j, nm in enumerate(names):
             out, s = r.outputs[j], scores[nm]
-            s._put("estimate", k, out.x)
+            s.rec.put("estimate", k, out.x)
             s.error[:, k - 1] = out.x - truth.states[:, k - 1, :nc]
             s.P[:, k - 1] = np.diagonal(out.P, axis1=-2, axis2=-1)
             s.nees[:, k - 1] = nees(out.x - truth.states[:, k - 1, :nc], out.P)
-            s.outputs(k, out)
+            s.rec.outputs(k, out)
     return {nm: scores[nm].result() for nm in names}
 
 
@@ -219,7 +198,7 @@ def _score_ins(
 ) -> dict[str, MethodResult]:
     M = len(names)
     parts = [slice(j * B, (j + 1) * B) for j in range(M)]
-    scores = {nm: _Scores(B, K, N_NAV, dims, True) for nm in names}
+    scores = {nm: _Scores(B, K, N_NAV, len(dims)) for nm in names}
     tr = truth.epochs
     for r in records:
         k = r.k
@@ -243,8 +222,10 @@ def _score_ins(
             )
             s.nees[:, k - 1], s.P[:, k - 1] = eps[p], var[p]
             if r.local[j] is not None:
-                s._put("local", k, metric_errors(e_true[p][:, None, :] - r.local[j], p_t)[..., :3])
-            s.outputs(k, out)
+                s.rec.put(
+                    "local", k, metric_errors(e_true[p][:, None, :] - r.local[j], p_t)[..., :3]
+                )
+            s.rec.outputs(k, out)
     return {nm: scores[nm].result() for nm in names}
 
 
@@ -330,8 +311,15 @@ def _task(task: tuple, progress: Callable[[int], None] | None = None) -> Scenari
             results[name], ff[name] = split_result(res, runs)
         else:
             results[name] = res
+    linear = isinstance(sim.truth, LinearTruth)  # small: kept whatever the batching
     return ScenarioResult(
-        sc, runs, seed, results, ff, sim.truth if keep else None, sim.stream if keep else None
+        sc,
+        runs,
+        seed,
+        results,
+        ff,
+        sim.truth if keep or linear else None,
+        sim.stream if keep else None,
     )
 
 
@@ -396,4 +384,8 @@ def _merge(
 
     if len(per_chunk) == 1:  # groups of methods on the same runs: the same truth
         return ScenarioResult(scenario, runs, seed, *per_chunk[0], done[0].truth)
-    return ScenarioResult(scenario, runs, seed, joined(0), joined(1))
+    truths = [c[0].truth for c in chunks]
+    truth = None
+    if all(isinstance(t, LinearTruth) for t in truths):
+        truth = LinearTruth(*(cat(list(f)) for f in zip(*truths, strict=True)))
+    return ScenarioResult(scenario, runs, seed, joined(0), joined(1), truth)

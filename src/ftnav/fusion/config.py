@@ -216,6 +216,8 @@ class MethodBase(Settings):
                     raise config_error(
                         f"unknown sensor {s!r} (known: {', '.join(names)})", "noise", "sensors", j
                     )
+                if s in self.noise.sensors[:j]:
+                    raise config_error(f"duplicate sensor {s!r}", "noise", "sensors", j)
 
     @property
     def model_file(self) -> str | None:

@@ -12,10 +12,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Annotated, Any, NamedTuple, TypeAlias, Union
 
-from pydantic import Discriminator, Tag
+from pydantic import Discriminator, Tag, ValidationError
 
 from ftnav.fusion import centralized, distributed, federated, neural
-from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase
+from ftnav.fusion.config import CONFIG_ERROR, NOTHING_LEARNED, Learned, MethodBase
 from ftnav.fusion.protocol import Architecture
 from ftnav.fusion.zero_reset import ZeroResetFilter
 from ftnav.model.system import LinearSystem
@@ -83,10 +83,29 @@ def method_config(architecture: str = DEFAULT_ARCHITECTURE, **settings: Any) -> 
 
     ``method_config("federated", name="fkf", sharing="trace")`` is the method a file's
     ``[[methods]]`` table with those keys gives.
+
+    Raises
+    ------
+    ValueError : an unknown architecture, or the first invalid setting as one line
+        ``methods[<name>].<setting>: <reason>``.
     """
-    return ARCHITECTURES[architecture].config.model_validate(
-        {**settings, "architecture": architecture}
-    )
+    if architecture not in ARCHITECTURES:
+        raise ValueError(
+            f"methods[{settings.get('name', '?')}].architecture: unknown value "
+            f"{architecture!r} (expected one of {sorted(ARCHITECTURES)})"
+        )
+    try:
+        return ARCHITECTURES[architecture].config.model_validate(
+            {**settings, "architecture": architecture}
+        )
+    except ValidationError as exc:
+        err = exc.errors(include_url=False)[0]
+        loc = tuple(err.get("loc", ()))
+        if err["type"] == CONFIG_ERROR:
+            loc += tuple(err["ctx"]["path"])
+        field = ".".join(str(p) for p in loc if not isinstance(p, int))
+        where = f"methods[{settings.get('name', '?')}]" + (f".{field}" if field else "")
+        raise ValueError(f"{where}: {err['msg']}") from None
 
 
 def build(

@@ -392,11 +392,15 @@ def sensor_from_table(
 
 
 def parse_ins_scenario(
-    data: Mapping[str, Any], origin: str = "<scenario>", base: Path | None = None
+    data: Mapping[str, Any],
+    origin: str = "<scenario>",
+    base: Path | None = None,
+    models: bool = True,
 ) -> InsScenario:
     """Validate an integrated scenario dictionary and build the frozen objects.
 
-    ``base`` is the folder relative paths (profiles, DEMs, model files) are relative to.
+    ``base`` is the folder relative paths (profiles, DEMs, model files) are relative to;
+    ``models=False`` loads no trained model (see :func:`ftnav.io.sections.resolve_methods`).
     """
     base = base or Path(".")
     try:
@@ -535,4 +539,4 @@ def parse_ins_scenario(
         test_profile=test_prof,
         figures=figures,
     )
-    return replace(sc, learned=resolve_methods(sc.methods, sc.system(), base, origin))
+    return replace(sc, learned=resolve_methods(sc.methods, sc.system(), base, origin, models))

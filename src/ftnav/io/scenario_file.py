@@ -406,7 +406,10 @@ def _build(f: ScenarioFile) -> Scenario:
 
 
 def parse_scenario(
-    data: Mapping[str, Any], origin: str = "<scenario>", base: Path | None = None
+    data: Mapping[str, Any],
+    origin: str = "<scenario>",
+    base: Path | None = None,
+    models: bool = True,
 ) -> Scenario:
     """Validate an already-parsed scenario dictionary and build the frozen objects.
 
@@ -416,6 +419,8 @@ def parse_scenario(
     origin : where ``data`` came from; kept on the error as ``origin`` and used
         as the path of errors about the document as a whole.
     base : the folder relative model paths are relative to (default: the working one).
+    models : load the trained models the methods name (False for the training commands,
+        whose scenario may name the file they are about to write).
 
     Raises
     ------
@@ -429,11 +434,13 @@ def parse_scenario(
         raise to_scenario_error(exc, origin, ScenarioFile, explain_method_key) from None
     sc = spec._built
     assert sc is not None
-    return replace(sc, learned=resolve_methods(sc.methods, sc.system(), base, origin))
+    return replace(sc, learned=resolve_methods(sc.methods, sc.system(), base, origin, models))
 
 
-def load_scenario(source: str | Path) -> Scenario:
+def load_scenario(source: str | Path, models: bool = True) -> Scenario:
     """Read, validate and build the scenario in the TOML file ``source``.
+
+    ``models=False`` checks the methods but loads no trained model file.
 
     Raises
     ------
@@ -442,8 +449,8 @@ def load_scenario(source: str | Path) -> Scenario:
     """
     data = read_toml(source)
     if data.get("kind") == "integrated":
-        return parse_ins_scenario(data, origin=str(source), base=Path(source).parent)
-    return parse_scenario(data, origin=str(source), base=Path(source).parent)
+        return parse_ins_scenario(data, str(source), Path(source).parent, models)
+    return parse_scenario(data, str(source), Path(source).parent, models)
 
 
 def scenario_json_schema() -> dict[str, Any]:
@@ -479,10 +486,12 @@ def _vals(a: np.ndarray) -> list[float]:
 def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
     """The scenario as a plain, TOML/JSON-serialisable dictionary (inverse of parsing).
 
-    Every optional key is written out explicitly (``Q_true``, ``R_true``, all
-    method settings, ``[evaluation]``), except an unset optional one (TOML has no
-    null), so ``parse_scenario(scenario_to_dict(sc))`` rebuilds
-    ``sc`` and ``json.dumps(..., sort_keys=True)`` gives a stable hash input.
+    Every optional key is written out explicitly (``Q_true``, ``R_true``,
+    ``[evaluation]``), except an unset optional one (TOML has no null), and each
+    method's settings that differ from their defaults (a setting its architecture or
+    mode does not read is refused, so the defaults are not written), so
+    ``parse_scenario(scenario_to_dict(sc))`` rebuilds ``sc`` and
+    ``json.dumps(..., sort_keys=True)`` gives a stable hash input.
     """
     m = sc.model
     sensors = []
@@ -506,8 +515,12 @@ def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
                 "H": _rows(p.H),
             }
         sensors.append(d)
-    # every setting written out (the nested detector and noise as tables), lists for tuples
-    methods = [json.loads(me.model_dump_json(exclude_none=True)) for me in sc.methods]
+    # the settings that differ from their defaults (nested detector and noise as tables)
+    methods = [
+        {"name": me.name, "architecture": me.architecture}  # type: ignore[attr-defined]
+        | json.loads(me.model_dump_json(exclude_none=True, exclude_defaults=True))
+        for me in sc.methods
+    ]
     return {
         "name": sc.name,
         "description": sc.description,

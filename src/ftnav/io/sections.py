@@ -26,6 +26,7 @@ from ftnav.fusion.registry import ARCHITECTURES, MethodConfig
 from ftnav.fusion.registry import check as check_method
 from ftnav.io.common import STRICT, Name, ScenarioError, fail, format_loc, number, unique
 from ftnav.io.learned import learned_for
+from ftnav.io.model_file import ModelFileError
 from ftnav.model.scenario import MAX_FIGURE_METHODS, FigureCondition, FigureKind, FigureSpec
 from ftnav.model.system import LinearSystem
 
@@ -114,20 +115,28 @@ def _members(annotation: Any) -> list[type[BaseModel]]:
 
 
 def resolve_methods(
-    methods: Sequence[MethodBase], system: LinearSystem, base: Path | None, origin: str
+    methods: Sequence[MethodBase],
+    system: LinearSystem,
+    base: Path | None,
+    origin: str,
+    models: bool = True,
 ) -> tuple[tuple[str, Learned], ...]:
     """Check every method against the system and load its trained models (once).
 
     Method names must be unique; a check that needs the system (sensor names, sizes,
     private states) or a trained model (its file, its states) fails with one line
-    ``methods[i].<setting>: <reason>``.
+    ``methods[i].<setting>: <reason>``.  ``models=False`` loads no model file (the
+    training commands, whose scenario may name the file they are about to write).
     """
     learned, seen = [], set()
     for i, me in enumerate(methods):
         if me.name in seen:
             raise ScenarioError(f"methods[{i}].name", f"duplicate method name {me.name!r}", origin)
         seen.add(me.name)
-        got = learned_for(me, i, system, base)
+        try:
+            got = learned_for(me, i, system, base) if models else NOTHING_LEARNED
+        except ModelFileError as exc:  # the scenario's error: it names the method's field
+            raise ScenarioError(exc.field, exc.reason, origin) from None
         try:
             check_method(system, me, got)
         except PydanticCustomError as exc:

@@ -30,7 +30,7 @@ of ``G`` is replaced by ``I`` (spec §8.3 [A], S1's platform wording).
 
 Discretization (spec §8.4) is :func:`ftnav.core.discretize.van_loan` or
 :func:`ftnav.core.discretize.series`; the filter evaluates F from the current INS
-solution (:class:`NavState`) at each step through :meth:`SinsErrorModel.transition`.
+solution (:class:`NavState`) at each step through :func:`discrete_model`.
 """
 
 from __future__ import annotations
@@ -63,7 +63,6 @@ __all__ = [
     "NavState",
     "continuous_model",
     "discrete_model",
-    "SinsErrorModel",
 ]
 
 STATES_18 = (
@@ -573,12 +572,12 @@ def discrete_model(
     """
     if method not in ("van-loan", "series"):
         raise ValueError(f"method must be 'van-loan' or 'series', got {method!r}")
+    T = float(T)
+    if not np.isfinite(T) or T <= 0.0:
+        raise ValueError(f"T must be positive and finite, got {T!r}")
     if method == "van-loan":
         m = continuous_model(L, lam, h, v_enu, f_b, C_bn, params)
         return van_loan(m.F, m.GQGt, T)
-    T = float(T)
-    if not np.isfinite(T) or T <= 0.0:
-        raise ValueError("T must be positive and finite")
     if int(order) != order or order < 1:
         raise ValueError(f"order must be an integer ≥ 1, got {order}")
     L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
@@ -597,51 +596,3 @@ def discrete_model(
         Q,
     )
     return Phi.reshape(batch + (n, n)), Q.reshape(batch + (n, n))
-
-
-@dataclass(frozen=True, slots=True)
-class SinsErrorModel:
-    """Time-varying linear SINS error model for the estimation core (spec §8.3-§8.4).
-
-    Holds the assumed IMU errors and the filter step; :meth:`transition` linearizes at
-    the current INS solution and returns batched ``(Φ, Q)`` that
-    :func:`ftnav.core.kalman.predict` accepts directly.
-
-    Attributes
-    ----------
-    params : ErrorModelParams.
-    T : float, filter step in seconds (the aid rate, e.g. 1 s).
-    method : ``"van-loan"`` (default) or ``"series"``.
-    order : int, series order for ``method="series"`` (≥ 5 recommended, spec §8.6 f).
-    """
-
-    params: ErrorModelParams
-    T: float
-    method: Method = "van-loan"
-    order: int = 5
-
-    def __post_init__(self) -> None:
-        if not np.isfinite(self.T) or self.T <= 0.0:
-            raise ValueError(f"T must be positive and finite, got {self.T!r}")
-        if self.method not in ("van-loan", "series"):
-            raise ValueError(f"method must be 'van-loan' or 'series', got {self.method!r}")
-        if int(self.order) != self.order or self.order < 1:
-            raise ValueError(f"order must be an integer ≥ 1, got {self.order!r}")
-
-    @property
-    def n(self) -> int:
-        """Number of states."""
-        return self.params.n
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """State names in order."""
-        return self.params.names
-
-    def continuous(self, nav: NavState) -> ContinuousModel:
-        """``(F, G, q)`` at the INS solution ``nav`` (:func:`continuous_model`)."""
-        return continuous_model(*nav, self.params)
-
-    def transition(self, nav: NavState) -> tuple[BatchMatrix, BatchMatrix]:
-        """``(Φ, Q)`` (B, n, n) for the step that starts at the INS solution ``nav``."""
-        return discrete_model(*nav, self.params, self.T, self.method, self.order)
