@@ -2,7 +2,7 @@
 
 What is measured:
 
-* ftnav: ``run_ins_scenario(seed002)`` with its three methods (centralized,
+* ftnav: ``ftnav.eval.montecarlo.run_scenario(seed002)`` with its three methods (centralized,
   federated with chi-square isolation, distributed with VB), closed loop (100 Hz
   SINS, GNSS/CNS/ADS at 1 Hz), the fault-free twin included, for one run and for a
   batch of runs.  A shortened flight (``--seconds``) is timed and the cost is scaled
@@ -17,7 +17,7 @@ Targets (issue 5): one seed002 run (all methods) <= 10 s; 100 runs at <= 2 s per
 
 Every batch size is timed ``--repeat`` times (runs x seconds up to 36000) and the
 fastest is reported.  Runs go in batches bounded by the IMU-data memory
-(:func:`ftnav.eval.integrated.chunk_runs`: 62 runs of a 3600 s flight).
+(:func:`ftnav.eval.montecarlo.chunk_runs`: 62 runs of a 3600 s flight).
 
 Usage: ``python benchmarks/bench_integrated.py [--seconds 600] [--runs 1 20] [--repeat 3]
 [--workers 2]``;
@@ -33,7 +33,7 @@ import time
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
-from ftnav.eval.integrated import run_ins_scenario
+from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.scenario_file import load_scenario
 from ftnav.scenarios import builtin_path
 
@@ -75,14 +75,14 @@ def main() -> None:
     steps = int(a.seconds / sc.dt)
     sc = dataclasses.replace(sc, steps=steps)
     scale = 3600.0 / a.seconds
-    run_ins_scenario(dataclasses.replace(sc, steps=5), 1, 1)  # compile and warm the caches
+    run_scenario(dataclasses.replace(sc, steps=5), 1, 1)  # compile and warm the caches
     peer = min(filterpy_peer(3600) for _ in range(a.repeat))
     print(f"FilterPy, one 18-state filter, 3600 epochs: {peer:.2f} s (filter part only)")
     for runs in a.runs:
         walls = []
         for _ in range(a.repeat if runs * a.seconds <= 36000 else 1):
             t0 = time.perf_counter()
-            run_ins_scenario(sc, runs, 1, workers=a.workers)
+            run_scenario(sc, runs, 1, workers=a.workers)
             walls.append(time.perf_counter() - t0)
         wall = min(walls)
         per_run = wall * scale / runs

@@ -5,24 +5,29 @@
    usually written), per epoch, and the ratio.
 2. The RBF detector inside the federated filter: seed000 (1200 epochs) batched over
    runs, ms per run with the RBF detector, with the chi-square test, and with no
-   detector; FilterPy's KalmanFilter on the same model (one plain local filter, no
-   fusion) as the outside reference.
+   detector (each filter built with ``ftnav.fusion.registry.build`` and run by the
+   engine, ``ftnav.engine.driver.run``); FilterPy's KalmanFilter on the same model
+   (one plain local filter, no fusion) as the outside reference.
 
-Run: ``python benchmarks/bench_learned.py``.  Numbers depend on the machine; compare
-the printed ratios.
+Run: ``python benchmarks/bench_learned.py [--runs 200] [--steps 1200]`` (part 2's
+batch and seed000's epochs: fewer for a quick check of the script).  Numbers depend on
+the machine; compare the printed ratios.
 """
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import time
-from dataclasses import replace
 
 import numpy as np
 
 from ftnav.core.lms import lms_train, project_simplex
-from ftnav.eval.montecarlo import build_filter, run_filter
+from ftnav.engine.driver import run
+from ftnav.engine.linear import LinearModel
+from ftnav.fusion.config import NOTHING_LEARNED, NoDetector
+from ftnav.fusion.registry import build
 from ftnav.io.scenario_file import load_scenario
-from ftnav.model.system import LinearSystem
 from ftnav.scenarios import builtin_path
 from ftnav.sim.linear import simulate
 
@@ -56,27 +61,31 @@ def bench_lms():
     )
 
 
-def bench_detectors(runs: int = 200):
+def bench_detectors(runs: int = 200, steps: int | None = None):
     sc = load_scenario(builtin_path("seed000"))
-    system = LinearSystem.from_scenario(sc)
+    if steps is not None:
+        sc = dataclasses.replace(sc, steps=steps)
+    system = sc.system()
+    model = LinearModel(system)
     sim = simulate(sc, runs, 1)
+    warm = simulate(sc, 2, 9)
     by = {m.name: m for m in sc.methods}
     cases = {
         "rbf": by["fkf-inverse-trace-rbf"],
         "chi2": by["fkf-inverse-trace-chi2"],
-        "none": replace(by["fkf-inverse-trace-chi2"], detector="none"),
+        "none": by["fkf-inverse-trace-chi2"].model_copy(update={"detector": NoDetector()}),
     }
     out = {}
     for name, m in cases.items():
-        filt = build_filter(system, m)
-        run_filter(filt, simulate(sc, 2, 9), system.n_common)  # warm up
+        filt = build(system, m, sc.learned_for(m.name) or NOTHING_LEARNED)
+        run(model, warm.stream, {name: filt}, sc.steps)  # warm up
         t0 = time.perf_counter()
-        run_filter(filt, sim, system.n_common)
+        run(model, sim.stream, {name: filt}, sc.steps)
         out[name] = (time.perf_counter() - t0) / runs
     from filterpy.kalman import KalmanFilter
 
     s = sc.sensors[0]
-    z = sim.z[0][0, :, 0]
+    z = sim.stream.z[0][0, :, 0]
     t0 = time.perf_counter()
     kf = KalmanFilter(dim_x=3, dim_z=1)
     kf.F, kf.Q, kf.H, kf.R = sc.model.F, sc.model.Q, s.H, s.R
@@ -86,17 +95,25 @@ def bench_detectors(runs: int = 200):
         kf.update(zk)
     peer = time.perf_counter() - t0
     print(
-        f"seed000 federated inverse-trace, {runs} runs batched, per run: "
+        f"seed000 federated inverse-trace ({sc.steps} epochs), {runs} runs batched, per run: "
         + ", ".join(f"{k} {1e3 * v:.2f} ms" for k, v in out.items())
         + f"; RBF overhead over chi2 {out['rbf'] / out['chi2']:.2f}x"
     )
     print(
-        f"FilterPy, one local filter (1 sensor, 1200 epochs): {1e3 * peer:.1f} ms/run; "
+        f"FilterPy, one local filter (1 sensor, {sc.steps} epochs): {1e3 * peer:.1f} ms/run; "
         f"ftnav's whole federated filter with the RBF detector is {peer / out['rbf']:.0f}x "
         "faster per run"
     )
 
 
-if __name__ == "__main__":
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=200, help="runs batched in part 2")
+    ap.add_argument("--steps", type=int, default=None, help="epochs of seed000 (default: 1200)")
+    args = ap.parse_args()
     bench_lms()
-    bench_detectors()
+    bench_detectors(args.runs, args.steps)
+
+
+if __name__ == "__main__":
+    main()
