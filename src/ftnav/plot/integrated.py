@@ -26,6 +26,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ftnav.eval.montecarlo import ScenarioResult
+from ftnav.model.faults import fault_effect
 from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS, FigureSpec
 from ftnav.plot.figures import (
     _check_count,
@@ -40,7 +41,6 @@ from ftnav.plot.figures import (
     error_figure,
     method_groups,
 )
-from ftnav.sim.faults import fault_effect
 
 __all__ = [
     "local_fused_figure",

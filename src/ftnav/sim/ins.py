@@ -16,13 +16,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ftnav.model.faults import fault_effect, hold_stuck
 from ftnav.model.flight import Profile
 from ftnav.model.scenario import SINS, InsScenario
 from ftnav.model.streams import AidStream, ImuStream, InsStream
 from ftnav.nav import attitude
 from ftnav.nav.mechanization import InsState
 from ftnav.sensors.base import AidTruth
-from ftnav.sim.faults import fault_effect, hold_stuck
 from ftnav.sim.imu import ImuErrorTruth, simulate_imu_errors
 from ftnav.sim.trajectory import Trajectory, generate
 

@@ -17,10 +17,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ftnav.model.faults import fault_effect, hold_stuck
 from ftnav.model.scenario import Scenario
 from ftnav.model.streams import MeasurementStream
 from ftnav.model.system import LinearSystem, TimeVarying
-from ftnav.sim.faults import fault_effect, hold_stuck
 
 __all__ = ["LinearTruth", "Simulated", "run_generator", "simulate"]
 
