@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import re
 import secrets
@@ -51,9 +52,12 @@ import numpy as np
 from tqdm import tqdm
 
 from ftnav import __version__
+from ftnav.engine import navigation_model
+from ftnav.engine.driver import run
 from ftnav.eval import resources
 from ftnav.eval.evaluate import evaluate, metrics_to_json
 from ftnav.eval.montecarlo import build_filters, run_scenario
+from ftnav.eval.recorded import Reference, score_recording
 from ftnav.eval.resources import (
     format_bytes,
     kernels_compiled,
@@ -66,12 +70,17 @@ from ftnav.io.common import ScenarioError
 from ftnav.io.learned import save_neuron_model, save_rbf_model
 from ftnav.io.model_file import ModelFileError
 from ftnav.io.profile_file import resolve_profile
+from ftnav.io.recording_file import load_recording, recording_aids, recording_json_schema
 from ftnav.io.results import write_estimates, write_metrics
 from ftnav.io.scenario_file import load_scenario, scenario_json_schema
+from ftnav.io.solution_file import solution_table, write_solution_csv, write_track_geojson
 from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
 from ftnav.model.imu import imu_preset
+from ftnav.model.scenario import Fault
 from ftnav.parallel import default_workers
+from ftnav.recordings import recording_names, recording_path
 from ftnav.report.claims import check_claims
+from ftnav.report.recorded import recording_metrics, recording_table
 from ftnav.report.summary import detector_table, markdown_report, results_table
 from ftnav.scenarios import builtin_names, builtin_path
 from ftnav.sim.fault_family import fault_variants
@@ -158,6 +167,21 @@ def _at_least(low: int):
 
 _positive = _at_least(1)
 _seed = _at_least(0)
+
+
+def _seconds(strict: bool):
+    """argparse type: a finite number of seconds, > 0 (``strict``) or >= 0."""
+
+    def parse(text):
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+        if not math.isfinite(value) or value < 0 or (strict and value == 0):
+            raise argparse.ArgumentTypeError(f"must be {'>' if strict else '>='} 0, got {text}")
+        return value
+
+    return parse
 
 
 @contextmanager
@@ -275,9 +299,37 @@ def _parser() -> _Parser:
     )
     f.add_argument("--no-figure", action="store_true", help="skip the RMSE/weights figure")
     f.add_argument("--quiet", action="store_true", help="no progress bar")
+    r = command("process", help="process a recorded sensor log through its methods")
+    r.add_argument(
+        "recording",
+        help=f"a built-in recording ({', '.join(recording_names())}) or a recording file",
+    )
+    r.add_argument("--out", type=Path, default=None, help="output folder (default results/NAME)")
+    r.add_argument("--methods", default=None, help="comma-separated method names (default all)")
+    r.add_argument("--aids", default=None, help="comma-separated aid names (default all)")
+    r.add_argument(
+        "--outage-length", type=_seconds(True), default=None, help="GNSS outage length, s"
+    )
+    r.add_argument("--outage-every", type=_seconds(True), default=60.0, help="outage spacing, s")
+    r.add_argument(
+        "--outage-start",
+        type=_seconds(False),
+        default=40.0,
+        help="first outage, s after the first GNSS epoch",
+    )
+    r.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="SENSOR:KIND:START:END[:MAGNITUDE]",
+        help="inject a fault into a recorded aid (repeatable); START, END on the recording's "
+        "time base; a bias or ramp MAGNITUDE in metres on the north position",
+    )
+    r.add_argument("--quiet", action="store_true", help="no progress bar")
     command("list", help="list built-in scenarios and their methods")
     s = command("schema", help="print the JSON schema of scenario files (linear and integrated)")
     s.add_argument("--out", type=Path, default=None, help="write to a file instead")
+    s.add_argument("--recording", action="store_true", help="the schema of recording files instead")
     return p
 
 
@@ -487,7 +539,8 @@ def _cmd_list(args) -> int:
 def _cmd_schema(args) -> int:
     if args.out is not None:
         _check_out_file(args.out)
-    text = json.dumps(scenario_json_schema(), indent=2)
+    schema = recording_json_schema() if args.recording else scenario_json_schema()
+    text = json.dumps(schema, indent=2)
     if args.out is None:
         print(text)
         return 0
@@ -576,6 +629,94 @@ def _cmd_run(args) -> int:
             print(f"[{verdict}] {c['source']}: {c['claim']}")
         else:
             print(f"[not checked] {c['source']}: {c['claim']} ({c['note']})")
+    print(f"Results written to {out}/: {', '.join(written)}")
+    return 0
+
+
+_RECORDING_FAULTS = ("bias", "ramp", "outage", "stuck")
+
+
+def _parse_fault(text: str, aids: dict[str, str]) -> Fault:
+    """``SENSOR:KIND:START:END[:MAGNITUDE]`` (``--fault``) as a fault of a recorded aid."""
+    parts = text.split(":")
+    if len(parts) not in (4, 5):
+        raise UsageError(f"--fault: expected SENSOR:KIND:START:END[:MAGNITUDE], got {text!r}")
+    sensor, kind = parts[0], parts[1]
+    if aids.get(sensor) != "gnss":
+        gnss = [n for n, t in aids.items() if t == "gnss"]
+        raise UsageError(f"--fault: {sensor!r} is not a GNSS aid of the recording ({gnss})")
+    if kind not in _RECORDING_FAULTS:
+        raise UsageError(f"--fault: kind {kind!r} (recordings: {', '.join(_RECORDING_FAULTS)})")
+    try:
+        start, end = float(parts[2]), float(parts[3])
+        mag = float(parts[4]) if len(parts) == 5 else 0.0
+    except ValueError:
+        raise UsageError(f"--fault: START, END and MAGNITUDE must be numbers ({text!r})") from None
+    if not (math.isfinite(start) and math.isfinite(end) and math.isfinite(mag)) or end <= start:
+        raise UsageError(f"--fault: END must be after START, both finite ({text!r})")
+    if kind in ("bias", "ramp") and len(parts) != 5:
+        raise UsageError(f"--fault: a {kind} needs a MAGNITUDE in metres ({text!r})")
+    return Fault(sensor, kind, start, end, np.array([0.0, mag, 0.0, 0.0, 0.0, 0.0]))
+
+
+def _resolve_recording(spec: str) -> Path:
+    if spec in recording_names():
+        return recording_path(spec)
+    path = Path(spec)
+    if path.suffix == ".toml" or path.exists():
+        return path
+    raise UsageError(
+        f"recording: {spec!r} is neither a built-in recording "
+        f"({', '.join(recording_names())}) nor a recording file"
+    )
+
+
+def _cmd_process(args) -> int:
+    with _checking():
+        path = _resolve_recording(args.recording)
+        aids = recording_aids(path)
+        faults = [_parse_fault(f, aids) for f in args.fault]
+        names = args.methods.split(",") if args.methods else None
+        keep = args.aids.split(",") if args.aids else None
+        outage = None
+        if args.outage_length is not None:
+            outage = (args.outage_length, args.outage_every, args.outage_start)
+        loaded = load_recording(path, outage=outage, faults=faults, methods=names, aids=keep)
+        rec = loaded.recording
+        out = args.out if args.out is not None else Path("results") / rec.name
+        _check_out_folder(out)
+        for f in rec.faults:
+            if f.start < 0 or f.end > rec.times[-1]:
+                raise UsageError(
+                    f"--fault: [{f.start + rec.t_start:.3f}, {f.end + rec.t_start:.3f}) s is "
+                    f"outside the processed span [{rec.t_start:.3f}, "
+                    f"{rec.t_start + rec.times[-1]:.3f}] s (the recording's time base)"
+                )
+        filters = build_filters(rec, rec.system(), rec.methods)
+    t0 = time.perf_counter()
+    with _bar(len(rec.methods) * rec.steps, args.quiet, f"process {rec.name}") as bar:
+        traces = run(navigation_model(rec), loaded.stream, filters, rec.steps, bar.update)
+    elapsed = time.perf_counter() - t0
+    ref = Reference(loaded.reference_index, loaded.reference_p)
+    scores = score_recording(rec, traces, ref, loaded.outages)
+    times = rec.t_start + rec.times
+    with _staged(out, folder=True) as stage:
+        tables = {nm: solution_table(tr, times) for nm, tr in traces.items()}
+        written = []
+        for nm, tab in tables.items():
+            name = "solution.csv" if len(tables) == 1 else f"solution-{nm}.csv"
+            written.append(write_solution_csv(tab, stage / name).name)
+        written.append(
+            write_track_geojson(tables, loaded.reference_p, stage / "track.geojson").name
+        )
+        doc = recording_metrics(loaded, scores, elapsed)
+        write_metrics(doc, stage / "metrics.json")
+        written.append("metrics.json")
+    print(
+        f"{rec.name}: {rec.steps} epochs of {rec.dt:.4g} s from {rec.t_start:.3f} s, "
+        f"{len(rec.methods)} methods, {elapsed:.1f} s"
+    )
+    print(recording_table(scores))
     print(f"Results written to {out}/: {', '.join(written)}")
     return 0
 
@@ -750,6 +891,7 @@ def _train_ins_fusion(sc, out: Path, args) -> int:
 
 
 _COMMANDS = {
+    "process": _cmd_process,
     "list": _cmd_list,
     "schema": _cmd_schema,
     "run": _cmd_run,

@@ -22,12 +22,12 @@ PACKAGE = SRC / "ftnav"
 #: Lowest first.  A part imports only parts of lower layers (same-layer parts are
 #: independent of each other).
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("__init__", "types", "parallel", "scenarios"),
+    ("__init__", "types", "parallel", "scenarios", "recordings"),
     ("core",),
     ("nav",),
     ("model",),
     ("sensors", "fdi"),
-    ("sim", "fusion"),
+    ("sim", "recorded", "fusion"),
     ("engine",),
     ("eval",),
     ("io",),

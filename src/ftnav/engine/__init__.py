@@ -19,9 +19,10 @@ __all__ = ["navigation_model"]
 
 
 def navigation_model(scenario: Any, system: LinearSystem | None = None) -> NavigationModel[Any]:
-    """The engine's model of a scenario: its linear system, or its closed-loop SINS."""
+    """The engine's model of a scenario: its linear system, or the closed-loop SINS of an
+    integrated scenario or a recording."""
     system = scenario.system() if system is None else system
-    if scenario.kind != "integrated":
+    if scenario.kind == "linear":
         linear: NavigationModel[None] = LinearModel(system)
         return linear
     ins: NavigationModel[InsModelState] = InsModel(

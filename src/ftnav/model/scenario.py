@@ -40,10 +40,12 @@ __all__ = [
     "MAX_FIGURE_METHODS",
     "METRIC_STATES",
     "POSITION_NORMS",
+    "Recording",
     "SINS",
     "Scenario",
     "ScenarioBase",
     "fault_window_mask",
+    "SinsScenario",
 ]
 
 FaultKind = Literal["bias", "ramp", "noise-scale", "noise-ramp", "outage", "stuck", "gyro-bias"]
@@ -264,40 +266,29 @@ class AidSpec:
 
 
 @dataclass(frozen=True, kw_only=True)
-class InsScenario(ScenarioBase):
-    """A complete, validated integrated-navigation scenario.
+class SinsScenario(ScenarioBase):
+    """What an integrated scenario and a recording share: a SINS aided by sensors.
 
     Attributes
     ----------
-    profile : flight profile (the truth); its ``dt`` is the IMU period.
-    imu : true IMU errors (simulator).  error_model : the filters' assumed model.
+    error_model : the filters' assumed SINS error model.
     initial_sigma : (n,) σ of the initial INS errors in state units (spec §8.3 order);
-        each run draws its initial error from N(0, diag σ²) and the filters start
-        from ``P0 = diag σ²``.
+        the filters start from ``P0 = diag σ²`` (a simulated run also draws its initial
+        error from N(0, diag σ²)).
     aids : the aiding sensors.
     correction : ``"feedback"`` (closed loop: the fused navigation errors are fed back
         to the SINS and every local estimate is shifted by the same correction, spec
         §6.2, §8.5) or ``"output"`` (the SINS runs free; its output is corrected).
     discretization : ``"series"`` (order 5, PSINS kfc2d) or ``"van-loan"``.
-    test_profile : optional second flight for the "different trajectory" evaluation of
-        learned methods (paper 001).
     algorithm : the strapdown algorithm (:mod:`ftnav.nav.mechanization`).
-    model_notes : the IMU errors the filters' error model cannot represent exactly, and
-        what it does instead (:func:`ftnav.io.ins_scenario_file.filter_model`).
     """
 
-    profile: Profile
-    imu: ImuErrors
     error_model: ErrorModelParams
     initial_sigma: np.ndarray
     aids: tuple[AidSpec, ...]
     correction: Correction = "feedback"
     discretization: Literal["series", "van-loan"] = "series"
-    test_profile: Profile | None = None
     algorithm: str = "two-sample"
-    model_notes: tuple[str, ...] = ()
-
-    kind: ClassVar[str] = "integrated"
 
     @property
     def sensor_names(self) -> tuple[str, ...]:
@@ -306,10 +297,6 @@ class InsScenario(ScenarioBase):
     @property
     def metric_states(self) -> tuple[str, ...]:
         return METRIC_STATES
-
-    @property
-    def samples_per_epoch(self) -> int:
-        return int(round(self.dt / self.profile.dt))
 
     def system(self) -> LinearSystem:
         """The local SINS/aid filters' system: the error states (spec §8.3), ``P0 = diag σ²``,
@@ -322,3 +309,53 @@ class InsScenario(ScenarioBase):
             for a in self.aids
         )
         return LinearSystem(model, sensors)
+
+
+@dataclass(frozen=True, kw_only=True)
+class InsScenario(SinsScenario):
+    """A complete, validated integrated-navigation scenario (a simulated flight).
+
+    Attributes
+    ----------
+    profile : flight profile (the truth); its ``dt`` is the IMU period.
+    imu : true IMU errors (simulator).
+    test_profile : optional second flight for the "different trajectory" evaluation of
+        learned methods (paper 001).
+    model_notes : the IMU errors the filters' error model cannot represent exactly, and
+        what it does instead (:func:`ftnav.io.ins_scenario_file.filter_model`).
+    The rest as :class:`SinsScenario`.
+    """
+
+    profile: Profile
+    imu: ImuErrors
+    test_profile: Profile | None = None
+    model_notes: tuple[str, ...] = ()
+
+    kind: ClassVar[str] = "integrated"
+
+    @property
+    def samples_per_epoch(self) -> int:
+        return int(round(self.dt / self.profile.dt))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Recording(SinsScenario):
+    """A recorded sensor log as the engine runs it (:mod:`ftnav.recorded`).
+
+    Times: ``dt·k`` after ``t_start`` (the first filter epoch is ``t_start + dt``), on
+    the recording's own time base; ``t_origin`` is its first GNSS epoch (outage
+    schedules count from it).  ``faults`` are injected into the recorded aids, on
+    times relative to ``t_start`` like :attr:`times`.
+
+    Attributes
+    ----------
+    t_start, t_origin : s, recording time base.
+    samples_per_epoch : IMU increments per filter epoch (the log resampled exactly).
+    The rest as :class:`SinsScenario`.
+    """
+
+    t_start: float
+    t_origin: float
+    samples_per_epoch: int
+
+    kind: ClassVar[str] = "recorded"

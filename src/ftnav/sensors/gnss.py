@@ -38,6 +38,7 @@ from typing import ClassVar, Literal
 import numpy as np
 
 from ftnav.model.system import PrivateStates
+from ftnav.nav.attitude import quat_to_dcm, skew
 from ftnav.nav.earth import radii
 from ftnav.sensors.base import (
     N_STATES,
@@ -90,6 +91,11 @@ class Gnss:
         settings: ``√(σ_b² + σ_n²)`` for ``"white"``, ``σ_n`` for ``"augment"``, the
         differenced noise for ``"difference"``).
     dt : float, s, sample period (Markov simulation, F and Q of the private states).
+    lever_arm_m : (3,) m, the antenna from the IMU in the body frame (x right, y forward,
+        z up); the position rows compare the antenna, ``p̃ + C̃_b^n l``, whose attitude
+        column is ``[(C_b^n l)×]``.  The velocity rows neglect ``C_b^n (ω × l)`` (below
+        1 cm/s for a 5 cm arm turning at 0.2 rad/s).  Simulation ignores it (the
+        simulated antenna is at the IMU).
 
     Vector fields are stored as tuples of 3 floats.
 
@@ -111,6 +117,7 @@ class Gnss:
     pos_sigma_m: float | None = None
     vel_sigma_m_s: float | None = None
     dt: float = 1.0
+    lever_arm_m: Vec3 = 0.0
 
     z_per_error: ClassVar[int] = -1
     components: ClassVar[tuple[str, ...]] = ("pos_E", "pos_N", "pos_U", "vel_E", "vel_N", "vel_U")
@@ -133,6 +140,9 @@ class Gnss:
                 check_float(self.name, field, getattr(self, field), low=0.0, strict=True, n=3),
             )
         check_choice(self.name, "markov", self.markov, ("white", "augment", "difference"))
+        object.__setattr__(
+            self, "lever_arm_m", check_float(self.name, "lever_arm_m", self.lever_arm_m, n=3)
+        )
 
     @property
     def dim(self) -> int:
@@ -240,7 +250,8 @@ class Gnss:
 
         Parameters
         ----------
-        q : (B, 4) INS ``q_b^n`` (unused).  v : (B, 3) m/s.  p : (B, 3) ``[L, λ, h]``.
+        q : (B, 4) INS ``q_b^n`` (read with a lever arm only).
+        v : (B, 3) m/s.  p : (B, 3) ``[L, λ, h]``.
         raw_k : (B, 6) receiver output at this epoch (:meth:`output`).
         """
         v = as_batch(v, (3,), "v")
@@ -254,6 +265,10 @@ class Gnss:
         H = np.zeros((B, 6, N_STATES))
         H[:, [1, 0, 2], [6, 7, 8]] = d  # row N ← δL, row E ← δλ, row U ← δh
         H[:, [3, 4, 5], [3, 4, 5]] = 1.0
+        if any(self.lever_arm_m):  # the antenna, not the IMU (class docstring)
+            l_n = quat_to_dcm(as_batch(q, (4,), "q", B)) @ np.asarray(self.lever_arm_m)
+            z[:, :3] += l_n
+            H[:, 0:3, 0:3] = skew(l_n)
         p_priv = 6 if self._augmented else 0
         H_private = np.broadcast_to(-np.eye(6)[:, :p_priv], (B, 6, p_priv)).copy()
         valid = np.all(np.isfinite(z), -1)

@@ -1,0 +1,254 @@
+"""A recording as the engine's stream: alignment, the epoch grid, aids, outages, faults.
+
+The filter epochs are the primary GNSS's own epochs: ``t_k = t_start + k·dt`` with
+``dt`` its period, so every GNSS fix is applied at its own time stamp and the IMU
+increments are integrated up to it (:func:`ftnav.recorded.imu.increments`).
+
+Initialization (:func:`align`, spec §8.5's error states start from it):
+
+* roll and pitch from levelling the accelerometers averaged over the static window at
+  the start (``f^b = C_n^b [0, 0, g]``: ``θ = asin(u_y)``, ``γ = atan2(−u_x, u_z)`` for
+  the unit ``u = f̄/|f̄|``, body x right, y forward, z up);
+* the gyro bias from the same window (the mean rate; the Earth rate, 15 °/h at most,
+  stays in it — below a MEMS gyro's bias, above a navigation-grade one's, where
+  gyro-compassing would be the better choice);
+* heading from the GNSS course at the first fix, after the static window, whose
+  horizontal speed reaches ``min_speed``: ``ψ = atan2(−v_E, v_N)`` (the forward axis
+  along the track); position and velocity from that fix; the filter starts there.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from ftnav.model.faults import fault_effect, hold_stuck
+from ftnav.model.scenario import Fault
+from ftnav.model.streams import AidStream, ImuStream, InsStream
+from ftnav.nav import attitude
+from ftnav.nav.earth import radii
+from ftnav.nav.mechanization import InsState
+from ftnav.recorded.imu import ImuLog, increments
+
+__all__ = [
+    "Alignment",
+    "GnssLog",
+    "GridPlacement",
+    "align",
+    "level",
+    "on_grid",
+    "outage_schedule",
+    "gnss_raw",
+    "interleave",
+    "recording_stream",
+    "with_outages",
+]
+
+
+class GnssLog(NamedTuple):
+    """A receiver's solution epochs.
+
+    Attributes
+    ----------
+    t : (K,) s.  p : (K, 3) ``[L, λ, h]`` rad, rad, m.  v : (K, 3) ENU m/s (NaN: none).
+    quality : (K,) int solution flag (RTKLIB: 1 fix, 2 float, 5 single).
+    """
+
+    t: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    quality: np.ndarray
+
+
+class Alignment(NamedTuple):
+    """The initial solution (module docstring).
+
+    Attributes
+    ----------
+    t : s, the start (a GNSS epoch).  euler : ``[θ, γ, ψ]`` rad.
+    p, v : the start fix's position and velocity.  gyro_bias : (3,) rad/s static mean.
+    static : (samples, mean specific force norm m/s²) of the static window.
+    """
+
+    t: float
+    euler: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    gyro_bias: np.ndarray
+    static: tuple[int, float]
+
+
+def level(f_mean: np.ndarray) -> tuple[float, float]:
+    """Pitch θ and roll γ (rad) from the mean specific force of a still IMU."""
+    u = np.asarray(f_mean, float) / np.linalg.norm(f_mean)
+    return float(np.arcsin(np.clip(u[1], -1.0, 1.0))), float(np.arctan2(-u[0], u[2]))
+
+
+def align(imu: ImuLog, gnss: GnssLog, static_s: float, min_speed: float) -> Alignment:
+    """The initial solution from the static window and the first moving fix.
+
+    Raises
+    ------
+    ValueError : ``"alignment.static_s: ..."`` when the window holds fewer than 10 IMU
+        samples; ``"alignment.min_speed_mps: ..."`` when no fix after it moves that fast.
+    """
+    w = imu.t < imu.t[0] + static_s
+    if w.sum() < 10:
+        raise ValueError(f"alignment.static_s: {int(w.sum())} IMU samples in {static_s:g} s")
+    f_mean = imu.accel[w].mean(0)
+    theta, gamma = level(f_mean)
+    speed = np.hypot(gnss.v[:, 0], gnss.v[:, 1])
+    moving = np.flatnonzero((gnss.t >= imu.t[0] + static_s) & (speed >= min_speed))
+    if moving.size == 0:
+        raise ValueError(
+            f"alignment.min_speed_mps: no GNSS fix after the static window moves at "
+            f"{min_speed:g} m/s or more (the heading comes from the GNSS course)"
+        )
+    k = int(moving[0])
+    psi = float(np.arctan2(-gnss.v[k, 0], gnss.v[k, 1]))
+    return Alignment(
+        float(gnss.t[k]),
+        np.array([theta, gamma, psi]),
+        gnss.p[k].copy(),
+        gnss.v[k].copy(),
+        imu.gyro[w].mean(0),
+        (int(w.sum()), float(np.linalg.norm(f_mean))),
+    )
+
+
+class GridPlacement(NamedTuple):
+    """Epochs of an aid placed on the filter grid: index per kept epoch, and counts."""
+
+    index: np.ndarray
+    kept: np.ndarray
+    off_grid: int
+    duplicated: int
+    unsorted: int
+
+
+def on_grid(t: np.ndarray, t0: float, dt: float, steps: int, tol: float = 1e-3) -> GridPlacement:
+    """Place time stamps on the epochs ``t0 + k·dt`` (k = 1..steps).
+
+    A stamp more than ``tol`` s from every epoch is dropped (off grid); a second stamp
+    on the same epoch is dropped (duplicated); stamps out of order are sorted (counted).
+    """
+    order = np.argsort(t, kind="stable")
+    unsorted = int(np.sum(order != np.arange(t.size)))
+    k = np.rint((t - t0) / dt).astype(np.int64)
+    ok = (np.abs(t - (t0 + k * dt)) <= tol) & (k >= 1) & (k <= steps)
+    in_range = (k >= 1) & (k <= steps)
+    off = int(np.sum(in_range & ~ok))
+    kept = np.zeros(t.size, bool)
+    seen: set[int] = set()
+    dup = 0
+    for i in order:
+        if not ok[i]:
+            continue
+        if int(k[i]) in seen:
+            dup += 1
+            continue
+        seen.add(int(k[i]))
+        kept[i] = True
+    return GridPlacement(k[kept] - 1, np.flatnonzero(kept), off, dup, unsorted)
+
+
+def outage_schedule(
+    length: float, every: float, start: float, last: float, margin: float = 30.0
+) -> list[tuple[float, float]]:
+    """GNSS outages ``[s, s + length)`` for ``s = start, start + every, …`` (seconds after
+    the first GNSS epoch), every one ending at least ``margin`` s before ``last``."""
+    if length <= 0 or every <= 0:
+        raise ValueError("--outage-length and --outage-every must be > 0")
+    out = []
+    s = start
+    while s + length <= last - margin + 1e-9:
+        out.append((s, s + length))
+        s += every
+    return out
+
+
+def interleave(
+    outages: Sequence[tuple[float, float]], every: float, min_gap: float = 30.0
+) -> list[list[tuple[float, float]]]:
+    """The outages of a schedule split into runs that leave ``min_gap`` s of GNSS between
+    two outages of one run: ``n = ⌈(length + min_gap)/every⌉`` interleaved schedules
+    (one when the outages are short against their spacing), outage i in run ``i mod n``."""
+    if not outages:
+        return [[]]
+    length = outages[0][1] - outages[0][0]
+    n = max(1, math.ceil((length + min_gap) / every - 1e-9))
+    return [list(outages[g::n]) for g in range(min(n, len(outages)))]
+
+
+def with_outages(
+    stream: InsStream, aid: int, times: np.ndarray, runs: Sequence[Sequence[tuple[float, float]]]
+) -> InsStream:
+    """The one-run ``stream`` as a batch of ``len(runs)`` runs, aid ``aid`` removed over each
+    run's outage windows ``[s, e)`` (times of the epochs ``times``)."""
+    G = len(runs)
+
+    def tile(a: np.ndarray) -> np.ndarray:
+        return np.repeat(a, G, axis=0)
+
+    a = stream.aids[aid]
+    raw, ok = tile(a.raw), tile(a.available)
+    for g, windows in enumerate(runs):
+        for s0, e0 in windows:
+            w = (times >= s0) & (times < e0)
+            raw[g, w] = np.nan
+            ok[g, w] = False
+    aids = tuple(
+        AidStream(x.t, raw, ok) if i == aid else AidStream(x.t, tile(x.raw), tile(x.available))
+        for i, x in enumerate(stream.aids)
+    )
+    imu = stream.imu._replace(dtheta=tile(stream.imu.dtheta), dv=tile(stream.imu.dv))
+    start = InsState(*(tile(x) for x in stream.start))
+    return InsStream(imu, aids, start, stream.labels)
+
+
+def gnss_raw(gnss: GnssLog, faults: Sequence[Fault], name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The receiver's ``[L, λ, h, v_E, v_N, v_U]`` (K, 6) with the injected faults, and
+    the fault labels (K,).  A fault's magnitude is in metres E, N, U, m/s E, N, U."""
+    effect = fault_effect(faults, name, gnss.t, 6)
+    RM, RN = radii(gnss.p[:, 0], gnss.p[:, 2])
+    p = gnss.p.copy()
+    p[:, 0] += effect.offset[:, 1] / RM
+    p[:, 1] += effect.offset[:, 0] / (RN * np.cos(gnss.p[:, 0]))
+    p[:, 2] += effect.offset[:, 2]
+    raw = np.concatenate([p, gnss.v + effect.offset[:, 3:]], 1)
+    raw = hold_stuck(raw[None], effect)[0]
+    raw[effect.outage] = np.nan
+    return raw, effect.label
+
+
+def recording_stream(
+    imu: ImuLog,
+    start: Alignment,
+    dt: float,
+    steps: int,
+    samples_per_epoch: int,
+    aids: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+) -> InsStream:
+    """The engine's stream of one recording (a batch of one run).
+
+    ``aids`` are per aid ``(epoch index (K_a,), raw (K_a, …), labels (K_a,))`` of the
+    epochs it has (:func:`on_grid`); the other epochs have no measurement.
+    """
+    T = dt / samples_per_epoch
+    grid = start.t + T * np.arange(steps * samples_per_epoch + 1)
+    dth, dv = increments(imu, grid)
+    imu_stream = ImuStream(start.t, T, grid[1:], dth[None], dv[None])
+    times = start.t + dt * np.arange(1, steps + 1)
+    streams, labels = [], np.zeros((steps, len(aids)), bool)
+    for i, (index, raw, lab) in enumerate(aids):
+        full = np.full((steps,) + raw.shape[1:], np.nan)
+        full[index] = raw
+        ok = np.isfinite(full.reshape(steps, -1)).all(-1)
+        streams.append(AidStream(times, full[None], ok[None]))
+        labels[index, i] = lab
+    q = attitude.euler_to_quat(start.euler)[None]
+    solution = InsState(q, start.v[None], start.p[None], np.zeros((1, 3)))
+    return InsStream(imu_stream, tuple(streams), solution, labels)

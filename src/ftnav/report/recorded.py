@@ -1,0 +1,77 @@
+"""What ``ftnav process`` reports: ``metrics.json`` and the table it prints."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ftnav.io.recording_file import LoadedRecording
+
+__all__ = ["recording_metrics", "recording_table"]
+
+
+def recording_metrics(
+    loaded: LoadedRecording, scores: dict[str, dict[str, Any]], elapsed_s: float
+) -> dict[str, Any]:
+    """The ``metrics.json`` document of a processed recording."""
+    rec, al = loaded.recording, loaded.alignment
+    return {
+        "recording": rec.name,
+        "description": rec.description,
+        "time_base": {
+            "t_start_s": rec.t_start,
+            "t_first_gnss_s": rec.t_origin,
+            "epochs": rec.steps,
+            "dt_s": rec.dt,
+        },
+        "alignment": {
+            "pitch_deg": math.degrees(float(al.euler[0])),
+            "roll_deg": math.degrees(float(al.euler[1])),
+            "heading_deg": math.degrees(float(-al.euler[2])) % 360.0,
+            "static_samples": al.static[0],
+            "static_specific_force_mps2": al.static[1],
+            "gyro_bias_removed_dps": np.degrees(al.gyro_bias).tolist(),
+        },
+        "aids": list(rec.sensor_names),
+        "data": loaded.counts,
+        "outages_s_after_first_gnss": [
+            [[s + rec.t_start - rec.t_origin, e + rec.t_start - rec.t_origin] for s, e in run]
+            for run in loaded.outages
+        ],
+        "faults": [
+            {
+                "sensor": f.sensor,
+                "kind": f.kind,
+                "start_s": f.start + rec.t_start,
+                "end_s": f.end + rec.t_start,
+                "magnitude": f.magnitude.tolist(),
+            }
+            for f in rec.faults
+        ],
+        "wall_time_s": elapsed_s,
+        "methods": scores,
+    }
+
+
+def _f(x: Any, spec: str = ".3f") -> str:
+    return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+
+
+def recording_table(scores: dict[str, dict[str, Any]]) -> str:
+    """One line per method: GNSS-on horizontal/vertical RMS, outage drift, detection."""
+    lines = ["method           horiz RMS m  vert RMS m  outages RMS max m   detection"]
+    for name, m in scores.items():
+        o = m.get("outages")
+        drift = f"{_f(o['rms_max_error_m'])} ({o['count']})" if o else "-"
+        det = "; ".join(
+            f"{s}: Pd {_f(d['pd'], '.2f')} FA {_f(d['false_alarm_rate'], '.3f')} "
+            f"recovery {_f(d['mean_recovery_s'], '.1f')} s"
+            for s, d in (m.get("detection") or {}).items()
+        )
+        lines.append(
+            f"{name:<16} {_f(m['horizontal_rms_m']):>11}  {_f(m['vertical_rms_m']):>10}  "
+            f"{drift:>17}   {det or '-'}"
+        )
+    return "\n".join(lines)

@@ -1,0 +1,152 @@
+"""Land-vehicle constraints as aids: non-holonomic constraint and zero-velocity update.
+
+Both are pseudo-measurements of a vehicle's motion, not of a device; their "reading"
+is the constraint's value (0) plus the white noise that stands for how well the
+vehicle keeps it.  Conventions as every aid (``docs/conventions.md``): ``z = INS − aid``
+in the aid's metric space, ``H`` on the 18 error states of spec §8.3, attitude error
+``C̃_b^n = (I − [φ×]) C_b^n``.
+
+* :class:`Nhc` — a wheeled vehicle does not slide sideways nor leave the road: the
+  body-frame velocity ``v^b = C_n^b v^n`` has no right (x) and no up (z) component
+  (body frame x right, y forward, z up).  Rows ``[v^b_x, v^b_z]`` (m/s)::
+
+      z = C̃_n^b ṽ^n  ≈  v^b + C_n^b δv − C_n^b [v^n ×] φ      (v^b_x = v^b_z = 0)
+
+  so ``H_δv = C_n^b`` and ``H_φ = −C_n^b [v^n ×]`` (rows x and z).  The IMU is taken
+  at the point whose velocity the constraint holds for (lever arm and mounting
+  misalignment of the IMU against the vehicle's axes are part of the noise σ).
+* :class:`Zupt` — a vehicle at rest: ``z = ṽ^n`` (3 rows, E, N, U, m/s), ``H_δv = I``.
+  Which epochs are at rest is decided outside the filter, from the IMU alone
+  (:func:`ftnav.recorded.imu.stationary`); the aid is available only there.
+
+Simulation: the reading is white noise of σ (spawn key component 0), a vehicle that
+keeps the constraint up to that noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from ftnav.model.system import PrivateStates
+from ftnav.nav.attitude import quat_to_dcm, skew
+from ftnav.sensors.base import (
+    N_STATES,
+    AidErrors,
+    AidTruth,
+    Linearized,
+    as_batch,
+    check_common,
+    check_errors_metric,
+    check_float,
+    check_truth,
+    finite_or_zero,
+    standard_normals,
+)
+
+__all__ = ["Nhc", "Zupt"]
+
+
+@dataclass(frozen=True, slots=True)
+class _Constraint:
+    """What both constraints share: a white σ per row and a zero reading."""
+
+    name: str = "constraint"
+    sigma_m_s: float = 0.1
+    dt: float = 1.0
+
+    z_per_error: ClassVar[int] = -1
+    components: ClassVar[tuple[str, ...]] = ()
+
+    def __post_init__(self) -> None:
+        check_common(self)
+        object.__setattr__(
+            self,
+            "sigma_m_s",
+            check_float(self.name, "sigma_m_s", self.sigma_m_s, low=0.0, strict=True),
+        )
+
+    @property
+    def dim(self) -> int:
+        """Measurement rows (the length of :attr:`components`)."""
+        return len(self.components)
+
+    @property
+    def R(self) -> np.ndarray:
+        """(m, m) (m/s)², ``σ² I``."""
+        return np.eye(self.dim) * self.sigma_m_s**2
+
+    @property
+    def private(self) -> PrivateStates | None:
+        """No private states."""
+        return None
+
+    def simulate_errors(self, truth: AidTruth, seed: int, runs: range, stream: int) -> AidErrors:
+        """White noise of σ per row (B, K, m)."""
+        K = check_truth(truth, self.dt, self.name)
+        white = standard_normals(seed, runs, stream, 0, (K, self.dim)) * self.sigma_m_s
+        return AidErrors(np.zeros_like(white), white, np.zeros((len(runs), 0)))
+
+    def output(
+        self, truth: AidTruth, errors_metric: np.ndarray, constants: np.ndarray
+    ) -> np.ndarray:
+        """The constraint's reading (B, K, m): 0 plus the error."""
+        K = check_truth(truth, self.dt, self.name)
+        e, _ = check_errors_metric(errors_metric, constants, (None, K, self.dim), 0)
+        return np.asarray(e, dtype=float)
+
+
+@dataclass(frozen=True, slots=True)
+class Nhc(_Constraint):
+    """Non-holonomic constraint (module docstring): rows ``v^b_x, v^b_z`` (m/s)."""
+
+    name: str = "nhc"
+    sigma_m_s: float = 0.1
+
+    components: ClassVar[tuple[str, ...]] = ("vel_x", "vel_z")
+
+    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
+        """``z = (C̃_n^b ṽ)_{x,z} − reading`` (B, 2) and ``H`` (B, 2, 18).
+
+        Parameters
+        ----------
+        q : (B, 4) INS ``q_b^n``.  v : (B, 3) ENU m/s.  p : (B, 3) (unused).
+        raw_k : (B, 2) the reading (0 for a recording).
+        """
+        v = as_batch(v, (3,), "v")
+        B = v.shape[0]
+        C_nb = np.swapaxes(quat_to_dcm(as_batch(q, (4,), "q", B)), -1, -2)[:, [0, 2], :]
+        raw = as_batch(raw_k, (2,), "raw_k", B)
+        z = np.einsum("bij,bj->bi", C_nb, v) - raw
+        H = np.zeros((B, 2, N_STATES))
+        H[:, :, 3:6] = C_nb
+        H[:, :, 0:3] = -C_nb @ skew(v)
+        valid = np.all(np.isfinite(z), -1)
+        return Linearized(finite_or_zero(z), H, np.zeros((B, 2, 0)), valid)
+
+
+@dataclass(frozen=True, slots=True)
+class Zupt(_Constraint):
+    """Zero-velocity update (module docstring): rows ``v_E, v_N, v_U`` (m/s)."""
+
+    name: str = "zupt"
+    sigma_m_s: float = 0.02
+
+    components: ClassVar[tuple[str, ...]] = ("vel_E", "vel_N", "vel_U")
+
+    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
+        """``z = ṽ − reading`` (B, 3) and ``H`` (B, 3, 18) with I on δv.
+
+        Parameters
+        ----------
+        q, p : (unused).  v : (B, 3) ENU m/s.  raw_k : (B, 3) the reading (0 at rest).
+        """
+        v = as_batch(v, (3,), "v")
+        B = v.shape[0]
+        z = v - as_batch(raw_k, (3,), "raw_k", B)
+        H = np.zeros((B, 3, N_STATES))
+        H[:, [0, 1, 2], [3, 4, 5]] = 1.0
+        valid = np.all(np.isfinite(z), -1)
+        return Linearized(finite_or_zero(z), H, np.zeros((B, 3, 0)), valid)

@@ -1,0 +1,118 @@
+"""Recorded-log building blocks against closed forms and finite differences.
+
+Oracles: levelling recovers the pitch and roll that generated a still IMU's specific
+force (``f^b = C_n^b [0, 0, g]``); the increments of sample-and-hold rates on any grid
+sum to the exact integral and equal it piecewise; the outage schedule and its
+interleaving follow their definitions; the NHC and the GNSS lever arm Jacobians equal
+central finite differences of their measurement functions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ftnav.nav import attitude
+from ftnav.nav.mechanization import InsState
+from ftnav.recorded.imu import ImuLog, clean, increments, stationary
+from ftnav.recorded.stream import interleave, level, on_grid, outage_schedule
+from ftnav.sensors.gnss import Gnss
+from ftnav.sensors.vehicle import Nhc, Zupt
+
+
+@pytest.mark.parametrize("theta,gamma", [(0.1, -0.2), (-0.3, 0.05), (0.0, 0.0), (0.7, 1.2)])
+def test_levelling_inverts_the_still_specific_force(theta, gamma):
+    C_bn = attitude.euler_to_dcm(np.array([theta, gamma, 0.37]))
+    f_b = C_bn.T @ np.array([0.0, 0.0, 9.81])
+    t, g = level(f_b)
+    assert t == pytest.approx(theta, abs=1e-12) and g == pytest.approx(gamma, abs=1e-12)
+
+
+def test_increments_are_exact_integrals_of_held_rates():
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.006, 0.014, 400))
+    gyro, acc = rng.normal(size=(400, 3)), rng.normal(size=(400, 3))
+    log = ImuLog(t, gyro, acc)
+    grid = np.linspace(t[0], t[-1], 137)
+    dth, dv = increments(log, grid)
+    exact = (gyro[1:] * np.diff(t)[:, None]).sum(0)
+    np.testing.assert_allclose(dth.sum(0), exact, rtol=1e-12)
+    # a grid point between samples i-1 and i splits sample i's held rate exactly
+    i = 200
+    mid = 0.5 * (t[i - 1] + t[i])
+    d1, _ = increments(log, np.array([t[i - 1], mid, t[i]]))
+    np.testing.assert_allclose(d1, [gyro[i] * (mid - t[i - 1]), gyro[i] * (t[i] - mid)])
+    np.testing.assert_allclose(dv.sum(0), (acc[1:] * np.diff(t)[:, None]).sum(0), rtol=1e-12)
+
+
+def test_clean_drops_stale_rows_and_repeated_stamps_and_refuses_going_back():
+    t = np.array([0.0, 0.01, 0.02, 0.02, 0.03, 0.04])
+    g = np.array([[1.0] * 3, [2.0] * 3, [2.0] * 3, [3.0] * 3, [4.0] * 3, [5.0] * 3])
+    log, info = clean(ImuLog(t, g, g.copy()))
+    assert info.repeated_rows == 1 and info.repeated_stamps == 1 and info.rows == 6
+    np.testing.assert_array_equal(log.t, [0.0, 0.01, 0.03, 0.04])
+    with pytest.raises(ValueError, match="^row 2: time goes backwards"):
+        clean(ImuLog(np.array([0.0, 0.02, 0.01]), g[:3], g[:3]))
+
+
+def test_stationary_from_the_spread_of_the_samples():
+    t = np.arange(0, 10, 0.01)
+    acc = np.tile([0.0, 0.0, 9.8], (t.size, 1))
+    acc[t > 5, 1] += np.sin(40 * t[t > 5])  # moving: the accelerometer varies
+    rest = stationary(ImuLog(t, np.zeros_like(acc), acc), np.array([2.0, 8.0]), 1.0, 0.1, 0.01)
+    np.testing.assert_array_equal(rest, [True, False])
+
+
+def test_outage_schedule_and_interleaving():
+    s = outage_schedule(15.0, 60.0, 40.0, last=549.0)
+    assert s[0] == (40.0, 55.0) and s[-1][1] <= 549.0 - 30.0 and len(s) == 8
+    assert interleave(s, 60.0) == [s]
+    long = outage_schedule(60.0, 60.0, 40.0, last=549.0)
+    runs = interleave(long, 60.0)
+    assert len(runs) == 2 and runs[0][1][0] - runs[0][0][1] == 60.0  # GNSS back between
+    assert sorted(runs[0] + runs[1]) == long
+
+
+def test_on_grid_counts_off_grid_duplicated_and_unsorted_epochs():
+    t = np.array([0.25, 0.5, 0.5, 1.0, 0.75, 1.13])
+    p = on_grid(t, 0.0, 0.25, 10)
+    assert (p.off_grid, p.duplicated) == (1, 1) and p.unsorted > 0
+    np.testing.assert_array_equal(np.sort(p.index), [0, 1, 2, 3])
+
+
+def _state(rng, B=4):
+    q = attitude.euler_to_quat(rng.uniform(-0.4, 0.4, (B, 3)))
+    v = rng.normal(0, 8, (B, 3))
+    p = np.column_stack([rng.uniform(-1, 1, B), rng.uniform(-3, 3, B), rng.uniform(0, 2e3, B)])
+    return InsState(q, v, p, np.zeros((B, 3)))
+
+
+def _perturbed(s: InsState, dx: np.ndarray) -> InsState:
+    """The INS solution with error dx (φ, δv, δL δλ δh): C̃ = (I − [φ×]) C."""
+    q = attitude.quat_mul(attitude.rotvec_to_quat(-dx[:, 0:3]), s.q)
+    return InsState(q, s.v + dx[:, 3:6], s.p + dx[:, 6:9], s.a)
+
+
+@pytest.mark.parametrize(
+    "sensor",
+    [Nhc(), Zupt(), Gnss(lever_arm_m=(0.3, -1.2, 0.8), markov="white")],
+    ids=["nhc", "zupt", "gnss-lever-arm"],
+)
+def test_jacobians_equal_finite_differences(sensor):
+    rng = np.random.default_rng(7)
+    s = _state(rng)
+    raw = (
+        np.concatenate([s.p, s.v], 1) + rng.normal(0, 1e-9, (4, 6))
+        if isinstance(sensor, Gnss)
+        else np.zeros((4, sensor.dim))
+    )
+    base = sensor.measure(s.q, s.v, s.p, raw)
+    steps = np.r_[[1e-6] * 3, [1e-4] * 3, [1e-9, 1e-9, 1e-3]]
+    for j in range(9):
+        dx = np.zeros((4, 9))
+        dx[:, j] = steps[j]
+        up, dn = _perturbed(s, dx), _perturbed(s, -dx)
+        zu = sensor.measure(up.q, up.v, up.p, raw).z
+        zd = sensor.measure(dn.q, dn.v, dn.p, raw).z
+        fd = (zu - zd) / (2 * steps[j])
+        np.testing.assert_allclose(base.H[:, :, j], fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())

@@ -1,0 +1,175 @@
+"""Malformed recordings are refused: exit 2, one line naming the file and line or the
+field, nothing written to ``--out``; the problems a real log has are handled and counted.
+
+The base is the first minute of the vendored drive (static start, first metres of
+motion): it processes; each case breaks one thing.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from ftnav.cli import main
+from ftnav.io.solution_file import SOLUTION_COLUMNS
+from ftnav.recordings import recording_path
+
+DATA = recording_path("rtklib-drive").parent / "data" / "rtklibexplorer" / "drive_0708"
+IMU_ROWS, POS_ROWS = 5600, 300  # 56 s of IMU, 75 s of GNSS
+
+RECORDING = """
+kind = "recording"
+name = "mini-drive"
+
+[imu]
+file = "imu.csv"
+time = {{ columns = ["t_gpst_unix_s"], unit = "s" }}
+accel = {{ columns = ["acc_x_g", "acc_y_g", "acc_z_g"], unit = "{accel_unit}" }}
+gyro = {{ columns = ["gyro_x_dps", "gyro_y_dps", "gyro_z_dps"], unit = "deg/s" }}
+time_offset_s = -0.125
+axes = {axes}
+misalignment_deg = {misalignment}
+
+[imu.errors]
+gyro_arw = "0.0038 deg/s/sqrt(Hz)"
+accel_vrw = "70 ug/sqrt(Hz)"
+gyro_bias_sd = "0.05 deg/s"
+accel_bias_sd = "20 mg"
+
+[[aids]]
+type = "gnss"
+name = "gnss"
+file = "gnss.pos"
+lever_arm_m = {lever_arm}
+
+[[aids]]
+type = "nhc"
+
+[[methods]]
+name = "ckf"
+architecture = "centralized"
+"""
+
+GOOD = {
+    "accel_unit": "g",
+    "axes": '["+y", "-x", "+z"]',
+    "misalignment": "[-6.79, 0.0, -5.35]",
+    "lever_arm": "[-0.05, 0.0, 0.0]",
+}
+
+
+def _imu_lines() -> list[str]:
+    return (DATA / "imu_1934_gpst.csv").read_text().splitlines()[: IMU_ROWS + 1]
+
+
+def _pos_lines() -> list[str]:
+    lines = (DATA / "gnss_1934_sf.pos").read_text().splitlines()
+    head = [ln for ln in lines if ln.startswith("%")]
+    return head + [ln for ln in lines if not ln.startswith("%")][:POS_ROWS]
+
+
+def _write(folder: Path, imu=None, pos=None, **kw) -> Path:
+    (folder / "imu.csv").write_text("\n".join(_imu_lines() if imu is None else imu) + "\n")
+    (folder / "gnss.pos").write_text("\n".join(_pos_lines() if pos is None else pos) + "\n")
+    path = folder / "rec.toml"
+    path.write_text(RECORDING.format(**{**GOOD, **kw}))
+    return path
+
+
+def _refused(argv, capsys) -> str:
+    assert main([str(a) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    return err.strip().removeprefix("ftnav: error: ")
+
+
+def test_the_base_processes_and_writes_the_solution_columns(tmp_path, capsys):
+    path = _write(tmp_path)
+    assert main(["process", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    header = (tmp_path / "o" / "solution.csv").read_text().splitlines()[0]
+    assert tuple(header.split(",")) == SOLUTION_COLUMNS
+    doc = json.loads((tmp_path / "o" / "metrics.json").read_text())
+    assert doc["data"]["imu"]["repeated_rows_dropped"] > 0
+    assert doc["methods"]["ckf"]["nan_epochs"] == 0
+
+
+def test_partial_first_and_last_lines_are_dropped_and_counted(tmp_path, capsys):
+    imu = _imu_lines()
+    imu[1] = imu[1][:12]
+    imu[-1] = imu[-1][:20]
+    path = _write(tmp_path, imu=imu)
+    assert main(["process", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    doc = json.loads((tmp_path / "o" / "metrics.json").read_text())
+    assert doc["data"]["imu"]["partial_lines_dropped"] == 2
+
+
+def _imu_with(line: int, text: str) -> list[str]:
+    imu = _imu_lines()
+    imu[line - 1] = text
+    return imu
+
+
+CASES = [
+    (
+        "missing-column",
+        {"imu": [_imu_lines()[0].replace("acc_y_g", "acc_q_g"), *_imu_lines()[1:]]},
+        r"^imu\.accel\.columns: no column 'acc_y_g' in the file",
+    ),
+    ("unit-family", {"accel_unit": "deg/s"}, r"^imu\.accel\.unit: unit 'deg/s' is not one of"),
+    ("unit-unknown", {"accel_unit": "furlong"}, r"^imu\.accel\.unit: unit 'furlong'"),
+    (
+        "time-backwards",
+        {"imu": _imu_with(101, "1752003200.0,0.1,0.0,1.0,0.0,0.0,0.0,0")},
+        r"imu\.csv:101: column time: time goes backwards",
+    ),
+    (
+        "not-a-number",
+        {"imu": _imu_with(50, "1752003262.3,abc,0,1,0,0,0,0")},
+        r"imu\.csv:50: column",
+    ),
+    (
+        "short-row-inside",
+        {"imu": _imu_with(77, "1752003262.6,0.1,0.0")},
+        r"imu\.csv:77: expected 8",
+    ),
+    ("empty-imu", {"imu": []}, r"imu\.csv: imu\.file: empty file"),
+    (
+        "pos-no-header",
+        {"pos": [ln for ln in _pos_lines() if not ln.startswith("%")]},
+        r"gnss\.pos: aids\[0\]\.file: no '%' header line",
+    ),
+    ("lever-arm-length", {"lever_arm": "[0.0, 0.1]"}, r"^aids\[0\]\.lever_arm_m: expected"),
+    ("mounting-angle", {"misalignment": "[0.0, 0.0, 350.0]"}, r"^imu\.misalignment_deg: "),
+    ("axes-left-handed", {"axes": '["+y", "+x", "+z"]'}, r"^imu\.axes: .* not a right-handed"),
+    ("axes-unknown", {"axes": '["+y", "-x", "up"]'}, r"^imu\.axes\[2\]: "),
+]
+
+
+@pytest.mark.parametrize(("kw", "pattern"), [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_malformed_recordings_are_refused(tmp_path, capsys, kw, pattern):
+    path = _write(tmp_path, **kw)
+    err = _refused(["process", path, "--out", tmp_path / "o"], capsys)
+    assert re.search(pattern, err), err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "pattern"),
+    [
+        (["--fault", "nhc:bias:1752003300:1752003310:5"], r"^--fault: 'nhc' is not a GNSS aid"),
+        (["--fault", "gnss:noise-scale:1752003300:1752003310:5"], r"^--fault: kind 'noise-scale'"),
+        (["--fault", "gnss:bias:1752003300:1752003310"], r"^--fault: a bias needs a MAGNITUDE"),
+        (["--fault", "gnss:bias:1:2:5"], r"^--fault: \[1\.000, 2\.000\) s is outside"),
+        (["--outage-length", "-3"], r"^--outage-length: must be > 0"),
+        (["--methods", "ckf,nope"], r"^--methods: no method 'nope'"),
+        (["--aids", "gnss,odometer"], r"^--aids: no aid 'odometer'"),
+    ],
+)
+def test_bad_protocol_options_are_refused(tmp_path, capsys, argv, pattern):
+    path = _write(tmp_path)
+    err = _refused(["process", path, "--out", tmp_path / "o", *argv], capsys)
+    assert re.search(pattern, err), err
+    assert not (tmp_path / "o").exists()
