@@ -326,6 +326,7 @@ def _parser() -> _Parser:
         "time base; a bias or ramp MAGNITUDE in metres on the north position",
     )
     r.add_argument("--quiet", action="store_true", help="no progress bar")
+    r.add_argument("--no-figures", action="store_true", help="skip track.png and errors.png")
     command("list", help="list built-in scenarios and their methods")
     s = command("schema", help="print the JSON schema of scenario files (linear and integrated)")
     s.add_argument("--out", type=Path, default=None, help="write to a file instead")
@@ -706,9 +707,12 @@ def _cmd_process(args) -> int:
         for nm, tab in tables.items():
             name = "solution.csv" if len(tables) == 1 else f"solution-{nm}.csv"
             written.append(write_solution_csv(tab, stage / name).name)
-        written.append(
-            write_track_geojson(tables, loaded.reference_p, stage / "track.geojson").name
-        )
+        track = write_track_geojson(tables, loaded.reference_p, stage / "track.geojson")
+        written.append(track.name)
+        if not args.no_figures:
+            from ftnav.plot.recorded import save_recording_figures
+
+            written += [p.name for p in save_recording_figures(loaded, traces, stage)]
         doc = recording_metrics(loaded, scores, elapsed)
         write_metrics(doc, stage / "metrics.json")
         written.append("metrics.json")
