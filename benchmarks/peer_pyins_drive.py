@@ -52,9 +52,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-DATA_DIR = Path(
-    os.environ.get("FTNAV_RTKLIBEXPLORER_DIR", "/work/shared/data/rtklibexplorer_gnss_imu")
-)
+# the copy vendored with ftnav (its licence beside it); FTNAV_RTKLIBEXPLORER_DIR overrides
+_VENDORED = Path(__file__).parents[1] / "src/ftnav/recordings/data/rtklibexplorer"
+DATA_DIR = Path(os.environ.get("FTNAV_RTKLIBEXPLORER_DIR", str(_VENDORED)))
 IMU_FILE = DATA_DIR / "drive_0708" / "imu_1934_gpst.csv"
 POS_FILE = DATA_DIR / "drive_0708" / "gnss_1934_sf.pos"
 
@@ -82,8 +82,12 @@ AZIMUTH_SD_DEG = 10.0
 POSITION_SD0 = 0.05
 VELOCITY_SD0 = 0.1
 
-NHC_SD = 0.1  # m/s
+# NHC as in upstream's drive configuration
+NHC_SD = 0.10  # m/s, with GNSS
+NHC_SD_COAST = 0.05  # m/s, inside a GNSS outage
 NHC_MIN_SPEED = 2.0  # m/s
+NHC_MAX_YAW_RATE_DPS = 10.0
+NHC_RATE_HZ = None  # None: at the GNSS epochs (4 Hz)
 
 
 def _load_pos() -> pd.DataFrame:
@@ -149,12 +153,17 @@ def _make_measurement_classes():
             return ret
 
     class Nhc(measurements.Measurement):
-        """Body lateral and vertical velocity zero (vehicle frame = pyins body frame)."""
+        """Body lateral and vertical velocity zero (vehicle frame = pyins body frame).
 
-        def __init__(self, times, sd, min_speed):
-            super().__init__(pd.DataFrame(index=pd.Index(times, name="time")))
-            self.R = sd**2 * np.eye(2)
+        ``sd`` is per time (m/s); applied when the horizontal speed exceeds ``min_speed``
+        and the body yaw rate is below ``max_yaw_rate`` (rad/s).
+        """
+
+        def __init__(self, times, sd, min_speed, max_yaw_rate):
+            data = pd.DataFrame({"VY": 0.0, "VZ": 0.0, "sd": sd}, index=pd.Index(times))
+            super().__init__(data)
             self.min_speed = min_speed
+            self.max_yaw_rate = max_yaw_rate
 
         def compute_matrices(self, time, pva, error_model):
             if time not in self.data.index:
@@ -162,10 +171,13 @@ def _make_measurement_classes():
             v_n = np.asarray(pva[VEL_COLS], dtype=float)
             if np.hypot(v_n[0], v_n[1]) < self.min_speed:
                 return None
+            if "rate_z" in pva and abs(pva["rate_z"]) > self.max_yaw_rate:
+                return None
+            row = self.data.loc[time]
             mat_nb = transform.mat_from_rph(pva[RPH_COLS])
-            z = (mat_nb.T @ v_n)[1:]
+            z = (mat_nb.T @ v_n)[1:] - row[["VY", "VZ"]].to_numpy(dtype=float)
             H = error_model.body_velocity_error_jacobian(pva)[1:]
-            return z, H, self.R
+            return z, H, row["sd"] ** 2 * np.eye(2)
 
     return RecordingPosition, Nhc
 
@@ -238,7 +250,14 @@ def run_pyins(
     velocity = measurements.NedVelocity(meas_fixes, vel_sd, lever_b)
     meas = [position, velocity]
     if nhc:
-        meas.append(Nhc(pos["t"].to_numpy(), NHC_SD, NHC_MIN_SPEED))
+        t_nhc = pos["t"].to_numpy()
+        if NHC_RATE_HZ is not None:
+            t_nhc = np.round(np.arange(0.0, t_last, 1.0 / NHC_RATE_HZ), 6)
+        coast = np.zeros(len(t_nhc), dtype=bool)
+        for s, e in outages:
+            coast |= (t_nhc >= s) & (t_nhc < e)
+        sd = np.where(coast, NHC_SD_COAST, NHC_SD)
+        meas.append(Nhc(t_nhc, sd, NHC_MIN_SPEED, np.deg2rad(NHC_MAX_YAW_RATE_DPS)))
 
     gyro_model = inertial_sensor.EstimationModel(
         bias_sd=GYRO_BIAS_SD, noise=GYRO_NOISE, bias_walk=GYRO_BIAS_WALK
