@@ -32,7 +32,7 @@ from ftnav.io.sections import MethodConfig, explain_method_key, resolve_methods
 from ftnav.model.scenario import AidSpec, Evaluation, Fault, Recording
 from ftnav.nav.attitude import euler_to_dcm
 from ftnav.nav.units import parse_quantity
-from ftnav.recorded.imu import ImuCleaning, ImuLog, clean, stationary
+from ftnav.recorded.imu import ImuCleaning, ImuLog, TimeGoesBack, clean, stationary
 from ftnav.recorded.stream import (
     Alignment,
     GnssLog,
@@ -190,7 +190,8 @@ def _factor(unit: str, families: Sequence[str], field: str, origin: str) -> tupl
 def _column(table: Any, ref: str | int, field: str, origin: str) -> int:
     if isinstance(ref, int):
         if not 0 <= ref < len(table.columns):
-            raise ScenarioError(field, f"column {ref} (0-based): the file has {len(table.columns)}")
+            n = len(table.columns)
+            raise ScenarioError(field, f"column {ref} (0-based): the file has {n}", origin)
         return ref
     if ref not in table.columns:
         raise ScenarioError(
@@ -240,10 +241,9 @@ def _read_imu(f: ImuFile, base: Path, origin: str) -> tuple[ImuLog, ImuCleaning,
         accel = accel / dt[:, None] if a_fam == "velocity" else accel
     try:
         log, info = clean(ImuLog(t, gyro, accel))
-    except ValueError as exc:
-        row = int(str(exc).split()[1].rstrip(":"))
+    except TimeGoesBack as exc:
         raise ScenarioError(
-            f"{path}:{table.lines[row]}", "column time: " + str(exc).split(": ", 1)[1], origin
+            f"{path}:{table.lines[exc.row]}", f"column time: {exc.reason}", origin
         ) from None
     return log, info, table.dropped_partial
 

@@ -21,7 +21,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["ImuLog", "ImuCleaning", "clean", "increments", "stationary"]
+__all__ = ["ImuLog", "ImuCleaning", "TimeGoesBack", "clean", "increments", "stationary"]
+
+
+class TimeGoesBack(ValueError):
+    """A stamp earlier than the previous one; ``row`` is the 0-based data row."""
+
+    def __init__(self, row: int, reason: str) -> None:
+        self.row, self.reason = row, reason
+        super().__init__(f"row {row}: {reason}")
 
 
 class ImuLog(NamedTuple):
@@ -54,7 +62,7 @@ def clean(log: ImuLog) -> tuple[ImuLog, ImuCleaning]:
 
     Raises
     ------
-    ValueError : ``"row <i>: time goes backwards ..."`` (0-based data row) when a stamp
+    TimeGoesBack : ``"row <i>: time goes backwards ..."`` (0-based data row) when a stamp
         is earlier than the previous one.
     """
     t = np.asarray(log.t, float)
@@ -63,7 +71,7 @@ def clean(log: ImuLog) -> tuple[ImuLog, ImuCleaning]:
     back = np.flatnonzero(dt < 0)
     if back.size:
         i = int(back[0]) + 1
-        raise ValueError(f"row {i}: time goes backwards ({t[i]:.6f} s after {t[i - 1]:.6f} s)")
+        raise TimeGoesBack(i, f"time goes backwards ({t[i]:.6f} s after {t[i - 1]:.6f} s)")
     stale = np.zeros(t.shape, bool)
     stale[1:] = np.all(values[1:] == values[:-1], 1)
     same = np.zeros(t.shape, bool)
