@@ -38,3 +38,48 @@ def test_the_default_markov_error_is_augmented_not_folded_into_R():
     assert g.markov == "augment" and g.private is not None
     np.testing.assert_allclose(np.diag(g.R), [1.0] * 3 + [0.02**2] * 3)  # white only
     assert Gnss(pos_markov_sigma_m=0.0, vel_markov_sigma_m_s=0.0).private is None
+
+
+def _receiver_epoch(lever=(0.0, 0.0, 0.0)):
+    p = np.array([[np.radians(40.1), np.radians(-105.1), 1600.0]] * 2)
+    v = np.array([[3.0, -7.0, 0.2], [0.0, 0.0, 0.0]])
+    q = euler_to_quat(np.array([[0.05, -0.02, 1.0], [0.0, 0.0, -2.0]]))
+    raw = np.concatenate([p + [[1e-6, -2e-6, 0.7]], v + [[0.1, -0.2, 0.05]]], -1)
+    return q, v, p, raw
+
+
+def test_a_position_aid_and_a_velocity_aid_are_the_two_halves_of_the_receiver():
+    """rows = "position" / "velocity": z, H, R, the Markov states and the simulated
+    errors are exactly the rows of the 6-row receiver (one receiver, two local filters)."""
+    kw = dict(lever_arm_m=(0.1, -0.3, 0.5), vel_markov_sigma_m_s=(0.05, 0.06, 0.07))
+    full = Gnss(**kw)
+    q, v, p, raw = _receiver_epoch()
+    whole = full.measure(q, v, p, raw)
+    truth = AidTruth(np.arange(3.0), p[[0, 0, 0]], v[[0, 0, 0]], q[[0, 0, 0]])
+    errs = full.simulate_errors(truth, 7, range(2), 1)
+    for rows, r in (("position", slice(0, 3)), ("velocity", slice(3, 6))):
+        half = Gnss(rows=rows, **kw)
+        assert half.dim == 3 and half.components == full.components[r]
+        lin = half.measure(q, v, p, raw)
+        np.testing.assert_array_equal(lin.z, whole.z[:, r])
+        np.testing.assert_array_equal(lin.H, whole.H[:, r])
+        np.testing.assert_array_equal(half.R, full.R[r, r])
+        np.testing.assert_array_equal(half.private.P0, full.private.P0[r, r])
+        np.testing.assert_array_equal(lin.H_private, -np.eye(3)[None].repeat(2, 0))
+        e = half.simulate_errors(truth, 7, range(2), 1)
+        np.testing.assert_array_equal(e.coloured, errs.coloured[..., r])
+        np.testing.assert_array_equal(e.white, errs.white[..., r])
+        out = half.output(truth, e.coloured + e.white, e.constants)
+        ref = full.output(
+            truth,
+            np.where(np.arange(6) // 3 == r.start // 3, 1.0, 0.0) * (errs.coloured + errs.white),
+            errs.constants,
+        )
+        np.testing.assert_allclose(out, ref, rtol=0, atol=1e-12)
+
+
+def test_gnss_rows_must_be_named():
+    import pytest
+
+    with pytest.raises(ValueError, match="gnss.rows"):
+        Gnss(rows="pos")

@@ -25,6 +25,12 @@ error every filter is overconfident, ``docs/claims.md``);
 driving noise, ``R* = diag(σ_b²(1 − ψ²) + (1 + ψ²) σ_n²)``; the correlation of ``z*``
 with the previous epoch's white noise and with the process noise is neglected.
 
+Rows ``rows`` [A]: ``"position-velocity"`` (the 6 rows above), ``"position"`` (E, N, U
+position rows) or ``"velocity"`` (the velocity rows): one receiver as two aids of their own
+(two local filters of a federated or distributed fusion, each with its own test), the
+Markov states, R and the simulated errors restricted to the rows measured; the receiver
+output stays the 6 columns (a velocity-only aid's position columns are ignored).
+
 Random components (spawn key ``c``): 0 position Markov, 1 velocity Markov, 2 white.  The
 position draws of each run are taken in the order N, E, U (the row order before the rows
 became E, N, U) and then reordered, so a run's errors are those of earlier versions.
@@ -91,6 +97,7 @@ class Gnss:
         settings: ``√(σ_b² + σ_n²)`` for ``"white"``, ``σ_n`` for ``"augment"``, the
         differenced noise for ``"difference"``).
     dt : float, s, sample period (Markov simulation, F and Q of the private states).
+    rows : ``"position-velocity"``, ``"position"`` or ``"velocity"`` (module docstring).
     lever_arm_m : (3,) m, the antenna from the IMU in the body frame (x right, y forward,
         z up); the position rows compare the antenna, ``p̃ + C̃_b^n l``, whose attitude
         column is ``[(C_b^n l)×]``.  The velocity rows neglect ``C_b^n (ω × l)`` (below
@@ -118,9 +125,17 @@ class Gnss:
     vel_sigma_m_s: float | None = None
     dt: float = 1.0
     lever_arm_m: Vec3 = 0.0
+    rows: Literal["position-velocity", "position", "velocity"] = "position-velocity"
 
     z_per_error: ClassVar[int] = -1
-    components: ClassVar[tuple[str, ...]] = ("pos_E", "pos_N", "pos_U", "vel_E", "vel_N", "vel_U")
+    ALL_COMPONENTS: ClassVar[tuple[str, ...]] = (
+        "pos_E",
+        "pos_N",
+        "pos_U",
+        "vel_E",
+        "vel_N",
+        "vel_U",
+    )
 
     def __post_init__(self):
         check_common(self, ("pos_sigma_m", "vel_sigma_m_s"))
@@ -140,41 +155,54 @@ class Gnss:
                 check_float(self.name, field, getattr(self, field), low=0.0, strict=True, n=3),
             )
         check_choice(self.name, "markov", self.markov, ("white", "augment", "difference"))
+        check_choice(self.name, "rows", self.rows, ("position-velocity", "position", "velocity"))
         object.__setattr__(
             self, "lever_arm_m", check_float(self.name, "lever_arm_m", self.lever_arm_m, n=3)
         )
 
     @property
+    def _rows(self) -> slice:
+        """The measured rows of the 6 (module docstring)."""
+        return {"position": slice(0, 3), "velocity": slice(3, 6)}.get(self.rows, slice(0, 6))
+
+    @property
+    def components(self) -> tuple[str, ...]:
+        """Names of the measured rows (of :attr:`ALL_COMPONENTS`)."""
+        return self.ALL_COMPONENTS[self._rows]
+
+    @property
     def dim(self) -> int:
-        """Measurement dimension m = 6."""
-        return 6
+        """Measurement dimension m: 6, or 3 for a position or velocity aid."""
+        return len(self.components)
 
     @property
     def _markov_sigma(self) -> np.ndarray:
-        return np.array(self.pos_markov_sigma_m + self.vel_markov_sigma_m_s)
+        return np.array(self.pos_markov_sigma_m + self.vel_markov_sigma_m_s)[self._rows]
 
     @property
     def _markov_tau(self) -> np.ndarray:
-        return np.array(self.pos_markov_tau_s + self.vel_markov_tau_s)
+        return np.array(self.pos_markov_tau_s + self.vel_markov_tau_s)[self._rows]
 
     @property
     def R(self) -> np.ndarray:
-        """(6, 6) the filter's assumed measurement noise (rows of :attr:`components`)."""
-        var = np.array(self.pos_white_sigma_m + self.vel_white_sigma_m_s) ** 2
+        """(m, m) the filter's assumed measurement noise (rows of :attr:`components`)."""
+        var = np.array(self.pos_white_sigma_m + self.vel_white_sigma_m_s)[self._rows] ** 2
         if self.markov == "white":
             var = var + self._markov_sigma**2
         elif self.markov == "difference":
             psi = self.difference_factor
             var = self._markov_sigma**2 * (1.0 - psi**2) + (1.0 + psi**2) * var
+        full = np.full(6, np.nan)
+        full[self._rows] = var
         if self.pos_sigma_m is not None:
-            var[:3] = self.pos_sigma_m**2
+            full[:3] = self.pos_sigma_m**2
         if self.vel_sigma_m_s is not None:
-            var[3:] = self.vel_sigma_m_s**2
-        return np.diag(var)
+            full[3:] = self.vel_sigma_m_s**2
+        return np.diag(full[self._rows])
 
     @property
     def difference_factor(self) -> np.ndarray | None:
-        """(6,) ``ψ = e^{−dt/τ}`` of each component for ``markov="difference"``, else None.
+        """(m,) ``ψ = e^{−dt/τ}`` of each component for ``markov="difference"``, else None.
 
         The closed-loop runner then passes ``z_k − ψ z_{k−1}`` and the matching ``H*`` to
         the filters (:func:`ftnav.core.kalman.differenced_measurement`).
@@ -189,7 +217,7 @@ class Gnss:
 
     @property
     def private(self) -> PrivateStates | None:
-        """The 6 Markov states for ``markov="augment"`` (``H = −I₆``), else None.
+        """The m Markov states for ``markov="augment"`` (``H = −I_m``), else None.
 
         None also when every Markov σ is 0: there is nothing to augment.
         """
@@ -200,11 +228,14 @@ class Gnss:
             self._markov_sigma,
             self._markov_tau,
             self.dt,
-            -np.eye(6),
+            -np.eye(self.dim),
         )
 
     def simulate_errors(self, truth: AidTruth, seed: int, runs: range, stream: int) -> AidErrors:
-        """Metric errors ``e = b + n`` (B, K, 6) of runs ``runs`` (module docstring)."""
+        """Metric errors ``e = b + n`` (B, K, m) of runs ``runs`` (module docstring).
+
+        The 6 components are drawn whatever :attr:`rows` is (a run's draws do not depend
+        on it) and the measured rows returned."""
         K = check_truth(truth, self.dt, self.name)
         # position draws in N, E, U order (module docstring), rows E, N, U
         pos = markov_errors(
@@ -230,23 +261,29 @@ class Gnss:
         white = standard_normals(seed, runs, stream, 2, (K, 6))
         white[..., :3] = white[..., _EN]
         white *= np.array(self.pos_white_sigma_m + self.vel_white_sigma_m_s)
-        return AidErrors(np.concatenate([pos, vel], -1), white, np.zeros((len(runs), 0)))
+        r = self._rows
+        return AidErrors(
+            np.concatenate([pos, vel], -1)[..., r], white[..., r], np.zeros((len(runs), 0))
+        )
 
     def output(
         self, truth: AidTruth, errors_metric: np.ndarray, constants: np.ndarray
     ) -> np.ndarray:
         """Receiver output (B, K, 6) ``[L, λ, h (rad, rad, m), v_E, v_N, v_U (m/s)]``.
 
-        ``p_GNSS = p + D_p(p)⁻¹ e_pos`` (``e_pos`` in E, N, U metres), ``v_GNSS = v + e_vel``.
+        ``p_GNSS = p + D_p(p)⁻¹ e_pos`` (``e_pos`` in E, N, U metres), ``v_GNSS = v + e_vel``;
+        ``errors_metric`` (B, K, m) holds the measured rows, the others are error-free.
         """
         K = check_truth(truth, self.dt, self.name)
-        e, _ = check_errors_metric(errors_metric, constants, (None, K, 6), 0)
+        e_m, _ = check_errors_metric(errors_metric, constants, (None, K, self.dim), 0)
+        e = np.zeros(e_m.shape[:-1] + (6,))
+        e[..., self._rows] = e_m
         d = _metres(np.asarray(truth.p, dtype=float))  # (K, 3) N, E, U per L, λ, h
         dp = e[..., _EN] / d  # δL = δN/R_Mh, δλ = δE/(R_Nh cos L), δh = δU
         return np.concatenate([truth.p + dp, truth.v + e[..., 3:]], -1)
 
     def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
-        """``z = [D_p(p̃)(p̃ − p_GNSS); ṽ − v_GNSS]`` (B, 6) and ``H`` at the INS solution.
+        """``z = [D_p(p̃)(p̃ − p_GNSS); ṽ − v_GNSS]`` (B, m: the rows measured) and ``H``.
 
         Parameters
         ----------
@@ -269,7 +306,9 @@ class Gnss:
             l_n = quat_to_dcm(as_batch(q, (4,), "q", B)) @ np.asarray(self.lever_arm_m)
             z[:, :3] += l_n
             H[:, 0:3, 0:3] = skew(l_n)
-        p_priv = 6 if self._augmented else 0
-        H_private = np.broadcast_to(-np.eye(6)[:, :p_priv], (B, 6, p_priv)).copy()
+        r, m = self._rows, self.dim
+        z, H = z[:, r], H[:, r]
+        p_priv = m if self._augmented else 0
+        H_private = np.broadcast_to(-np.eye(m)[:, :p_priv], (B, m, p_priv)).copy()
         valid = np.all(np.isfinite(z), -1)
         return Linearized(finite_or_zero(z), H, H_private, valid)
