@@ -73,7 +73,13 @@ from ftnav.io.profile_file import resolve_profile
 from ftnav.io.recording_file import load_recording, recording_aids, recording_json_schema
 from ftnav.io.results import write_estimates, write_metrics
 from ftnav.io.scenario_file import load_scenario, scenario_json_schema
-from ftnav.io.solution_file import solution_table, write_solution_csv, write_track_geojson
+from ftnav.io.solution_file import (
+    solution_table,
+    write_solution_csv,
+    write_trace_netcdf,
+    write_track_geojson,
+    write_track_kml,
+)
 from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
 from ftnav.model.imu import imu_preset
 from ftnav.model.scenario import Fault
@@ -325,8 +331,12 @@ def _parser() -> _Parser:
         help="inject a fault into a recorded aid (repeatable); START, END on the recording's "
         "time base; a bias or ramp MAGNITUDE in metres on the north position",
     )
-    r.add_argument("--quiet", action="store_true", help="no progress bar")
-    r.add_argument("--no-figures", action="store_true", help="skip track.png and errors.png")
+    r.add_argument("--quiet", action="store_true", help="no progress bar (shown after 2 s)")
+    r.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="skip the figures (track.png, errors.png, innovations.png)",
+    )
     command("list", help="list built-in scenarios and their methods")
     s = command("schema", help="print the JSON schema of scenario files (linear and integrated)")
     s.add_argument("--out", type=Path, default=None, help="write to a file instead")
@@ -694,9 +704,15 @@ def _cmd_process(args) -> int:
                     f"{rec.t_start + rec.times[-1]:.3f}] s (the recording's time base)"
                 )
         filters = build_filters(rec, rec.system(), rec.methods)
+    # the engine reports one step per method and epoch, for the whole batch at once
+    # (one run per interleaved outage schedule): the bar counts epochs x methods x runs
+    runs = loaded.stream.batch
+    total = len(rec.methods) * rec.steps * runs
     t0 = time.perf_counter()
-    with _bar(len(rec.methods) * rec.steps, args.quiet, f"process {rec.name}") as bar:
-        traces = run(navigation_model(rec), loaded.stream, filters, rec.steps, bar.update)
+    with _bar(total, args.quiet, f"process {rec.name}", delay=2.0) as bar:
+        traces = run(
+            navigation_model(rec), loaded.stream, filters, rec.steps, lambda n: bar.update(n * runs)
+        )
     elapsed = time.perf_counter() - t0
     ref = Reference(loaded.reference_index, loaded.reference_p)
     scores = score_recording(rec, traces, ref, loaded.outages)
@@ -707,18 +723,24 @@ def _cmd_process(args) -> int:
         for nm, tab in tables.items():
             name = "solution.csv" if len(tables) == 1 else f"solution-{nm}.csv"
             written.append(write_solution_csv(tab, stage / name).name)
-        track = write_track_geojson(tables, loaded.reference_p, stage / "track.geojson")
-        written.append(track.name)
+        written.append(
+            write_track_geojson(tables, loaded.reference_p, stage / "track.geojson").name
+        )
+        kml = write_track_kml(tables, loaded.reference_p, stage / "track.kml", rec.name)
+        written.append(kml.name)
+        written.append(write_trace_netcdf(loaded, traces, stage / "trace.nc").name)
         if not args.no_figures:
             from ftnav.plot.recorded import save_recording_figures
 
             written += [p.name for p in save_recording_figures(loaded, traces, stage)]
-        doc = recording_metrics(loaded, scores, elapsed)
-        write_metrics(doc, stage / "metrics.json")
         written.append("metrics.json")
+        doc = recording_metrics(loaded, scores, elapsed, written)
+        write_metrics(doc, stage / "metrics.json")
     print(
         f"{rec.name}: {rec.steps} epochs of {rec.dt:.4g} s from {rec.t_start:.3f} s, "
-        f"{len(rec.methods)} methods, {elapsed:.1f} s"
+        f"{len(rec.methods)} methods"
+        + (f" x {runs} runs (interleaved outage schedules)" if runs > 1 else "")
+        + f", {elapsed:.1f} s"
     )
     print(recording_table(scores))
     print(f"Results written to {out}/: {', '.join(written)}")
@@ -767,10 +789,13 @@ def _cmd_trajectory(args) -> int:
     return 0
 
 
-def _bar(total: int, quiet: bool, desc: str):
+def _bar(total: int, quiet: bool, desc: str, delay: float = 0.0):
+    """A progress bar on stderr: never with ``quiet``, only on a terminal otherwise, and
+    not before ``delay`` seconds (a short run shows none)."""
     return tqdm(
         total=total,
         disable=True if quiet else None,
+        delay=delay,
         unit="epoch",
         desc=desc,
         file=sys.stderr,

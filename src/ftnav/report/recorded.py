@@ -13,9 +13,16 @@ __all__ = ["recording_metrics", "recording_table"]
 
 
 def recording_metrics(
-    loaded: LoadedRecording, scores: dict[str, dict[str, Any]], elapsed_s: float
+    loaded: LoadedRecording,
+    scores: dict[str, dict[str, Any]],
+    elapsed_s: float,
+    files: list[str] | None = None,
 ) -> dict[str, Any]:
-    """The ``metrics.json`` document of a processed recording."""
+    """The ``metrics.json`` document of a processed recording.
+
+    ``files``: the names of the files ``ftnav process`` wrote into its folder (``metrics.json``
+    included), listed under ``"files"``.
+    """
     rec, al = loaded.recording, loaded.alignment
     return {
         "recording": rec.name,
@@ -51,6 +58,8 @@ def recording_metrics(
             for f in rec.faults
         ],
         "wall_time_s": elapsed_s,
+        "runs": len(loaded.outages),
+        "files": list(files or []),
         "methods": scores,
     }
 
