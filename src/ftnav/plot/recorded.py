@@ -35,6 +35,12 @@ from ftnav.nav.earth import radii
 __all__ = ["errors_figure", "innovations_figure", "save_recording_figures", "track_figure"]
 
 _OUTAGE, _FAULT = "tab:red", "tab:purple"
+#: method colours: tab10 without the red and purple of the outage and fault marks
+_PALETTE = ("C0", "C1", "C2", "C5", "C6", "C8", "C9", "C7")
+
+
+def _colors(traces: Mapping[str, Trace]) -> dict[str, str]:
+    return {nm: _PALETTE[j % len(_PALETTE)] for j, nm in enumerate(traces)}
 
 
 def _windows(loaded: LoadedRecording) -> list[tuple[float, float, str]]:
@@ -110,10 +116,11 @@ def track_figure(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> Figure
             zorder=3,
         )
         marked[key] = True
+    colors = _colors(traces)
     for name, tr in traces.items():
         assert tr.solution is not None
         xy = _enu(_pick(tr.solution.p, runs), origin)
-        ax.plot(xy[:, 0], xy[:, 1], lw=1.0, label=name, zorder=2)
+        ax.plot(xy[:, 0], xy[:, 1], lw=1.0, color=colors[name], label=name, zorder=2)
     ax.plot(0.0, 0.0, "k^", ms=6, label="first reference fix", zorder=4)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("East (m)")
@@ -189,7 +196,7 @@ def innovations_figure(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> 
     }
     fig = Figure(figsize=(10.0, 2.3 * len(aids) + 0.9), layout="constrained")
     axes = fig.subplots(len(aids), 1, squeeze=False, sharex=True)[:, 0]
-    colors = {nm: f"C{j}" for j, nm in enumerate(traces)}
+    colors = _colors(traces)
     if detectors:
         for i, (ax, aid) in enumerate(zip(axes, aids, strict=True)):
             drawn = False
@@ -247,7 +254,7 @@ def innovations_figure(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> 
                         t[avail[i]],
                         np.sqrt(np.maximum(r, 0.0)),
                         lw=1.0,
-                        color=f"C{jc}",
+                        color=_PALETTE[jc % len(_PALETTE)],
                         ls=styles[k % len(styles)],
                         label=f"{nm} {c}" if len(traces) > 1 else c,
                     )

@@ -69,18 +69,21 @@ def _f(x: Any, spec: str = ".3f") -> str:
 
 
 def recording_table(scores: dict[str, dict[str, Any]]) -> str:
-    """One line per method: GNSS-on horizontal/vertical RMS, outage drift, detection."""
-    lines = ["method           horiz RMS m  vert RMS m  outages RMS max m   detection"]
+    """One line per method: GNSS-on horizontal/vertical RMS, outage drift, detection (one
+    aid per line when a method tests several)."""
+    head = "method           horiz RMS m  vert RMS m  outages RMS max m   "
+    lines = [head + "detection"]
     for name, m in scores.items():
         o = m.get("outages")
         drift = f"{_f(o['rms_max_error_m'])} ({o['count']})" if o else "-"
-        det = "; ".join(
+        det = [
             f"{s}: Pd {_f(d['pd'], '.2f')} FA {_f(d['false_alarm_rate'], '.3f')} "
             f"recovery {_f(d['mean_recovery_s'], '.1f')} s"
             for s, d in (m.get("detection") or {}).items()
-        )
+        ] or ["-"]
         lines.append(
             f"{name:<16} {_f(m['horizontal_rms_m']):>11}  {_f(m['vertical_rms_m']):>10}  "
-            f"{drift:>17}   {det or '-'}"
+            f"{drift:>17}   {det[0]}"
         )
+        lines += [" " * len(head) + d for d in det[1:]]
     return "\n".join(lines)
