@@ -24,6 +24,9 @@ from ftnav.fusion.protocol import Architecture, StepOutput
 from ftnav.model.system import Epoch, Linearization, LinearSystem
 from ftnav.nav.mechanization import InsState
 
+#: navigation error states (attitude, velocity, position; spec §8.3 order) of ``P_nav``
+N_NAV = 9
+
 __all__ = ["EpochRecord", "NavigationModel", "Stream", "Trace", "covariance_ok", "iterate", "run"]
 
 M = TypeVar("M")  # the model's own state between epochs
@@ -196,6 +199,9 @@ class Trace(NamedTuple):
     features : (B, K, F) learned-detector features (spec §4.1), or None.
     solution : the corrected navigation solution (q (B, K, 4), v, p (B, K, 3)), or None.
     local : (B, K, N, n) local estimates, or None.
+    P_nav : (B, K, 9, 9) the fused covariance of the 9 navigation error states
+        (attitude, velocity, position), recorded only on request (``run``'s
+        ``nav_covariance``: a truth's NEES needs it), else None.
     """
 
     x: np.ndarray
@@ -210,6 +216,7 @@ class Trace(NamedTuple):
     features: np.ndarray | None
     solution: InsState | None
     local: np.ndarray | None
+    P_nav: np.ndarray | None = None
 
 
 class Recorder:
@@ -219,8 +226,9 @@ class Recorder:
     the outputs that need no reference (:meth:`outputs`) beside its own scores.
     """
 
-    def __init__(self, B: int, K: int):
+    def __init__(self, B: int, K: int, nav_covariance: bool = False):
         self.B, self.K = B, K
+        self.nav_covariance = nav_covariance
         self.arrays: dict[str, np.ndarray] = {}
         self.nan: np.ndarray | None = None
 
@@ -251,6 +259,8 @@ class Recorder:
         """Epoch k's whole output of one method (:meth:`outputs`, estimate, solution)."""
         self.put("x", k, out.x)
         self.put("P_diag", k, np.diagonal(out.P, axis1=-2, axis2=-1))
+        if self.nav_covariance:
+            self.put("P_nav", k, out.P[:, :N_NAV, :N_NAV])
         self.outputs(k, out)
         self.put("local", k, local)
         if solution is not None:
@@ -276,6 +286,7 @@ class Recorder:
             a.get("features"),
             solution,
             a.get("local"),
+            a.get("P_nav"),
         )
 
 
@@ -285,11 +296,16 @@ def run(
     filters: Mapping[str, Architecture[Any]],
     steps: int,
     progress: Callable[[int], None] | None = None,
+    nav_covariance: bool = False,
 ) -> dict[str, Trace]:
-    """Run every method over the stream; one :class:`Trace` per method (module docstring)."""
+    """Run every method over the stream; one :class:`Trace` per method (module docstring).
+
+    ``nav_covariance`` also records each method's 9 × 9 navigation covariance
+    (:attr:`Trace.P_nav`; B·K·81 floats per method, so off by default).
+    """
     names = list(filters)
     B = stream.batch
-    rec = {nm: Recorder(B, steps) for nm in names}
+    rec = {nm: Recorder(B, steps, nav_covariance) for nm in names}
     for r in iterate(model, stream, filters, steps, progress):
         for j, nm in enumerate(names):
             sol = None

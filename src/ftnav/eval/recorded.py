@@ -9,7 +9,11 @@ nothing of it enters the engine.  Per method:
   reference epoch and its maximum within, and the RMS over outages of the maxima;
 * detection (protocol b) — per aid with injected faults, the flags against the fault
   windows (:func:`ftnav.eval.metrics.detection_stats`: Pd, false alarms, delay,
-  recovery) on real noise.
+  recovery) on real noise;
+* against a full truth (protocol c, :func:`score_truth`, under ``truth``): RMSE of
+  position, velocity and attitude over the GNSS-on epochs, the NEES of the 9
+  navigation error states with its χ² band, the estimated IMU biases against the
+  known ones.
 """
 
 from __future__ import annotations
@@ -18,13 +22,27 @@ from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
+from scipy.stats import chi2
 
-from ftnav.engine.driver import Trace
+from ftnav.engine.driver import N_NAV, Trace
 from ftnav.eval.metrics import detection_stats
 from ftnav.model.scenario import Recording, fault_window_mask
+from ftnav.nav import attitude
 from ftnav.nav.earth import radii
+from ftnav.recorded.truth import Truth
 
-__all__ = ["Reference", "horizontal_errors", "score_recording"]
+__all__ = [
+    "CONVERGENCE_S",
+    "Reference",
+    "horizontal_errors",
+    "navigation_errors",
+    "score_recording",
+    "score_truth",
+]
+
+#: NEES is counted after this time from the start (s): the filter's transient from the
+#: initial σ (heading and biases become observable as the vehicle manoeuvres)
+CONVERGENCE_S = 60.0
 
 
 class Reference(NamedTuple):
@@ -78,11 +96,14 @@ def score_recording(
     reference: Reference,
     outages: Sequence[Sequence[tuple[float, float]]] = ((),),
     grace: float = 10.0,
+    truth: Truth | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Every method's scores (module docstring); times relative to ``rec.t_start``.
 
     ``outages`` are per run of the batch (interleaved outage schedules); the GNSS-on
-    scores are those of the first run outside its outages.
+    scores are those of the first run outside its outages.  With a ``truth``
+    (:attr:`ftnav.io.recording_file.LoadedRecording.truth`) each method also has
+    ``truth`` (:func:`score_truth`).
     """
     times = rec.times
     t_ref = times[reference.index]
@@ -112,7 +133,125 @@ def score_recording(
             m["outages"] = _outages(per_run)
         if tr.flag is not None and rec.faults:
             m["detection"] = _detection(rec, tr.flag[0], grace)
+        if truth is not None:
+            m["truth"] = score_truth(rec, tr, truth, outages[0])
         out[name] = m
+    return out
+
+
+def navigation_errors(tr: Trace, truth: Truth, run: int = 0) -> np.ndarray:
+    """(K_t, 9) errors of the solution at the truth's epochs in the filter's error states:
+    ``[φ (rad), δv (m/s), δL, δλ (rad), δh (m)]``, computed − true, φ with
+    ``C̃_b^n = (I − [φ×]) C_b^n`` (``docs/conventions.md``)."""
+    assert tr.solution is not None
+    i = truth.index
+    q = tr.solution.q[run, i]
+    phi = attitude.attitude_error(attitude.quat_to_dcm(q), truth.C)
+    dv = tr.solution.v[run, i] - truth.v
+    dp = tr.solution.p[run, i] - truth.p
+    dp[:, 1] = (dp[:, 1] + np.pi) % (2 * np.pi) - np.pi
+    return np.concatenate([phi, dv, dp], -1)
+
+
+def _rms(a: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(a)))) if a.size else float("nan")
+
+
+def score_truth(
+    rec: Recording,
+    tr: Trace,
+    truth: Truth,
+    outages: Sequence[tuple[float, float]] = (),
+    convergence_s: float = CONVERGENCE_S,
+    run: int = 0,
+) -> dict[str, Any]:
+    """One method's solution against a full truth (run ``run``; module docstring).
+
+    * ``rmse``: over the truth epochs outside outages and fault windows (GNSS on):
+      position E, N, U and horizontal (m), velocity E, N, U and 3-D (m/s), roll, pitch
+      and heading (deg, wrapped);
+    * ``nees`` (when the trace holds :attr:`~ftnav.engine.driver.Trace.P_nav`): the NEES
+      ``eᵀ P⁻¹ e`` of the 9 navigation errors (:func:`navigation_errors`) against the
+      filter's posterior covariance at the same epochs; its mean, the two-sided 95 %
+      band of one run's χ²(9), and the fraction of GNSS-on epochs after
+      ``convergence_s`` inside it;
+    * ``biases``: the filter's bias estimate at the last epoch (plus what the alignment
+      removed from the log) against the truth's (:mod:`ftnav.recorded.truth`) and the
+      data set's nominal values; the error in % of the truth's.
+    """
+    assert tr.solution is not None
+    t = rec.times[truth.index]
+    on = ~fault_window_mask(t, rec.faults)
+    for s, e in outages:
+        on &= ~((t >= s) & (t < e))
+    e = navigation_errors(tr, truth, run)
+    on &= np.isfinite(e).all(-1)
+    enu = horizontal_errors(tr.solution.p[run, truth.index], truth.p)
+    est = attitude.dcm_to_euler(attitude.quat_to_dcm(tr.solution.q[run, truth.index]))
+    ref = attitude.dcm_to_euler(truth.C)
+    d_att = np.degrees(attitude.wrap_angle(est - ref))
+    dv = e[:, 3:6]
+    out: dict[str, Any] = {
+        "epochs": int(on.sum()),
+        "rmse": {
+            "position_enu_m": [_rms(enu[on, j]) for j in range(3)],
+            "horizontal_m": _rms(np.hypot(enu[on, 0], enu[on, 1])),
+            "velocity_enu_mps": [_rms(dv[on, j]) for j in range(3)],
+            "velocity_mps": _rms(np.linalg.norm(dv[on], axis=-1)),
+            "roll_deg": _rms(d_att[on, 1]),
+            "pitch_deg": _rms(d_att[on, 0]),
+            "heading_deg": _rms(d_att[on, 2]),
+        },
+    }
+    if tr.P_nav is not None:
+        P = tr.P_nav[run, truth.index]
+        nees = np.einsum("ki,ki->k", e, np.linalg.solve(P, e[..., None])[..., 0])
+        lo, hi = chi2.ppf([0.025, 0.975], N_NAV)
+        after = on & (t >= convergence_s)
+        inside = (nees >= lo) & (nees <= hi)
+        out["nees"] = {
+            "dof": N_NAV,
+            "band_95": [float(lo), float(hi)],
+            "convergence_s": convergence_s,
+            "epochs": int(after.sum()),
+            "mean": float(np.mean(nees[after])) if after.any() else float("nan"),
+            "fraction_inside": float(np.mean(inside[after])) if after.any() else float("nan"),
+            "fraction_above": float(np.mean(nees[after] > hi)) if after.any() else float("nan"),
+        }
+    out["biases"] = _biases(rec, tr, truth, run)
+    return out
+
+
+def _biases(rec: Recording, tr: Trace, truth: Truth, run: int) -> dict[str, Any]:
+    x = tr.x[run, -1]
+    sd = np.sqrt(tr.P_diag[run, -1])
+    if rec.error_model.states == 18:  # ε_b + ε_r; ∇
+        gyro, accel = x[9:12] + x[12:15], x[15:18]
+        gyro_sd, accel_sd = np.hypot(sd[9:12], sd[12:15]), sd[15:18]
+    else:
+        gyro, accel = x[9:12], x[12:15]
+        gyro_sd, accel_sd = sd[9:12], sd[12:15]
+    gyro = gyro + truth.removed_gyro_bias
+    out: dict[str, Any] = {}
+    for key, value, sigma, known, nominal, unit, scale in (
+        ("gyro", gyro, gyro_sd, truth.gyro_bias, truth.gyro_bias_nominal, "dps", np.degrees(1.0)),
+        (
+            "accel",
+            accel,
+            accel_sd,
+            truth.accel_bias,
+            truth.accel_bias_nominal,
+            "mg",
+            1 / 9.80665e-3,
+        ),
+    ):
+        out[key] = {
+            f"estimate_{unit}": (value * scale).tolist(),
+            f"sigma_{unit}": (sigma * scale).tolist(),
+            f"truth_{unit}": (known * scale).tolist(),
+            f"nominal_{unit}": None if nominal is None else (nominal * scale).tolist(),
+            "error_percent_of_truth": (100 * (value - known) / np.abs(known)).tolist(),
+        }
     return out
 
 

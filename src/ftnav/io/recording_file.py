@@ -12,6 +12,8 @@ Every problem is one line ``<field or file:line>: <reason>``
 from __future__ import annotations
 
 import math
+import os
+import re
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -27,7 +29,14 @@ from ftnav.io.ins_scenario_file import (
     imu_errors,
     sensor_from_table,
 )
-from ftnav.io.recording_readers import read_csv, read_rtklib_pos
+from ftnav.io.recording_readers import (
+    NavegoImu,
+    read_csv,
+    read_navego_gnss,
+    read_navego_imu,
+    read_navego_truth,
+    read_rtklib_pos,
+)
 from ftnav.io.sections import MethodConfig, explain_method_key, resolve_methods
 from ftnav.model.scenario import AidSpec, Evaluation, Fault, Recording
 from ftnav.nav.attitude import euler_to_dcm
@@ -37,13 +46,16 @@ from ftnav.recorded.stream import (
     Alignment,
     GnssLog,
     align,
+    given,
     gnss_raw,
     interleave,
     on_grid,
     outage_schedule,
     recording_stream,
+    retime_velocity,
     with_outages,
 )
+from ftnav.recorded.truth import Truth, imu_bias_against_truth
 from ftnav.sensors.vehicle import Nhc, Zupt
 
 __all__ = [
@@ -67,17 +79,26 @@ class ColumnsFile(BaseModel):
     unit: str
 
 
+class FrameColumns(ColumnsFile):
+    """Three columns of a vector quantity, their unit and the order of their axes."""
+
+    frame: Literal["ENU", "NED", "NEU"] = "ENU"
+
+
+_IMU_CSV_KEYS = ("header", "delimiter", "time", "gyro", "accel")
+
+
 class ImuFile(BaseModel):
     """``[imu]``: the IMU log and its layout, its mounting, its errors (datasheet)."""
 
     model_config = STRICT
     file: str
-    format: Literal["csv"] = "csv"
+    format: Literal["csv", "navego-mat"] = "csv"
     header: bool = True
     delimiter: str = ","
-    time: ColumnsFile
-    gyro: ColumnsFile
-    accel: ColumnsFile
+    time: ColumnsFile | None = Field(default=None, description="csv: required")
+    gyro: ColumnsFile | None = Field(default=None, description="csv: required")
+    accel: ColumnsFile | None = Field(default=None, description="csv: required")
     time_offset_s: float = Field(default=0.0, allow_inf_nan=False)
     axes: list[Literal[_AXES]] = Field(  # type: ignore[valid-type]
         default=["+x", "+y", "+z"],
@@ -97,6 +118,19 @@ class ImuFile(BaseModel):
     errors: ImuSpec = Field(description="the IMU's errors: a preset or a datasheet table")
 
 
+_GNSS_CSV_KEYS = (
+    "header",
+    "delimiter",
+    "time",
+    "lat",
+    "lon",
+    "height",
+    "velocity",
+    "sigma",
+    "quality_column",
+)
+
+
 class AidTable(BaseModel):
     """``[[aids]]``: ``type``, and for ``gnss`` its file; the sensor's parameters."""
 
@@ -104,31 +138,74 @@ class AidTable(BaseModel):
     type: Literal["gnss", "nhc", "zupt"]
     name: str | None = None
     file: str | None = None
-    format: Literal["rtklib-pos"] = "rtklib-pos"
+    format: Literal["rtklib-pos", "navego-mat", "csv"] = "rtklib-pos"
+    header: bool = Field(default=True, description="csv")
+    delimiter: str = Field(default=",", description="csv")
+    time: ColumnsFile | None = Field(default=None, description="csv: required")
+    lat: ColumnsFile | None = Field(default=None, description="csv: required, deg or rad")
+    lon: ColumnsFile | None = Field(default=None, description="csv: required, deg or rad")
+    height: ColumnsFile | None = Field(default=None, description="csv: required, m")
+    velocity: FrameColumns | None = Field(default=None, description="csv: optional")
+    sigma: FrameColumns | None = Field(
+        default=None, description="csv: optional position σ (m), 3 columns"
+    )
+    quality_column: str | int | None = Field(
+        default=None, description="csv: optional solution flag (default: every row 1)"
+    )
     quality: list[int] = Field(default=[1], min_length=1)
     time_offset_s: float = Field(default=0.0, allow_inf_nan=False)
+    velocity_time_offset_s: float = Field(
+        default=0.0,
+        allow_inf_nan=False,
+        ge=-1.0,
+        le=1.0,
+        description=(
+            "gnss: the velocities' own time offset against the positions (a velocity "
+            "stamped t describes t + offset; RTKLIB's lag theirs by 0.10-0.15 s: -0.125)"
+        ),
+    )
     window_s: float = Field(default=0.5, gt=0, description="zupt: stationarity window")
     accel_std_mps2: float = Field(default=0.25, gt=0, description="zupt: accel std threshold")
     gyro_std_dps: float = Field(default=0.25, gt=0, description="zupt: gyro std threshold")
 
 
 class ReferenceFile(BaseModel):
-    """``[reference]``: positions to score against (the GNSS file's best epochs)."""
+    """``[reference]``: what to score against: the GNSS file's best epochs, or a full
+    truth (position, velocity, attitude) from a file."""
 
     model_config = STRICT
-    source: Literal["gnss"] = "gnss"
-    quality: list[int] = Field(default=[1], min_length=1)
+    source: Literal["gnss", "truth"] = "gnss"
+    quality: list[int] = Field(default=[1], min_length=1, description="source gnss")
+    file: str | None = Field(default=None, description="source truth: required")
+    format: Literal["navego-mat"] = Field(default="navego-mat", description="source truth")
 
 
 class AlignmentFile(BaseModel):
-    """``[alignment]``: static levelling and the GNSS-course heading (``ftnav.recorded``)."""
+    """``[alignment]``: static levelling and the GNSS-course heading (``mode = "static"``),
+    or a given attitude for a vehicle moving from the start (``mode = "given"``)."""
 
     model_config = STRICT
-    static_s: float = Field(default=30.0, gt=0)
-    min_speed_mps: float = Field(default=1.0, gt=0)
-    attitude_sigma_deg: list[float] = Field(default=[1.0, 1.0, 10.0], min_length=3, max_length=3)
-    velocity_sigma_mps: float = Field(default=0.1, gt=0)
-    position_sigma_m: float = Field(default=0.1, gt=0)
+    mode: Literal["static", "given"] = "static"
+    static_s: float = Field(default=30.0, gt=0, description="static")
+    min_speed_mps: float = Field(default=1.0, gt=0, description="static")
+    attitude_deg: list[float] | None = Field(
+        default=None,
+        min_length=3,
+        max_length=3,
+        description="given: [pitch, roll, yaw] deg (default: the IMU file's ini_align)",
+    )
+    attitude_sigma_deg: list[float] = Field(
+        default=[1.0, 1.0, 10.0],
+        min_length=3,
+        max_length=3,
+        description="σ pitch, roll, yaw (given: default the IMU file's ini_align_err)",
+    )
+    velocity_sigma_mps: float | None = Field(
+        default=None, gt=0, description="default: static 0.1, given the GNSS aid's σ"
+    )
+    position_sigma_m: float | None = Field(
+        default=None, gt=0, description="default: static 0.1, given the GNSS aid's σ E, N, U"
+    )
 
 
 class RecordingFilterFile(BaseModel):
@@ -176,6 +253,38 @@ class LoadedRecording(NamedTuple):
     alignment: Alignment
     counts: dict[str, Any]
     outages: tuple[tuple[tuple[float, float], ...], ...]
+    truth: Truth | None = None
+
+
+_ENV = re.compile(r"\$\{(\w+)(?::-([^}]*))?\}")
+
+
+def _data_path(raw: str, base: Path, field: str, origin: str) -> Path:
+    """A data file's path: relative to the recording file; ``${NAME:-default}`` is the
+    environment variable NAME, or ``default`` when NAME is unset or empty (the NaveGo
+    built-ins read ``${FTNAV_NAVEGO_DIR:-<the shared data folder>}``).  A file missing
+    behind such a path is refused with where to put it."""
+    names: list[str] = []
+
+    def sub(m: re.Match[str]) -> str:
+        names.append(m.group(1))
+        value = os.environ.get(m.group(1))
+        if value:
+            return value
+        if m.group(2) is None:
+            raise ScenarioError(field, f"environment variable {m.group(1)} is not set", origin)
+        return m.group(2)
+
+    path = base / _ENV.sub(sub, raw)
+    if names and not path.is_file():
+        where = path.parent.resolve()
+        raise ScenarioError(
+            field,
+            f"{path.resolve()}: file not found; put the data files in {where} or set "
+            f"{' or '.join(names)} to the folder holding them",
+            origin,
+        )
+    return path
 
 
 def _factor(unit: str, families: Sequence[str], field: str, origin: str) -> tuple[float, str]:
@@ -208,8 +317,64 @@ def _axes_matrix(axes: Sequence[str]) -> np.ndarray:
     return M
 
 
-def _read_imu(f: ImuFile, base: Path, origin: str) -> tuple[ImuLog, ImuCleaning, int]:
-    path = base / f.file
+def _mounting(f: ImuFile, origin: str) -> np.ndarray:
+    """(3, 3) ``M`` with ``body = M · sensor`` from ``axes`` and ``misalignment_deg``."""
+    M = _axes_matrix(f.axes)
+    if np.linalg.det(M) < 0.5:
+        raise ScenarioError("imu.axes", f"{f.axes} is not a right-handed axis set", origin)
+    if not np.all(np.abs(f.misalignment_deg) <= 90.0):
+        raise ScenarioError(
+            "imu.misalignment_deg", f"{f.misalignment_deg}: each angle within ±90 deg", origin
+        )
+    return euler_to_dcm(np.radians(f.misalignment_deg)) @ M
+
+
+def _cleaned(
+    t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, where: Any, origin: str
+) -> tuple[ImuLog, ImuCleaning]:
+    """:func:`clean`; a stamp going back is refused naming ``where(row, reason)``."""
+    try:
+        return clean(ImuLog(t, gyro, accel))
+    except TimeGoesBack as exc:
+        field, reason = where(exc.row, exc.reason)
+        raise ScenarioError(field, reason, origin) from None
+
+
+def _read_navego_imu(
+    f: ImuFile, base: Path, origin: str
+) -> tuple[ImuLog, ImuCleaning, int, NavegoImu]:
+    """The NaveGo layout: already in SI and (after the reader) in ftnav's body axes; the
+    ``axes`` and ``misalignment_deg`` then apply as to a CSV log."""
+    for key in _IMU_CSV_KEYS:
+        if key in f.model_fields_set:
+            raise ScenarioError(f"imu.{key}", "a setting of format 'csv', not 'navego-mat'", origin)
+    path = _data_path(f.file, base, "imu.file", origin)
+    nav = read_navego_imu(path, "imu.file")
+    M = _mounting(f, origin)
+    log, info = _cleaned(
+        nav.t + f.time_offset_s,
+        nav.gyro @ M.T,
+        nav.accel @ M.T,
+        lambda row, reason: (str(path), f"field t: sample {row + 1}: {reason}"),
+        origin,
+    )
+    nav = nav._replace(
+        gyro_bias_nominal=None if nav.gyro_bias_nominal is None else M @ nav.gyro_bias_nominal,
+        accel_bias_nominal=None if nav.accel_bias_nominal is None else M @ nav.accel_bias_nominal,
+    )
+    return log, info, 0, nav
+
+
+def _read_imu(
+    f: ImuFile, base: Path, origin: str
+) -> tuple[ImuLog, ImuCleaning, int, NavegoImu | None]:
+    if f.format == "navego-mat":
+        return _read_navego_imu(f, base, origin)
+    for key in ("time", "gyro", "accel"):
+        if getattr(f, key) is None:
+            raise ScenarioError(f"imu.{key}", "missing required key (format 'csv')", origin)
+    assert f.time is not None and f.gyro is not None and f.accel is not None
+    path = _data_path(f.file, base, "imu.file", origin)
     table = read_csv(path, f.header, f.delimiter, "imu.file")
     t_fac, _ = _factor(f.time.unit, ("time",), "imu.time.unit", origin)
     g_fac, g_fam = _factor(f.gyro.unit, ("angular_rate", "angle"), "imu.gyro.unit", origin)
@@ -224,14 +389,7 @@ def _read_imu(f: ImuFile, base: Path, origin: str) -> tuple[ImuLog, ImuCleaning,
     gc = [_column(table, c, "imu.gyro.columns", origin) for c in f.gyro.columns]
     ac = [_column(table, c, "imu.accel.columns", origin) for c in f.accel.columns]
     t = table.values[:, tc] * t_fac + f.time_offset_s
-    M = _axes_matrix(f.axes)
-    if np.linalg.det(M) < 0.5:
-        raise ScenarioError("imu.axes", f"{f.axes} is not a right-handed axis set", origin)
-    if not np.all(np.abs(f.misalignment_deg) <= 90.0):
-        raise ScenarioError(
-            "imu.misalignment_deg", f"{f.misalignment_deg}: each angle within ±90 deg", origin
-        )
-    M = euler_to_dcm(np.radians(f.misalignment_deg)) @ M
+    M = _mounting(f, origin)
     gyro = table.values[:, gc] * g_fac @ M.T
     accel = table.values[:, ac] * a_fac @ M.T
     if g_fam == "angle" or a_fam == "velocity":  # increments: rates over each interval
@@ -239,26 +397,112 @@ def _read_imu(f: ImuFile, base: Path, origin: str) -> tuple[ImuLog, ImuCleaning,
         dt = np.where(dt > 0, dt, np.nan)
         gyro = gyro / dt[:, None] if g_fam == "angle" else gyro
         accel = accel / dt[:, None] if a_fam == "velocity" else accel
-    try:
-        log, info = clean(ImuLog(t, gyro, accel))
-    except TimeGoesBack as exc:
+    log, info = _cleaned(
+        t,
+        gyro,
+        accel,
+        lambda row, reason: (f"{path}:{table.lines[row]}", f"column time: {reason}"),
+        origin,
+    )
+    return log, info, table.dropped_partial, None
+
+
+_TO_ENU = {  # column order -> ENU: index and sign
+    "ENU": ([0, 1, 2], np.array([1.0, 1.0, 1.0])),
+    "NED": ([1, 0, 2], np.array([1.0, 1.0, -1.0])),
+    "NEU": ([1, 0, 2], np.array([1.0, 1.0, 1.0])),
+}
+
+
+def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog, dict[str, Any]]:
+    """A GNSS solution as a delimited text file with a column map (``docs/recording-format.md``)."""
+    for key in ("time", "lat", "lon", "height"):
+        if getattr(a, key) is None:
+            raise ScenarioError(f"{field}.{key}", "missing required key (format 'csv')", origin)
+    table = read_csv(path, a.header, a.delimiter, f"{field}.file")
+
+    def columns(key: str, n: int, families: Sequence[str]) -> tuple[np.ndarray, float]:
+        cols = getattr(a, key)
+        if len(cols.columns) != n:
+            got = len(cols.columns)
+            raise ScenarioError(f"{field}.{key}.columns", f"expected {n}, got {got}", origin)
+        fac, _ = _factor(cols.unit, families, f"{field}.{key}.unit", origin)
+        idx = [_column(table, c, f"{field}.{key}.columns", origin) for c in cols.columns]
+        return table.values[:, idx], fac
+
+    t, t_fac = columns("time", 1, ("time",))
+    lat, lat_fac = columns("lat", 1, ("angle",))
+    lon, lon_fac = columns("lon", 1, ("angle",))
+    h, h_fac = columns("height", 1, ("length",))
+    p = np.concatenate([lat * lat_fac, lon * lon_fac, h * h_fac], 1)
+    if np.any(np.abs(p[:, 0]) > math.pi / 2):
+        r = int(np.flatnonzero(np.abs(p[:, 0]) > math.pi / 2)[0])
         raise ScenarioError(
-            f"{path}:{table.lines[exc.row]}", f"column time: {exc.reason}", origin
-        ) from None
-    return log, info, table.dropped_partial
+            f"{path}:{table.lines[r]}", f"column {a.lat.columns[0]}: latitude beyond ±90 deg"
+        )
+    v = np.full((t.shape[0], 3), np.nan)
+    if a.velocity is not None:
+        raw, fac = columns("velocity", 3, ("velocity",))
+        order, sign = _TO_ENU[a.velocity.frame]
+        v = raw[:, order] * sign * fac
+    defaults: dict[str, Any] = {}
+    if a.sigma is not None:
+        raw, fac = columns("sigma", 3, ("length",))
+        sig = raw[:, _TO_ENU[a.sigma.frame][0]] * fac
+        if np.any(sig <= 0):
+            r = int(np.flatnonzero((sig <= 0).any(1))[0])
+            raise ScenarioError(f"{path}:{table.lines[r]}", "column sigma: σ must be > 0")
+        defaults["pos_white_sigma_m"] = tuple(float(x) for x in np.median(sig, 0))
+    quality = np.ones(t.shape[0], int)
+    if a.quality_column is not None:
+        q = table.values[:, _column(table, a.quality_column, f"{field}.quality_column", origin)]
+        if np.any(q != np.round(q)):
+            r = int(np.flatnonzero(q != np.round(q))[0])
+            raise ScenarioError(f"{path}:{table.lines[r]}", "column quality: not an integer flag")
+        quality = q.astype(int)
+    log = GnssLog(t=t[:, 0] * t_fac + a.time_offset_s, p=p, v=v, quality=quality)
+    return log, defaults
 
 
-def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> GnssLog:
-    """Every epoch of the aid's RTKLIB solution (selection by quality comes later)."""
+def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLog, dict[str, Any]]:
+    """Every epoch of the aid's solution file (selection by quality comes later), and the
+    GNSS sensor's parameter defaults the file gives (its σ)."""
     if a.file is None:
         raise ScenarioError(f"{field}.file", "missing required key (the GNSS solution file)")
-    pos = read_rtklib_pos(base / a.file, f"{field}.file")
+    if a.format != "csv":
+        for key in _GNSS_CSV_KEYS:
+            if key in (a.model_fields_set or ()):
+                raise ScenarioError(
+                    f"{field}.{key}", f"a setting of format 'csv', not {a.format!r}", origin
+                )
+    path = _data_path(a.file, base, f"{field}.file", origin)
+    if a.format == "csv":
+        return _gnss_csv(a, path, field, origin)
+    if a.format == "navego-mat":
+        g = read_navego_gnss(path, f"{field}.file")
+        defaults: dict[str, Any] = {}
+        if g.sigma_p is not None:
+            defaults["pos_white_sigma_m"] = tuple(float(x) for x in g.sigma_p)
+        if g.sigma_v is not None:
+            defaults["vel_white_sigma_m_s"] = tuple(float(x) for x in g.sigma_v)
+        quality = np.ones(g.t.size, int)
+        return GnssLog(t=g.t + a.time_offset_s, p=g.p, v=g.v, quality=quality), defaults
+    pos = read_rtklib_pos(path, f"{field}.file")
     p = np.stack([pos.lat_deg * _DEG, pos.lon_deg * _DEG, pos.height_m], -1)
-    return GnssLog(pos.t + a.time_offset_s, p, pos.v_neu[:, [1, 0, 2]], pos.quality)
+    log = GnssLog(t=pos.t + a.time_offset_s, p=p, v=pos.v_neu[:, [1, 0, 2]], quality=pos.quality)
+    return log, {}
 
 
 def _select(log: GnssLog, keep: np.ndarray) -> GnssLog:
-    return GnssLog(log.t[keep], log.p[keep], log.v[keep], log.quality[keep])
+    """The epochs ``keep`` of every per-epoch field."""
+    n = log.t.shape[0]
+    return log._replace(
+        **{
+            k: x[keep]
+            for k, x in zip(log._fields, log, strict=True)
+            if isinstance(x, np.ndarray) and x.ndim >= 1 and x.shape[0] == n
+        }
+    )
 
 
 _GNSS_DEFAULTS: dict[str, Any] = {  # a receiver's solution: its errors are white to the filter
@@ -268,7 +512,24 @@ _GNSS_DEFAULTS: dict[str, Any] = {  # a receiver's solution: its errors are whit
     "pos_white_sigma_m": 0.05,
     "vel_white_sigma_m_s": 0.1,
 }
-_NOT_SENSOR = ("type", "name", "file", "format", "quality", "time_offset_s")
+_NOT_SENSOR = (
+    "type",
+    "name",
+    "file",
+    "format",
+    "quality",
+    "time_offset_s",
+    "velocity_time_offset_s",
+)
+
+
+def _gnss_log(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLog, dict[str, Any]]:
+    """:func:`_read_gnss` with the velocities moved onto the position stamps
+    (``velocity_time_offset_s``, :func:`ftnav.recorded.stream.retime_velocity`)."""
+    log, defaults = _read_gnss(a, base, field, origin)
+    return retime_velocity(log, a.velocity_time_offset_s), defaults
+
+
 _ZUPT_ONLY = ("window_s", "accel_std_mps2", "gyro_std_dps")
 
 
@@ -291,15 +552,73 @@ def _grid(
     return dt, steps, spe + (spe % 2), sub
 
 
-def _initial_sigma(a: AlignmentFile, bias_sigma: np.ndarray, p: np.ndarray) -> np.ndarray:
+def _initial_sigma(
+    attitude: np.ndarray,
+    velocity: np.ndarray,
+    position_enu: np.ndarray,
+    bias_sigma: np.ndarray,
+    p: np.ndarray,
+) -> np.ndarray:
+    """σ of the initial errors: attitude (rad), velocity (m/s), position E, N, U (m) as
+    ``δL, δλ, δh``, then the biases."""
     R = 6378137.0 + p[2]
+    pos = np.asarray(position_enu, float) * np.ones(3)
     nav = np.r_[
-        np.asarray(a.attitude_sigma_deg) * _DEG,
-        [a.velocity_sigma_mps] * 3,
-        [a.position_sigma_m / R, a.position_sigma_m / (R * math.cos(p[0]))],
-        [a.position_sigma_m],
+        np.asarray(attitude, float),
+        np.asarray(velocity, float) * np.ones(3),
+        [pos[1] / R, pos[0] / (R * math.cos(p[0]))],
+        [pos[2]],
     ]
     return np.maximum(np.r_[nav, bias_sigma], 1e-12)
+
+
+def _start(
+    f: RecordingFile,
+    log: ImuLog,
+    gnss: GnssLog,
+    nav: NavegoImu | None,
+    origin: str,
+) -> tuple[Alignment, np.ndarray]:
+    """The initial solution and the σ of its attitude (rad) (``[alignment]``)."""
+    a = f.alignment
+    if a.mode == "static":
+        if a.attitude_deg is not None:
+            raise ScenarioError(
+                "alignment.attitude_deg", "a setting of mode 'given', not 'static'", origin
+            )
+        try:
+            al = align(log, gnss, a.static_s, a.min_speed_mps)
+        except ValueError as exc:
+            path, _, reason = str(exc).partition(": ")
+            raise ScenarioError(path, reason, origin) from None
+        return al, np.asarray(a.attitude_sigma_deg) * _DEG
+    for key in ("static_s", "min_speed_mps"):
+        if key in a.model_fields_set:
+            raise ScenarioError(
+                f"alignment.{key}", "a setting of mode 'static', not 'given'", origin
+            )
+    if a.attitude_deg is not None:
+        euler = np.asarray(a.attitude_deg) * _DEG
+    elif nav is not None and nav.euler is not None:
+        euler = nav.euler
+    else:
+        raise ScenarioError(
+            "alignment.attitude_deg",
+            "mode 'given' needs the initial [pitch, roll, yaw] (or an IMU file with ini_align)",
+            origin,
+        )
+    if "attitude_sigma_deg" in a.model_fields_set or nav is None or nav.euler_sigma is None:
+        sigma = np.asarray(a.attitude_sigma_deg) * _DEG
+    else:
+        sigma = nav.euler_sigma
+    if np.any(sigma <= 0):
+        raise ScenarioError("alignment.attitude_sigma_deg", "every σ must be > 0", origin)
+    try:
+        al = given(log, gnss, euler)
+    except ValueError as exc:
+        path, _, reason = str(exc).partition(": ")
+        raise ScenarioError(path, reason, origin) from None
+    return al, sigma
 
 
 def _outage_mask(t: np.ndarray, outages: Sequence[tuple[float, float]]) -> np.ndarray:
@@ -313,7 +632,7 @@ def _aids(
     f: RecordingFile,
     base: Path,
     origin: str,
-    primary: tuple[int, GnssLog],
+    primary: tuple[int, GnssLog, dict[str, Any]],
     log: ImuLog,
     grid: tuple[float, float, int, int],
     faults: Sequence[Fault],
@@ -327,10 +646,14 @@ def _aids(
         name, field = a.name or a.type, f"aids[{i}]"
         params = {k: v for k, v in (a.model_extra or {}).items() if k not in _NOT_SENSOR}
         if a.type == "gnss":
-            g = primary[1] if i == primary[0] else _read_gnss(a, base, field, origin)
+            g, from_file = primary[1:] if i == primary[0] else _gnss_log(a, base, field, origin)
             sel = _select(g, np.isin(g.quality, a.quality))
             sensor = sensor_from_table(
-                "gnss", {**_GNSS_DEFAULTS, **params, "name": name}, field, origin, dt=dt
+                "gnss",
+                {**_GNSS_DEFAULTS, **from_file, **params, "name": name},
+                field,
+                origin,
+                dt=dt,
             )
             raw, labels = gnss_raw(sel, faults, name)
             raw[_outage_mask(sel.t, outages)] = np.nan
@@ -412,17 +735,14 @@ def load_recording(
     origin, base = str(source), Path(source).parent
     f = _keep_aids(_validated(source), aids)
     imu_err = imu_errors(f.imu.errors, "imu.errors", origin)
-    log, cleaning, partial = _read_imu(f.imu, base, origin)
+    log, cleaning, partial, nav = _read_imu(f.imu, base, origin)
     first = next((i for i, a in enumerate(f.aids) if a.type == "gnss"), None)
     if first is None:
         raise ScenarioError("aids", "a recording needs a gnss aid (its epochs are the filter's)")
-    gnss_all = _read_gnss(f.aids[first], base, f"aids[{first}]", origin)
+    gnss_all, gnss_defaults = _gnss_log(f.aids[first], base, f"aids[{first}]", origin)
     gnss = _select(gnss_all, np.isin(gnss_all.quality, f.aids[first].quality))
-    try:
-        al = align(log, gnss, f.alignment.static_s, f.alignment.min_speed_mps)
-    except ValueError as exc:
-        path, _, reason = str(exc).partition(": ")
-        raise ScenarioError(path, reason, origin) from None
+    al, attitude_sigma = _start(f, log, gnss, nav, origin)
+    raw_log = log
     log = log._replace(gyro=log.gyro - al.gyro_bias)
     dt, steps, spe, sub = _grid(gnss_all, log, al.t, f)
     t_origin = float(gnss_all.t.min())
@@ -438,9 +758,20 @@ def load_recording(
                 raise ScenarioError("--methods", f"no method {nm!r} (known: {', '.join(known)})")
         chosen = [m for m in chosen if m.name in methods]
     specs, streams, counts = _aids(
-        f, base, origin, (first, gnss_all), log, (al.t, dt, steps, sub), faults
+        f, base, origin, (first, gnss_all, gnss_defaults), log, (al.t, dt, steps, sub), faults
     )
     fm = filter_model(imu_err, f.filter.states)
+    a = f.alignment
+    if a.mode == "given":  # the first fix's own σ
+        g0 = specs[first].sensor
+        vel_sigma = np.hypot(g0.vel_white_sigma_m_s, g0.vel_markov_sigma_m_s)
+        pos_sigma = np.hypot(g0.pos_white_sigma_m, g0.pos_markov_sigma_m)
+    else:
+        vel_sigma, pos_sigma = np.array(0.1), np.array(0.1)
+    if a.velocity_sigma_mps is not None:
+        vel_sigma = np.array(a.velocity_sigma_mps)
+    if a.position_sigma_m is not None:
+        pos_sigma = np.array(a.position_sigma_m)
     rel = tuple(Fault(x.sensor, x.kind, x.start - al.t, x.end - al.t, x.magnitude) for x in faults)
     rec = Recording(
         name=f.name,
@@ -454,13 +785,24 @@ def load_recording(
         t_origin=t_origin,
         samples_per_epoch=spe,
         error_model=fm.params,
-        initial_sigma=_initial_sigma(f.alignment, fm.bias_sigma, al.p),
+        initial_sigma=_initial_sigma(attitude_sigma, vel_sigma, pos_sigma, fm.bias_sigma, al.p),
         aids=tuple(specs),
         correction=f.filter.correction,
     )
     rec = replace(rec, learned=resolve_methods(rec.methods, rec.system(), base, origin))
-    ref = _select(gnss_all, np.isin(gnss_all.quality, f.reference.quality))
-    place = on_grid(ref.t, al.t, dt, steps)
+    truth = None
+    if f.reference.source == "truth":
+        truth = _truth(f.reference, base, origin, raw_log, al, (dt, steps), nav)
+        ref_index, ref_p = truth.index, truth.p
+    else:
+        for key in ("file", "format"):
+            if key in f.reference.model_fields_set:
+                raise ScenarioError(
+                    f"reference.{key}", "a setting of source 'truth', not 'gnss'", origin
+                )
+        ref = _select(gnss_all, np.isin(gnss_all.quality, f.reference.quality))
+        place = on_grid(ref.t, al.t, dt, steps)
+        ref_index, ref_p = place.index, ref.p[place.kept]
     stream = recording_stream(log, al, dt, steps, spe, streams)
     runs = (
         [[(s - al.t, e - al.t) for s, e in g] for g in interleave(sched, outage[1])]
@@ -468,7 +810,8 @@ def load_recording(
         else [[]]
     )
     if outage is not None:
-        stream = with_outages(stream, first, rec.times, runs)
+        receivers = [i for i, a in enumerate(f.aids) if a.type == "gnss"]
+        stream = with_outages(stream, receivers, rec.times, runs)
     counts["imu"] = {
         "rows": cleaning.rows,
         "partial_lines_dropped": partial,
@@ -479,7 +822,50 @@ def load_recording(
     }
     counts["model_notes"] = list(fm.notes)
     outages_rel = tuple(tuple(g) for g in runs)
-    return LoadedRecording(rec, stream, place.index, ref.p[place.kept], al, counts, outages_rel)
+    return LoadedRecording(rec, stream, ref_index, ref_p, al, counts, outages_rel, truth)
+
+
+def _truth(
+    r: ReferenceFile,
+    base: Path,
+    origin: str,
+    log: ImuLog,
+    al: Alignment,
+    grid: tuple[float, int],
+    nav: NavegoImu | None,
+) -> Truth:
+    """The truth file at the filter epochs, and the IMU biases it reveals in ``log`` (the
+    log before the alignment removed anything; :mod:`ftnav.recorded.truth`)."""
+    if "quality" in r.model_fields_set:
+        raise ScenarioError("reference.quality", "a setting of source 'gnss', not 'truth'", origin)
+    if r.file is None:
+        raise ScenarioError("reference.file", "missing required key (source 'truth')", origin)
+    path = _data_path(r.file, base, "reference.file", origin)
+    tr = read_navego_truth(path, "reference.file")
+    dt, steps = grid
+    k = np.rint((tr.t - al.t) / dt).astype(np.int64)
+    on = (np.abs(tr.t - (al.t + k * dt)) <= 1e-6) & (k >= 1) & (k <= steps)
+    first = np.unique(k[on], return_index=True)[1]  # one truth sample per epoch
+    on[np.flatnonzero(on)[np.setdiff1d(np.arange(on.sum()), first)]] = False
+    if not on.any():
+        raise ScenarioError(
+            "reference.file", f"{path}: no truth sample at the filter epochs (every {dt:g} s)"
+        )
+    try:
+        gb, ab = imu_bias_against_truth(log, tr.t, tr.p, tr.v, tr.C)
+    except ValueError as exc:
+        raise ScenarioError("reference.file", f"{path}: {exc}", origin) from None
+    return Truth(
+        index=k[on] - 1,
+        p=tr.p[on],
+        v=tr.v[on],
+        C=tr.C[on],
+        gyro_bias=gb,
+        accel_bias=ab,
+        gyro_bias_nominal=None if nav is None else nav.gyro_bias_nominal,
+        accel_bias_nominal=None if nav is None else nav.accel_bias_nominal,
+        removed_gyro_bias=np.asarray(al.gyro_bias, float),
+    )
 
 
 def recording_json_schema() -> dict[str, Any]:

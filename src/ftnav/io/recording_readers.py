@@ -1,4 +1,4 @@
-"""Readers of recorded sensor files: IMU CSV and RTKLIB ``.pos`` solutions.
+"""Readers of recorded sensor files: IMU CSV, RTKLIB ``.pos`` solutions, NaveGo ``.mat``.
 
 Every problem is refused with one line ``<file>:<line>: <what>`` (a
 :class:`~ftnav.io.common.ScenarioError` whose path is the file and line), or handled
@@ -10,7 +10,19 @@ and counted:
 * IMU time stamps that go backwards are refused; repeated stamps and stale rows are
   dropped later and counted (:func:`ftnav.recorded.imu.clean`);
 * ``.pos`` epochs out of order or duplicated are sorted or dropped and counted
-  (:func:`ftnav.recorded.stream.on_grid`).
+  (:func:`ftnav.recorded.stream.on_grid`);
+* a NaveGo ``.mat`` struct (:func:`read_navego_imu`, :func:`read_navego_gnss`,
+  :func:`read_navego_truth`) missing a field, with a field of the wrong shape or with
+  a non-finite value is refused with one line ``<file>: field <name>: <what>``.
+
+NaveGo's frames (R. Gonzalez et al., "NaveGo", JCEAI 17(2), 2015): body x forward,
+y right, z down; navigation NED; attitude roll, pitch, yaw (ZYX).  ftnav's
+(``docs/conventions.md``): body x right, y forward, z up; navigation ENU; Euler
+``[θ pitch, γ roll, ψ yaw]`` with ``C_b^n = R_z(ψ) R_x(θ) R_y(γ)`` and ψ
+counter-clockwise.  Both swaps are the one symmetric matrix :data:`FRD_TO_RFU`
+(``[y, x, −z]``), so ``C_b^n(ftnav) = M C_b^n(NaveGo) M``: pitch and roll keep their
+values and ψ = −yaw (checked against the reference's DCM in
+``tests/reference/test_recorded_navego.py``).
 """
 
 from __future__ import annotations
@@ -18,13 +30,29 @@ from __future__ import annotations
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
+from scipy.io import loadmat
+from scipy.io.matlab import MatReadError
 
 from ftnav.io.common import ScenarioError
+from ftnav.nav.attitude import euler_to_dcm
+from ftnav.nav.earth import radii
 
-__all__ = ["Table", "read_csv", "read_rtklib_pos", "PosFile"]
+__all__ = [
+    "FRD_TO_RFU",
+    "NavegoGnss",
+    "NavegoImu",
+    "NavegoTruth",
+    "PosFile",
+    "Table",
+    "read_csv",
+    "read_navego_gnss",
+    "read_navego_imu",
+    "read_navego_truth",
+    "read_rtklib_pos",
+]
 
 
 class Table(NamedTuple):
@@ -187,3 +215,207 @@ def read_rtklib_pos(path: Path, what: str = "gnss") -> PosFile:
         v,
         np.array([n for n, _ in data]),
     )
+
+
+# --- NaveGo .mat (module docstring) -------------------------------------------------
+
+#: body FRD → RFU and navigation NED → ENU (both ``[y, x, −z]``; symmetric, its own inverse)
+FRD_TO_RFU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+
+
+def _mat_struct(path: Path, what: str) -> tuple[Any, str]:
+    """The one struct of a MATLAB v5 file (``scipy.io.loadmat``) and its variable name."""
+    try:
+        data = loadmat(path, squeeze_me=True, struct_as_record=False)
+    except FileNotFoundError:
+        raise ScenarioError(str(path), f"{what}: file not found") from None
+    except (OSError, ValueError, MatReadError) as exc:
+        reason = " ".join(str(exc).split())[:120]
+        raise ScenarioError(str(path), f"{what}: not a MATLAB .mat file ({reason})") from None
+    names = [k for k in data if not k.startswith("__")]
+    structs = [k for k in names if hasattr(data[k], "_fieldnames")]
+    if len(structs) != 1:
+        raise ScenarioError(
+            str(path),
+            f"{what}: expected one struct (NaveGo layout), found {len(structs)} "
+            f"(variables: {', '.join(names) or 'none'})",
+        )
+    return data[structs[0]], structs[0]
+
+
+def _mat_field(
+    s: Any, path: Path, name: str, shape: tuple[int | None, ...], required: bool = True
+) -> np.ndarray | None:
+    """Field ``name`` of a struct as float, of ``shape`` (None: any length); checked."""
+    if name not in s._fieldnames:
+        if not required:
+            return None
+        raise ScenarioError(str(path), f"field {name}: missing")
+    try:
+        a = np.asarray(getattr(s, name), dtype=float)
+    except (TypeError, ValueError):
+        raise ScenarioError(str(path), f"field {name}: not numeric") from None
+    if a.ndim != len(shape) or any(
+        want is not None and got != want for got, want in zip(a.shape, shape, strict=True)
+    ):
+        dims = " x ".join("N" if d is None else str(d) for d in shape) or "a scalar"
+        got = " x ".join(str(d) for d in a.shape) or "a scalar"
+        raise ScenarioError(str(path), f"field {name}: shape {got}, expected {dims}")
+    if not np.isfinite(a).all():
+        raise ScenarioError(str(path), f"field {name}: not finite (NaN or inf)")
+    return a
+
+
+def _same_length(path: Path, n: int, **arrays: np.ndarray) -> None:
+    for name, a in arrays.items():
+        if a.shape[0] != n:
+            raise ScenarioError(
+                str(path), f"field {name}: {a.shape[0]} rows, expected {n} (as many as t)"
+            )
+
+
+def _times(s: Any, path: Path) -> np.ndarray:
+    t = _mat_field(s, path, "t", (None,))
+    assert t is not None
+    if t.size < 2:
+        raise ScenarioError(str(path), f"field t: {t.size} sample(s)")
+    return t
+
+
+def _euler_from_navego(rpy: np.ndarray) -> np.ndarray:
+    """ftnav ``[θ, γ, ψ]`` from NaveGo's ``[roll, pitch, yaw]`` (module docstring)."""
+    rpy = np.asarray(rpy, float)
+    return np.stack([rpy[..., 1], rpy[..., 0], -rpy[..., 2]], -1)
+
+
+class NavegoImu(NamedTuple):
+    """A NaveGo IMU struct in ftnav's frames.
+
+    Attributes
+    ----------
+    t : (N,) s.  gyro : (N, 3) rad/s, accel : (N, 3) m/s², body x right, y forward, z up.
+    euler : (3,) ``[θ, γ, ψ]`` rad of ``ini_align`` (the true initial attitude), or None.
+    euler_sigma : (3,) σ pitch, roll, yaw (rad) of ``ini_align_err``, or None.
+    gyro_bias_nominal, accel_bias_nominal : (3,) ``gb_sta``, ``ab_sta`` in ftnav's body
+        axes (the z axis changes sign), or None.
+    """
+
+    t: np.ndarray
+    gyro: np.ndarray
+    accel: np.ndarray
+    euler: np.ndarray | None
+    euler_sigma: np.ndarray | None
+    gyro_bias_nominal: np.ndarray | None
+    accel_bias_nominal: np.ndarray | None
+
+
+def read_navego_imu(path: Path, what: str = "imu") -> NavegoImu:
+    """A NaveGo IMU struct (``imu1.mat``): ``t``, ``fb``, ``wb`` and the optional
+    ``ini_align``, ``ini_align_err``, ``gb_sta``, ``ab_sta`` (module docstring)."""
+    s, _ = _mat_struct(path, what)
+    t = _times(s, path)
+    fb = _mat_field(s, path, "fb", (None, 3))
+    wb = _mat_field(s, path, "wb", (None, 3))
+    assert fb is not None and wb is not None
+    _same_length(path, t.size, fb=fb, wb=wb)
+    ini = _mat_field(s, path, "ini_align", (3,), required=False)
+    ini_err = _mat_field(s, path, "ini_align_err", (3,), required=False)
+    if ini_err is not None and np.any(ini_err <= 0):
+        raise ScenarioError(str(path), "field ini_align_err: every σ must be > 0")
+    nominal = [_mat_field(s, path, k, (3,), required=False) for k in ("gb_sta", "ab_sta")]
+    M = FRD_TO_RFU
+    return NavegoImu(
+        t,
+        wb @ M,
+        fb @ M,
+        None if ini is None else _euler_from_navego(ini),
+        None if ini_err is None else ini_err[[1, 0, 2]],
+        *(None if b is None else b @ M for b in nominal),
+    )
+
+
+class NavegoGnss(NamedTuple):
+    """A NaveGo GNSS struct in ftnav's frames.
+
+    Attributes
+    ----------
+    t : (K,) s.  p : (K, 3) ``[L, λ, h]`` rad, rad, m.  v : (K, 3) ENU m/s (NaN: none).
+    sigma_p : (3,) E, N, U position σ (m) from ``std`` (lat/lon rad, h m), or None.
+    sigma_v : (3,) E, N, U velocity σ (m/s) from ``stdv``, or None.
+    """
+
+    t: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    sigma_p: np.ndarray | None
+    sigma_v: np.ndarray | None
+
+
+def read_navego_gnss(path: Path, what: str = "gnss") -> NavegoGnss:
+    """A NaveGo GNSS struct (``gnss.mat``): ``t``, ``lat``, ``lon`` (rad), ``h`` (m), the
+    optional ``vel`` (N, 3) NED m/s, ``std`` and ``stdv`` (module docstring)."""
+    s, _ = _mat_struct(path, what)
+    t = _times(s, path)
+    cols = {k: _mat_field(s, path, k, (None,)) for k in ("lat", "lon", "h")}
+    _same_length(path, t.size, **cols)  # type: ignore[arg-type]
+    p = np.stack([cols["lat"], cols["lon"], cols["h"]], -1)
+    vel = _mat_field(s, path, "vel", (None, 3), required=False)
+    if vel is None:
+        v = np.full((t.size, 3), np.nan)
+    else:
+        _same_length(path, t.size, vel=vel)
+        v = vel @ FRD_TO_RFU
+    std = _mat_field(s, path, "std", (3,), required=False)
+    stdv = _mat_field(s, path, "stdv", (3,), required=False)
+    sigma_p = sigma_v = None
+    for name, a in (("std", std), ("stdv", stdv)):
+        if a is not None and np.any(a <= 0):
+            raise ScenarioError(str(path), f"field {name}: every σ must be > 0")
+    if std is not None:
+        RM, RN = radii(float(np.mean(p[:, 0])), float(np.mean(p[:, 2])))
+        sigma_p = np.array([std[1] * RN * np.cos(np.mean(p[:, 0])), std[0] * RM, std[2]])
+    if stdv is not None:
+        sigma_v = stdv[[1, 0, 2]]
+    return NavegoGnss(t, p, v, sigma_p, sigma_v)
+
+
+class NavegoTruth(NamedTuple):
+    """A NaveGo reference struct in ftnav's frames.
+
+    Attributes
+    ----------
+    t : (N,) s.  p : (N, 3) ``[L, λ, h]``.  v : (N, 3) ENU m/s.
+    C : (N, 3, 3) ``C_b^n`` (body x right, y forward, z up; ENU).
+    """
+
+    t: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    C: np.ndarray
+
+
+def read_navego_truth(path: Path, what: str = "reference") -> NavegoTruth:
+    """A NaveGo reference struct (``ref.mat``): ``t``, ``lat``, ``lon``, ``h``, ``vel``
+    NED, and the attitude as ``DCMnb_m`` (N, 9) (each row ``C_n^b`` flattened column-major)
+    or, without it, ``roll``, ``pitch``, ``yaw`` (module docstring)."""
+    s, _ = _mat_struct(path, what)
+    t = _times(s, path)
+    cols = {k: _mat_field(s, path, k, (None,)) for k in ("lat", "lon", "h")}
+    vel = _mat_field(s, path, "vel", (None, 3))
+    assert vel is not None
+    _same_length(path, t.size, vel=vel, **cols)  # type: ignore[arg-type]
+    dcm = _mat_field(s, path, "DCMnb_m", (None, 9), required="roll" not in s._fieldnames)
+    M = FRD_TO_RFU
+    if dcm is not None:
+        _same_length(path, t.size, DCMnb_m=dcm)
+        C_nb = dcm.reshape(-1, 3, 3).transpose(0, 2, 1)  # column-major rows
+        C = M @ C_nb.transpose(0, 2, 1) @ M
+        err = np.abs(C @ C.transpose(0, 2, 1) - np.eye(3)).max()
+        if err > 1e-6:
+            raise ScenarioError(str(path), f"field DCMnb_m: not a rotation (|C Cᵀ − I| {err:.2g})")
+    else:
+        rpy = {k: _mat_field(s, path, k, (None,)) for k in ("roll", "pitch", "yaw")}
+        _same_length(path, t.size, **rpy)  # type: ignore[arg-type]
+        C = euler_to_dcm(_euler_from_navego(np.stack([rpy["roll"], rpy["pitch"], rpy["yaw"]], -1)))
+    p = np.stack([cols["lat"], cols["lon"], cols["h"]], -1)
+    return NavegoTruth(t, p, vel @ M, C)

@@ -15,6 +15,11 @@ Initialization (:func:`align`, spec §8.5's error states start from it):
 * heading from the GNSS course at the first fix, after the static window, whose
   horizontal speed reaches ``min_speed``: ``ψ = atan2(−v_E, v_N)`` (the forward axis
   along the track); position and velocity from that fix; the filter starts there.
+
+A vehicle moving from the first sample has no static window: :func:`given` starts
+from a given attitude (NaveGo's own initialization: the data set's true initial
+attitude ``ini_align`` with its σ ``ini_align_err``), position and velocity from the
+first GNSS fix within the IMU log, and removes no gyro bias.
 """
 
 from __future__ import annotations
@@ -38,12 +43,14 @@ __all__ = [
     "GnssLog",
     "GridPlacement",
     "align",
+    "given",
     "level",
     "on_grid",
     "outage_schedule",
     "gnss_raw",
     "interleave",
     "recording_stream",
+    "retime_velocity",
     "with_outages",
 ]
 
@@ -119,6 +126,35 @@ def align(imu: ImuLog, gnss: GnssLog, static_s: float, min_speed: float) -> Alig
     )
 
 
+def given(imu: ImuLog, gnss: GnssLog, euler: np.ndarray) -> Alignment:
+    """The initial solution of a vehicle moving from the start (module docstring):
+    attitude ``euler`` ``[θ, γ, ψ]`` rad, position and velocity from the first GNSS fix
+    at or after the first IMU sample; no gyro bias removed, no static window.
+
+    Raises
+    ------
+    ValueError : ``"alignment.mode: ..."`` when no GNSS fix lies within the IMU log.
+    """
+    within = np.flatnonzero((gnss.t >= imu.t[0]) & (gnss.t < imu.t[-1]))
+    if within.size == 0:
+        raise ValueError("alignment.mode: no GNSS fix within the IMU log to start from")
+    k = int(within[np.argmin(gnss.t[within])])
+    v = gnss.v[k].copy()
+    if not np.isfinite(v).all():
+        raise ValueError(
+            f"alignment.mode: the first GNSS fix (t = {gnss.t[k]:.3f} s) has no velocity "
+            "to start from"
+        )
+    return Alignment(
+        float(gnss.t[k]),
+        np.asarray(euler, float).copy(),
+        gnss.p[k].copy(),
+        v,
+        np.zeros(3),
+        (0, float("nan")),
+    )
+
+
 class GridPlacement(NamedTuple):
     """Epochs of an aid placed on the filter grid: index per kept epoch, and counts."""
 
@@ -184,29 +220,54 @@ def interleave(
 
 
 def with_outages(
-    stream: InsStream, aid: int, times: np.ndarray, runs: Sequence[Sequence[tuple[float, float]]]
+    stream: InsStream,
+    aid: int | Sequence[int],
+    times: np.ndarray,
+    runs: Sequence[Sequence[tuple[float, float]]],
 ) -> InsStream:
-    """The one-run ``stream`` as a batch of ``len(runs)`` runs, aid ``aid`` removed over each
-    run's outage windows ``[s, e)`` (times of the epochs ``times``)."""
+    """The one-run ``stream`` as a batch of ``len(runs)`` runs, the aid(s) ``aid`` (every
+    aid of one receiver: its position and its velocity aid) removed over each run's outage
+    windows ``[s, e)`` (times of the epochs ``times``)."""
     G = len(runs)
+    removed = {aid} if isinstance(aid, int) else set(aid)
 
     def tile(a: np.ndarray) -> np.ndarray:
         return np.repeat(a, G, axis=0)
 
-    a = stream.aids[aid]
-    raw, ok = tile(a.raw), tile(a.available)
-    for g, windows in enumerate(runs):
-        for s0, e0 in windows:
-            w = (times >= s0) & (times < e0)
-            raw[g, w] = np.nan
-            ok[g, w] = False
+    def cut(x: AidStream) -> AidStream:
+        raw, ok = tile(x.raw), tile(x.available)
+        for g, windows in enumerate(runs):
+            for s0, e0 in windows:
+                w = (times >= s0) & (times < e0)
+                raw[g, w] = np.nan
+                ok[g, w] = False
+        return AidStream(x.t, raw, ok)
+
     aids = tuple(
-        AidStream(x.t, raw, ok) if i == aid else AidStream(x.t, tile(x.raw), tile(x.available))
+        cut(x) if i in removed else AidStream(x.t, tile(x.raw), tile(x.available))
         for i, x in enumerate(stream.aids)
     )
     imu = stream.imu._replace(dtheta=tile(stream.imu.dtheta), dv=tile(stream.imu.dv))
     start = InsState(*(tile(x) for x in stream.start))
     return InsStream(imu, aids, start, stream.labels)
+
+
+def retime_velocity(log: GnssLog, offset: float) -> GnssLog:
+    """The receiver's velocities moved onto its position stamps.
+
+    A velocity stamped ``t`` describes the motion at ``t + offset`` (RTKLIB's Doppler
+    velocities lag its positions: ``offset < 0``); the velocity at each position stamp
+    ``t`` is the linear interpolation of the velocities at ``t − offset`` (held at the
+    ends).  ``offset = 0`` returns the log unchanged.
+    """
+    if offset == 0.0 or log.t.size < 2:
+        return log
+    order = np.argsort(log.t, kind="stable")
+    t = log.t[order]
+    v = np.empty_like(log.v)
+    for j in range(3):
+        v[order, j] = np.interp(t - offset, t, log.v[order, j])
+    return log._replace(v=v)
 
 
 def gnss_raw(gnss: GnssLog, faults: Sequence[Fault], name: str) -> tuple[np.ndarray, np.ndarray]:

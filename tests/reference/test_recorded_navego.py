@@ -1,0 +1,140 @@
+"""Third-party synthetic data with an exact truth: NaveGo's ADIS16405 and ADIS16488 sets.
+
+Oracles: the data set's 200 Hz truth (position, velocity, attitude) and its README's
+error model (white noise, static bias nominal ± 10 %, Gauss-Markov bias of 100 s): the
+known biases are derived from the data independently of any filter (the IMU minus the
+error-free IMU computed from the truth, :mod:`ftnav.recorded.truth`); the filter's NEES
+against its own covariance (χ²(9) band); pyins 1.0's anchor on ADIS16488 from the issue
+(horizontal RMSE 0.56 m, velocity ≈ 0.015 m/s, heading 0.24°) as a sanity scale.
+The data are read from ``$FTNAV_NAVEGO_DIR`` or ``<repo>/../shared/data/navego_synthetic``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.io as sio
+
+from ftnav.engine import navigation_model
+from ftnav.engine.driver import run
+from ftnav.eval.montecarlo import build_filters
+from ftnav.eval.recorded import Reference, score_recording
+from ftnav.io.recording_file import load_recording
+from ftnav.io.recording_readers import read_navego_imu, read_navego_truth
+from ftnav.nav.attitude import euler_to_dcm
+from ftnav.recorded.truth import ideal_imu
+from ftnav.recordings import navego_dir, recording_path
+
+DATA = navego_dir()
+pytestmark = pytest.mark.skipif(
+    not all((DATA / f).is_file() for f in ("imu1.mat", "imu2.mat", "gnss.mat", "ref.mat")),
+    reason=f"NaveGo data absent: put imu1.mat, imu2.mat, gnss.mat, ref.mat in {DATA} "
+    "(or set FTNAV_NAVEGO_DIR)",
+)
+
+
+def _process(name):
+    loaded = load_recording(recording_path(name), methods=["ckf"])
+    rec = loaded.recording
+    traces = run(
+        navigation_model(rec),
+        loaded.stream,
+        build_filters(rec, rec.system(), rec.methods),
+        rec.steps,
+        nav_covariance=True,
+    )
+    ref = Reference(loaded.reference_index, loaded.reference_p)
+    scores = score_recording(rec, traces, ref, loaded.outages, truth=loaded.truth)
+    return loaded, scores["ckf"]
+
+
+@pytest.fixture(scope="module")
+def adis16488():
+    return _process("navego-adis16488")
+
+
+@pytest.fixture(scope="module")
+def adis16405():
+    return _process("navego-adis16405")
+
+
+def test_the_reference_dcm_is_the_frame_converted_roll_pitch_yaw():
+    ref = sio.loadmat(DATA / "ref.mat", squeeze_me=True, struct_as_record=False)["ref"]
+    tr = read_navego_truth(DATA / "ref.mat")
+    k = np.arange(0, ref.t.size, 97)
+    # ftnav [pitch, roll, yaw ccw] from NaveGo's roll, pitch, yaw (NED, clockwise yaw)
+    C = euler_to_dcm(np.stack([ref.pitch[k], ref.roll[k], -ref.yaw[k]], -1))
+    assert np.abs(C - tr.C[k]).max() < 1e-9
+    # level at the start, heading 15 deg west of north: the body's forward axis (y) in ENU
+    assert np.allclose(tr.C[0] @ [0, 1, 0], [-np.sin(np.radians(15)), np.cos(np.radians(15)), 0])
+
+
+def test_the_imu_matches_the_error_free_imu_from_the_truth_up_to_its_noise():
+    tr = read_navego_truth(DATA / "ref.mat")
+    w, f = ideal_imu(tr.t[:2001], tr.p[:2001], tr.v[:2001], tr.C[:2001])
+    imu = read_navego_imu(DATA / "imu2.mat")
+    m = sio.loadmat(DATA / "imu2.mat", squeeze_me=True, struct_as_record=False)["imu2"]
+    dg, da = imu.gyro[1:2001] - w, imu.accel[1:2001] - f
+    # the static bias: positive on NaveGo's every axis, so [+, +, -] in ftnav's (z up)
+    assert np.all(np.sign(dg.mean(0)) == [1, 1, -1]) and np.all(np.sign(da.mean(0)) == [1, 1, -1])
+    assert np.all(np.abs(np.abs(dg.mean(0)) / m.gb_sta - 1) < 0.15)
+    assert np.all(np.abs(np.abs(da.mean(0)) / m.ab_sta - 1) < 0.15)
+    # what is left is the noise and, on the accelerometers, the generator's approximation
+    # at the 4 m/s² start (README); a wrong axis would leave the motion (m/s², deg/s)
+    assert np.all(dg.std(0) < 2.0 * m.g_std) and np.all(da.std(0) < 10.0 * m.a_std)
+    assert np.all(da.std(0) < 0.05 * f.std(0).max())
+
+
+def test_adis16488_biases_within_20_percent_of_the_truth(adis16488):
+    _, s = adis16488
+    b = s["truth"]["biases"]
+    for key in ("gyro", "accel"):
+        err = np.abs(b[key]["error_percent_of_truth"])
+        assert np.all(err < 20.0), (key, err)
+
+
+def test_adis16488_errors_against_the_truth_on_pyins_scale(adis16488):
+    _, s = adis16488
+    r = s["truth"]["rmse"]
+    assert s["truth"]["epochs"] > 4000 and s["nan_epochs"] == 0
+    assert 0.1 < r["horizontal_m"] < 1.0  # pyins 0.56 m; GNSS σ 5 m
+    assert max(r["velocity_enu_mps"]) < 0.03  # pyins ≈ 0.015 m/s
+    assert r["heading_deg"] < 1.0 and r["roll_deg"] < 0.2 and r["pitch_deg"] < 0.2
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured: NEES inside the 95 % chi2(9) band for 73 % of the epochs after 60 s "
+    "(mean 14.5, 27 % above); the filter holds the README's error model, but the data's "
+    "IMU departs from it: against the error-free IMU from the truth its forward "
+    "accelerometer has 10 s means up to 0.43 mg (the model: Gauss-Markov 0.1 mg) that "
+    "follow the vertical specific force (the generator's smoothed differences); with an "
+    "IMU simulated exactly to the README's model on the same truth and GNSS the same "
+    "filter gives 86-88 %",
+)
+def test_adis16488_nees_inside_its_chi2_band_after_convergence(adis16488):
+    _, s = adis16488
+    assert s["truth"]["nees"]["fraction_inside"] >= 0.80
+
+
+def test_adis16405_biases_and_nees(adis16405):
+    _, s = adis16405
+    b = s["truth"]["biases"]
+    for key in ("gyro", "accel"):
+        assert np.all(np.abs(b[key]["error_percent_of_truth"]) < 20.0), key
+        assert np.all(np.abs(np.array(b[key]["truth_" + ("dps" if key == "gyro" else "mg")])))
+    assert s["truth"]["nees"]["fraction_inside"] >= 0.80
+    assert s["truth"]["rmse"]["horizontal_m"] < 1.5
+
+
+def test_a_missing_data_file_says_where_to_put_it(tmp_path, monkeypatch):
+    from ftnav.io.common import ScenarioError
+
+    monkeypatch.setenv("FTNAV_NAVEGO_DIR", str(tmp_path / "nowhere"))
+    with pytest.raises(ScenarioError) as exc:
+        load_recording(recording_path("navego-adis16488"))
+    msg = str(exc.value)
+    assert "FTNAV_NAVEGO_DIR" in msg and str(tmp_path / "nowhere") in msg and "\n" not in msg
+    assert Path(recording_path("navego-adis16488")).is_file()
