@@ -80,3 +80,21 @@ def test_detector_thresholds_network_outputs_per_output():
     np.testing.assert_array_equal(out2.raw, y > 0.5)
     with pytest.raises(ValueError, match="^model: trained for 2 local filters"):
         det.init(4, 3)
+
+
+def test_whitened_innovation_with_one_h_per_run_is_each_runs_own():
+    """A linearized (integrated) system has H (B, m, n): each run is whitened with its own."""
+    rng = np.random.default_rng(5)
+    B, n, m = 3, 4, 2
+    x = rng.standard_normal((B, n))
+    A = rng.standard_normal((B, n, n))
+    P = A @ np.swapaxes(A, 1, 2) + np.eye(n)
+    H = rng.standard_normal((B, m, n))
+    R = np.diag([0.5, 2.0])
+    z = rng.standard_normal((B, m))
+    use = np.array([True, False, True])
+    w = whitened_innovation(x, P, z, use, H, R)
+    for b in range(B):
+        one = whitened_innovation(x[b : b + 1], P[b : b + 1], z[b : b + 1], use[b : b + 1], H[b], R)
+        np.testing.assert_allclose(w[b], one[0], rtol=1e-12, atol=1e-15)
+    assert np.all(w[1] == 0.0)

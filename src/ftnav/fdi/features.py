@@ -54,14 +54,14 @@ def whitened_innovation(
     Parameters
     ----------
     x, P : (B, n), (B, n, n) prior.   z : (B, m).   use : (B,) bool.
-    H : (m, n).   R : (m, m) or (B, m, m).
+    H : (m, n), or (B, m, n) on a linearized (integrated) system.   R : (m, m) or (B, m, m).
 
     Returns
     -------
     (B, m) whitened innovation; its squared norm is the NIS of spec §3.1.
     """
-    nu = np.where(use[:, None], z, 0.0) - np.einsum("ij,bj->bi", H, x)
-    A = H @ P @ H.T + R
+    nu = np.where(use[:, None], z, 0.0) - np.einsum("...ij,...j->...i", H, x)
+    A = H @ P @ np.swapaxes(H, -1, -2) + R
     L = np.linalg.cholesky(0.5 * (A + np.swapaxes(A, -1, -2)))
     w = np.linalg.solve(L, nu[..., None])[..., 0]
     return np.where(use[:, None], w, 0.0)

@@ -153,9 +153,13 @@ def load_neuron_model(path: str | Path, compat: Mapping[str, Any] | None = None)
 
 
 # --------------------------------------------------------------------------- a method
-def _named(e: ModelFileError, field: str) -> ModelFileError:
-    """The error of a model file named by the scenario field that names it, and its path."""
-    return ModelFileError(e.path, f"{e.reason} ({str(e.path)!r})", field=field)
+def _named(e: ModelFileError, field: str, method: str) -> ModelFileError:
+    """The error of a model file named by the scenario field that names it, the method
+    (its name: a recording run with ``--methods`` numbers the chosen methods only) and
+    the file's path."""
+    return ModelFileError(
+        e.path, f"{e.reason} (method {method!r}, file {str(e.path)!r})", field=field
+    )
 
 
 def learned_for(
@@ -178,7 +182,7 @@ def learned_for(
         try:
             return Learned(detector=load_rbf_model(path(method.detector.model), compat))
         except ModelFileError as e:
-            raise _named(e, field) from None
+            raise _named(e, field, method.name) from None
     if method.architecture == "neural":  # type: ignore[attr-defined]
         field = f"methods[{index}].model"
         if method.model is None:  # type: ignore[attr-defined]
@@ -190,5 +194,5 @@ def learned_for(
         try:
             return Learned(fusion=load_neuron_model(path(method.model), compat))  # type: ignore[attr-defined]
         except ModelFileError as e:
-            raise _named(e, field) from None
+            raise _named(e, field, method.name) from None
     return NOTHING_LEARNED
