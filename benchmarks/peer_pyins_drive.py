@@ -106,7 +106,7 @@ def _load_pos() -> pd.DataFrame:
     return pos
 
 
-def _load_imu(t0_unix: float) -> pd.DataFrame:
+def _load_imu(t0_unix: float, imu_t_off_s: float = IMU_T_OFF_S) -> pd.DataFrame:
     from pyins import transform
     from pyins.util import ACCEL_COLS, GYRO_COLS
 
@@ -115,7 +115,7 @@ def _load_imu(t0_unix: float) -> pd.DataFrame:
         values = raw.iloc[:, 1:7].to_numpy()
         stale = np.r_[False, np.all(values[1:] == values[:-1], axis=1)]
         raw = raw[~stale]
-    t = (raw["t_gpst_unix_s"].to_numpy() - t0_unix + IMU_T_OFF_S).round(6)
+    t = (raw["t_gpst_unix_s"].to_numpy() - t0_unix + imu_t_off_s).round(6)
     acc = raw[["acc_x_g", "acc_y_g", "acc_z_g"]].to_numpy() * G0
     gyro = np.deg2rad(raw[["gyro_x_dps", "gyro_y_dps", "gyro_z_dps"]].to_numpy())
     mat_sb = transform.mat_from_rph(MOUNT_RPY_DEG)
@@ -206,19 +206,34 @@ def run_pyins(
     outage_every_s: float = 60.0,
     outage_start_s: float = 40.0,
     nhc: bool = False,
+    *,
+    imu_t_off_s: float = IMU_T_OFF_S,
+    velocity_time_offset_s: float = 0.0,
+    outages: list[tuple[float, float]] | None = None,
 ) -> dict:
-    """Process the drive with pyins; see the module docstring for what is reported."""
+    """Process the drive with pyins; see the module docstring for what is reported.
+
+    ``imu_t_off_s`` is added to the IMU stamps; ``velocity_time_offset_s`` (< 0: the
+    RTKLIB velocities lag the positions) moves each velocity onto the position stamps by
+    linear interpolation at ``t − offset``, as ftnav's recording option of that name;
+    ``outages`` (s after the first GNSS epoch) replaces the regular schedule (ftnav's
+    interleaved schedules of long outages are run one list at a time).
+    """
     from pyins import filters, inertial_sensor, measurements, strapdown, transform
     from pyins.util import LLA_COLS, RPH_COLS, VEL_COLS
 
     wall0 = time.perf_counter()
     pos = _load_pos()
-    imu = _load_imu(float(pos["t0_unix"].iloc[0]))
+    imu = _load_imu(float(pos["t0_unix"].iloc[0]), imu_t_off_s)
+    if velocity_time_offset_s:
+        for c in ("vn", "ve", "vu"):
+            pos[c] = np.interp(pos["t"] - velocity_time_offset_s, pos["t"], pos[c])
     fixes = pos[pos["Q"] == 1].copy()
     fixes["VN"], fixes["VE"], fixes["VD"] = fixes["vn"], fixes["ve"], -fixes["vu"]
     fixes = fixes.set_index("t", drop=False)
     t_last = float(pos["t"].iloc[-1])
-    outages = _schedule(outage_length_s, outage_every_s, outage_start_s, t_last)
+    if outages is None:
+        outages = _schedule(outage_length_s, outage_every_s, outage_start_s, t_last)
 
     # static levelling
     f_static = imu.loc[imu.index < STATIC_S, ["accel_x", "accel_y", "accel_z"]].mean()

@@ -12,10 +12,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ftnav.model.streams import AidStream, ImuStream, InsStream
 from ftnav.nav import attitude
 from ftnav.nav.mechanization import InsState
 from ftnav.recorded.imu import ImuLog, clean, increments, stationary
-from ftnav.recorded.stream import interleave, level, on_grid, outage_schedule
+from ftnav.recorded.stream import (
+    GnssLog,
+    interleave,
+    level,
+    on_grid,
+    outage_schedule,
+    retime_velocity,
+    with_outages,
+)
 from ftnav.sensors.gnss import Gnss
 from ftnav.sensors.vehicle import Nhc, Zupt
 
@@ -116,3 +125,37 @@ def test_jacobians_equal_finite_differences(sensor):
         zd = sensor.measure(dn.q, dn.v, dn.p, raw).z
         fd = (zu - zd) / (2 * steps[j])
         np.testing.assert_allclose(base.H[:, :, j], fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
+
+
+def test_retime_velocity_moves_a_lagging_velocity_onto_the_position_stamps():
+    """A receiver whose velocity lags by 0.125 s on a constant acceleration of 2 m/s²:
+    ``v_stamped(t) = a (t − 0.125)``; re-timed, ``v(t) = a t`` exactly (linear in t)
+    inside the log, held at its last epoch at the end."""
+    t = 100.0 + 0.25 * np.arange(12)
+    v = np.zeros((12, 3))
+    v[:, 1] = 2.0 * (t - 100.0 - 0.125)
+    log = GnssLog(t=t, p=np.zeros((12, 3)), v=v, quality=np.ones(12, int))
+    out = retime_velocity(log, -0.125)
+    np.testing.assert_allclose(out.v[:-1, 1], 2.0 * (t[:-1] - 100.0), atol=1e-12)
+    assert out.v[-1, 1] == v[-1, 1]
+    assert retime_velocity(log, 0.0) is log
+    shuffled = GnssLog(t=t[::-1], p=log.p, v=v[::-1], quality=log.quality)
+    np.testing.assert_allclose(retime_velocity(shuffled, -0.125).v[::-1], out.v)
+
+
+def test_an_outage_removes_every_aid_of_the_receiver():
+    K = 8
+    times = 0.5 * np.arange(1, K + 1)
+    aid = AidStream(times, np.ones((1, K, 3)), np.ones((1, K), bool))
+    imu = ImuStream(0.0, 0.1, np.arange(1, 41) * 0.1, np.zeros((1, 40, 3)), np.zeros((1, 40, 3)))
+    start = InsState(
+        np.array([[1.0, 0, 0, 0]]), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3))
+    )
+    stream = InsStream(imu, (aid, aid, aid), start, np.zeros((K, 3), bool))
+    out = with_outages(stream, [0, 1], times, [[(1.0, 2.0)], [(3.0, 3.5)]])
+    gone = [(times >= 1.0) & (times < 2.0), (times >= 3.0) & (times < 3.5)]
+    for i in (0, 1):
+        for g in (0, 1):
+            assert np.array_equal(out.aids[i].available[g], ~gone[g])
+            assert np.isnan(out.aids[i].raw[g, gone[g]]).all()
+    assert out.aids[2].available.all() and out.imu.dtheta.shape[0] == 2
