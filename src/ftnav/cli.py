@@ -711,11 +711,16 @@ def _cmd_process(args) -> int:
     t0 = time.perf_counter()
     with _bar(total, args.quiet, f"process {rec.name}", delay=2.0) as bar:
         traces = run(
-            navigation_model(rec), loaded.stream, filters, rec.steps, lambda n: bar.update(n * runs)
+            navigation_model(rec),
+            loaded.stream,
+            filters,
+            rec.steps,
+            lambda n: bar.update(n * runs),
+            nav_covariance=loaded.truth is not None,  # NEES against a full truth
         )
     elapsed = time.perf_counter() - t0
     ref = Reference(loaded.reference_index, loaded.reference_p)
-    scores = score_recording(rec, traces, ref, loaded.outages)
+    scores = score_recording(rec, traces, ref, loaded.outages, truth=loaded.truth)
     times = rec.t_start + rec.times
     with _staged(out, folder=True) as stage:
         tables = {nm: solution_table(tr, times) for nm, tr in traces.items()}

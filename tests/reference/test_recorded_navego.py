@@ -138,3 +138,19 @@ def test_a_missing_data_file_says_where_to_put_it(tmp_path, monkeypatch):
     msg = str(exc.value)
     assert "FTNAV_NAVEGO_DIR" in msg and str(tmp_path / "nowhere") in msg and "\n" not in msg
     assert Path(recording_path("navego-adis16488")).is_file()
+
+
+def test_ftnav_process_writes_the_truth_scores(tmp_path, capsys):
+    """Through the CLI: metrics.json carries the RMSE, the NEES and the biases, and the
+    printed table the truth scores (the same numbers as the engine run above)."""
+    import json
+
+    from ftnav.cli import main
+
+    out = tmp_path / "out"
+    argv = ["process", "navego-adis16488", "--methods", "ckf", "--out", str(out)]
+    assert main(argv + ["--no-figures", "--quiet"]) == 0
+    t = json.loads((out / "metrics.json").read_text())["methods"]["ckf"]["truth"]
+    assert t["nees"]["dof"] == 9 and 0.0 < t["nees"]["fraction_inside"] <= 1.0
+    assert len(t["biases"]["gyro"]["estimate_dps"]) == 3
+    assert "against the truth" in capsys.readouterr().out

@@ -86,4 +86,20 @@ def recording_table(scores: dict[str, dict[str, Any]]) -> str:
             f"{drift:>17}   {det[0]}"
         )
         lines += [" " * len(head) + d for d in det[1:]]
+    truth = {nm: m["truth"] for nm, m in scores.items() if m.get("truth")}
+    if truth:
+        lines += ["", truth_table(truth)]
+    return "\n".join(lines)
+
+
+def truth_table(truth: dict[str, dict[str, Any]]) -> str:
+    """Against a full truth: horizontal, velocity and attitude RMSE, NEES in its band."""
+    lines = ["against the truth  horiz m  vel m/s  roll/pitch/heading deg  NEES mean  in 95 % band"]
+    for name, t in truth.items():
+        r, n = t["rmse"], t.get("nees") or {}
+        att = "/".join(_f(r[k], ".2f") for k in ("roll_deg", "pitch_deg", "heading_deg"))
+        lines.append(
+            f"{name:<17} {_f(r['horizontal_m']):>8}  {_f(r['velocity_mps']):>7}  {att:>22}  "
+            f"{_f(n.get('mean'), '.1f'):>9}  {_f(n.get('fraction_inside'), '.2f'):>12}"
+        )
     return "\n".join(lines)
