@@ -41,6 +41,7 @@ import secrets
 import shutil
 import sys
 import time
+import tomllib
 import traceback
 import warnings
 from collections.abc import Iterator
@@ -349,12 +350,27 @@ def _resolve(spec: str, models: bool = True):
     if spec in builtin_names():
         return load_scenario(builtin_path(spec), models)
     path = Path(spec)
+    if spec in recording_names() or _is_recording(path):
+        raise UsageError(
+            f"scenario: {spec!r} is a recording: run it with 'ftnav process'; this command "
+            "takes a simulated scenario (no ftnav command trains a model on a recording yet: "
+            "docs/recording-format.md, learned models on recordings)"
+        )
     if path.suffix == ".toml" or path.exists():
         return load_scenario(path, models)
     raise UsageError(
         f"scenario: {spec!r} is neither a built-in scenario "
         f"({', '.join(builtin_names())}) nor a TOML file"
     )
+
+
+def _is_recording(path: Path) -> bool:
+    """Whether ``path`` is a readable TOML file with ``kind = "recording"``."""
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh).get("kind") == "recording"
+    except (OSError, ValueError):
+        return False
 
 
 def _integrated(sc) -> bool:
@@ -653,11 +669,17 @@ def _parse_fault(text: str, aids: dict[str, str]) -> Fault:
     if len(parts) not in (4, 5):
         raise UsageError(f"--fault: expected SENSOR:KIND:START:END[:MAGNITUDE], got {text!r}")
     sensor, kind = parts[0], parts[1]
-    if aids.get(sensor) != "gnss":
-        gnss = [n for n, t in aids.items() if t == "gnss"]
+    if aids.get(sensor) not in ("gnss", "gnss-velocity"):
+        gnss = [n for n, t in aids.items() if t.startswith("gnss")]
         raise UsageError(f"--fault: {sensor!r} is not a GNSS aid of the recording ({gnss})")
     if kind not in _RECORDING_FAULTS:
         raise UsageError(f"--fault: kind {kind!r} (recordings: {', '.join(_RECORDING_FAULTS)})")
+    if kind in ("bias", "ramp") and aids[sensor] == "gnss-velocity":
+        pos = [n for n, t in aids.items() if t == "gnss"]
+        raise UsageError(
+            f"--fault: {sensor!r} measures velocity only and a {kind} moves the north "
+            f"position: fault a position aid ({pos})"
+        )
     try:
         start, end = float(parts[2]), float(parts[3])
         mag = float(parts[4]) if len(parts) == 5 else 0.0

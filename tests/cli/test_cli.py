@@ -336,3 +336,14 @@ def test_console_script_internal_error_is_one_line(tmp_path):
         "with --debug for the traceback)\n"
     )
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("command", ["run", "train-detector", "train-fusion"])
+def test_a_recording_given_to_a_scenario_command_is_refused_in_one_line(
+    tmp_path, capsys, command
+):
+    out = tmp_path / ("out" if command == "run" else "m.npz")
+    assert main([command, "rtklib-walk", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "is a recording" in err[0] and "ftnav process" in err[0]
+    assert not out.exists()

@@ -283,7 +283,11 @@ def test_a_model_for_another_sensor_set_is_refused(drive, tmp_path, capsys, meth
     err = capsys.readouterr().err
     assert code == 2, err
     assert err.count("\n") == 1 and "Traceback" not in err, err
-    assert err.startswith(f"ftnav: error: methods[0].{field}: was trained for sensors = "), err
+    import tomllib
+
+    # the method's index in the file, whatever --methods chose
+    i = [m["name"] for m in tomllib.loads(path.read_text())["methods"]].index(method)
+    assert err.startswith(f"ftnav: error: methods[{i}].{field}: was trained for sensors = "), err
     assert "['gnss', 'nhc', 'zupt'], this scenario has ['gnss']" in err, err
     assert f"method {method!r}" in err and str(path.parent / model) in err, err
     assert not out.exists()

@@ -173,3 +173,12 @@ def test_bad_protocol_options_are_refused(tmp_path, capsys, argv, pattern):
     err = _refused(["process", path, "--out", tmp_path / "o", *argv], capsys)
     assert re.search(pattern, err), err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_position_fault_on_a_velocity_aid_is_refused(tmp_path, capsys):
+    """The built-in drive's receiver is a position aid and a velocity aid: a bias or ramp
+    (metres on the north position) of the velocity aid would change nothing."""
+    argv = ["process", "rtklib-drive", "--fault", "gnss-vel:ramp:1752003300:1752003310:5"]
+    err = _refused([*argv, "--out", tmp_path / "o"], capsys)
+    assert err.startswith("--fault: 'gnss-vel' measures velocity only and a ramp moves"), err
+    assert not (tmp_path / "o").exists()

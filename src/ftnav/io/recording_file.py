@@ -698,8 +698,14 @@ def _validated(source: str | Path) -> RecordingFile:
 
 
 def recording_aids(source: str | Path) -> dict[str, str]:
-    """The aids a recording file names, ``{name: type}`` (its data files are not read)."""
-    return {a.name or a.type: a.type for a in _validated(source).aids}
+    """The aids a recording file names, ``{name: type}`` (its data files are not read);
+    a GNSS aid that measures velocity only has the type ``"gnss-velocity"``."""
+    return {
+        a.name or a.type: (
+            "gnss-velocity" if (a.model_extra or {}).get("rows") == "velocity" else a.type
+        )
+        for a in _validated(source).aids
+    }
 
 
 def _keep_aids(f: RecordingFile, aids: Sequence[str] | None) -> RecordingFile:
@@ -748,7 +754,8 @@ def load_recording(
     t_origin = float(gnss_all.t.min())
     sched: list[tuple[float, float]] = []
     if outage is not None:
-        last = float(gnss_all.t.max()) - t_origin
+        # the last GNSS epoch processed (filter.duration_s may end the run before the log)
+        last = min(float(gnss_all.t.max()), al.t + steps * dt) - t_origin
         sched = [(s + t_origin, e + t_origin) for s, e in outage_schedule(*outage, last=last)]
     chosen = list(f.methods)
     if methods is not None:
@@ -789,7 +796,12 @@ def load_recording(
         aids=tuple(specs),
         correction=f.filter.correction,
     )
-    rec = replace(rec, learned=resolve_methods(rec.methods, rec.system(), base, origin))
+    # every method of the file is checked, the chosen ones' models loaded; errors name the
+    # file's methods[i], whatever --methods chose
+    system = rec.system()
+    resolve_methods(f.methods, system, base, origin, models=False)
+    at = [i for i, m in enumerate(f.methods) if m in chosen]
+    rec = replace(rec, learned=resolve_methods(chosen, system, base, origin, indices=at))
     truth = None
     if f.reference.source == "truth":
         truth = _truth(f.reference, base, origin, raw_log, al, (dt, steps), nav)

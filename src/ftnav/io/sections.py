@@ -120,6 +120,7 @@ def resolve_methods(
     base: Path | None,
     origin: str,
     models: bool = True,
+    indices: Sequence[int] | None = None,
 ) -> tuple[tuple[str, Learned], ...]:
     """Check every method against the system and load its trained models (once).
 
@@ -127,9 +128,11 @@ def resolve_methods(
     private states) or a trained model (its file, its states) fails with one line
     ``methods[i].<setting>: <reason>``.  ``models=False`` loads no model file (the
     training commands, whose scenario may name the file they are about to write).
+    ``indices``: the methods' positions in the file, when ``methods`` is a selection.
     """
     learned, seen = [], set()
-    for i, me in enumerate(methods):
+    where = range(len(methods)) if indices is None else indices
+    for i, me in zip(where, methods, strict=True):
         if me.name in seen:
             raise ScenarioError(f"methods[{i}].name", f"duplicate method name {me.name!r}", origin)
         seen.add(me.name)
