@@ -339,9 +339,7 @@ def test_console_script_internal_error_is_one_line(tmp_path):
 
 
 @pytest.mark.parametrize("command", ["run", "train-detector", "train-fusion"])
-def test_a_recording_given_to_a_scenario_command_is_refused_in_one_line(
-    tmp_path, capsys, command
-):
+def test_a_recording_given_to_a_scenario_command_is_refused_in_one_line(tmp_path, capsys, command):
     out = tmp_path / ("out" if command == "run" else "m.npz")
     assert main([command, "rtklib-walk", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
