@@ -28,7 +28,8 @@ from ftnav.recordings import recording_path
 KML = "{http://www.opengis.net/kml/2.2}"
 METHODS = ["ckf", "fkf-chi2"]
 FAULT = (1752003330.0, 1752003340.0)  # s, the drive's time base (GPST Unix seconds)
-OUTAGES = ["--outage-length", "10", "--outage-every", "30", "--outage-start", "40"]
+# two interleaved runs inside the 60 s span (outages clipped 30 s before its end)
+OUTAGES = ["--outage-length", "5", "--outage-every", "20", "--outage-start", "40"]
 
 
 def _recording(folder: Path) -> Path:
