@@ -83,3 +83,39 @@ def test_gnss_rows_must_be_named():
 
     with pytest.raises(ValueError, match="gnss.rows"):
         Gnss(rows="pos")
+
+
+def test_per_epoch_sigma_whitens_each_row_to_the_epochs_own_sigma():
+    """Closed form: the update with the whitened rows and the sensor's R equals the
+    update with the raw rows and ``R_k = diag(σ_k²)`` (posterior and NIS); a missing or
+    non-positive σ keeps the row's R; simulation appends the configured σ."""
+    from ftnav.core import kalman as kf
+
+    kw = dict(pos_markov_sigma_m=0.0, vel_markov_sigma_m_s=0.0, pos_white_sigma_m=(0.05, 0.06, 0.1))
+    plain, per_epoch = Gnss(**kw), Gnss(per_epoch_sigma=True, **kw)
+    q, v, p, raw = _receiver_epoch()
+    sigma = np.array([[0.01, 0.02, 0.03, 0.2, 0.3, 0.4], [np.nan, 0.5, -1.0, 0.02, 0.02, 0.02]])
+    lin0 = plain.measure(q, v, p, raw)
+    lin = per_epoch.measure(q, v, p, np.concatenate([raw, sigma], -1))
+    sig_R = np.sqrt(np.diag(plain.R))
+    sigma_k = np.where(np.isfinite(sigma) & (sigma > 0), sigma, sig_R)
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(2, 18)) * 1e-3
+    A = rng.normal(size=(2, 18, 18)) * 1e-3
+    P = A @ A.transpose(0, 2, 1) + 1e-6 * np.eye(18)
+    want = kf.update(x, P, lin0.z, lin0.H, np.stack([np.diag(s**2) for s in sigma_k]))
+    got = kf.update(x, P, lin.z, lin.H, plain.R)
+    np.testing.assert_allclose(got.x, want.x, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(got.P, want.P, rtol=1e-9, atol=1e-18)
+    nis0 = kf.prior_nis(x, P, lin0.z, lin0.H, np.stack([np.diag(s**2) for s in sigma_k]))
+    np.testing.assert_allclose(kf.prior_nis(x, P, lin.z, lin.H, plain.R), nis0, rtol=1e-9)
+    truth = AidTruth(np.arange(2.0), p, v, q)
+    out = per_epoch.output(truth, np.zeros((1, 2, 6)), np.zeros((1, 0)))
+    np.testing.assert_array_equal(out[..., 6:], np.broadcast_to(sig_R, (1, 2, 6)))
+
+
+def test_per_epoch_sigma_is_refused_with_a_differenced_markov_error():
+    import pytest
+
+    with pytest.raises(ValueError, match="gnss.per_epoch_sigma"):
+        Gnss(per_epoch_sigma=True, markov="difference")

@@ -125,3 +125,54 @@ def test_the_receiver_as_two_aids_equals_the_receiver_as_one_for_the_centralized
         sols.append(tr["ckf"].solution.p[0])
     d = np.abs(sols[0] - sols[1]) * np.array([6.4e6, 6.4e6, 1.0])
     assert d.max() < 1e-6, d.max()
+
+
+def _short_drive(tmp_path, pos_text=None, per_epoch=False):
+    """The drive's first 30 s of filtering, the centralized filter, data by absolute path
+    (a rewritten .pos when ``pos_text`` is given)."""
+    import tomllib
+
+    import tomli_w
+
+    src = recording_path("rtklib-drive")
+    doc = tomllib.loads(src.read_text())
+    doc["imu"]["file"] = str(src.parent / doc["imu"]["file"])
+    doc["filter"]["duration_s"] = 30.0
+    doc["methods"] = [m for m in doc["methods"] if m["name"] == "ckf"]
+    for a in doc["aids"][:2]:
+        a["file"] = str(src.parent / a["file"])
+        if pos_text is not None:
+            pos = tmp_path / "gnss.pos"
+            pos.write_text(pos_text)
+            a["file"] = str(pos)
+        a["per_epoch_sigma"] = per_epoch
+    path = tmp_path / f"short-{per_epoch}.toml"
+    path.write_text(tomli_w.dumps(doc))
+    loaded = load_recording(path)
+    rec = loaded.recording
+    filters = build_filters(rec, rec.system(), rec.methods)
+    return run(navigation_model(rec), loaded.stream, filters, rec.steps)["ckf"].solution.p[0]
+
+
+def _pos_with_sigma(sd_pos: float, sd_vel: float) -> str:
+    """The drive's .pos with every epoch's sdn, sde, sdu and sdvn, sdve, sdvu replaced."""
+    src = recording_path("rtklib-drive").parent / "data/rtklibexplorer/drive_0708/gnss_1934_sf.pos"
+    lines = []
+    for ln in src.read_text().splitlines():
+        f = ln.split()
+        if not ln.startswith("%") and len(f) >= 21:
+            f[7:10] = [f"{sd_pos:.4f}"] * 3
+            f[18:21] = [f"{sd_vel:.4f}"] * 3
+            ln = " ".join(f)
+        lines.append(ln)
+    return "\n".join(lines) + "\n"
+
+
+def test_per_epoch_sigma_from_the_pos_file_is_the_configured_filter_when_they_agree(tmp_path):
+    """Equivalence: a .pos whose σ columns equal the aids' configured σ (0.05 m, 0.1 m/s)
+    gives the filter without per-epoch σ exactly; other σ change it."""
+    same = _pos_with_sigma(0.05, 0.1)
+    plain = _short_drive(tmp_path, same, per_epoch=False)
+    np.testing.assert_array_equal(_short_drive(tmp_path, same, per_epoch=True), plain)
+    other = _short_drive(tmp_path, _pos_with_sigma(0.5, 1.0), per_epoch=True)
+    assert np.abs(other - plain).max() * 6.4e6 > 1e-3

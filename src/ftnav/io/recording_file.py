@@ -446,6 +446,7 @@ def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog
         order, sign = _TO_ENU[a.velocity.frame]
         v = raw[:, order] * sign * fac
     defaults: dict[str, Any] = {}
+    per_epoch = np.full((t.shape[0], 6), np.nan)
     if a.sigma is not None:
         raw, fac = columns("sigma", 3, ("length",))
         sig = raw[:, _TO_ENU[a.sigma.frame][0]] * fac
@@ -453,6 +454,7 @@ def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog
             r = int(np.flatnonzero((sig <= 0).any(1))[0])
             raise ScenarioError(f"{path}:{table.lines[r]}", "column sigma: σ must be > 0")
         defaults["pos_white_sigma_m"] = tuple(float(x) for x in np.median(sig, 0))
+        per_epoch[:, :3] = sig
     quality = np.ones(t.shape[0], int)
     if a.quality_column is not None:
         q = table.values[:, _column(table, a.quality_column, f"{field}.quality_column", origin)]
@@ -460,7 +462,7 @@ def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog
             r = int(np.flatnonzero(q != np.round(q))[0])
             raise ScenarioError(f"{path}:{table.lines[r]}", "column quality: not an integer flag")
         quality = q.astype(int)
-    log = GnssLog(t=t[:, 0] * t_fac + a.time_offset_s, p=p, v=v, quality=quality)
+    log = GnssLog(t=t[:, 0] * t_fac + a.time_offset_s, p=p, v=v, quality=quality, sigma=per_epoch)
     return log, defaults
 
 
@@ -489,7 +491,14 @@ def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLo
         return GnssLog(t=g.t + a.time_offset_s, p=g.p, v=g.v, quality=quality), defaults
     pos = read_rtklib_pos(path, f"{field}.file")
     p = np.stack([pos.lat_deg * _DEG, pos.lon_deg * _DEG, pos.height_m], -1)
-    log = GnssLog(t=pos.t + a.time_offset_s, p=p, v=pos.v_neu[:, [1, 0, 2]], quality=pos.quality)
+    sigma = np.concatenate([pos.sigma_neu[:, [1, 0, 2]], pos.sigma_v_neu[:, [1, 0, 2]]], -1)
+    log = GnssLog(
+        t=pos.t + a.time_offset_s,
+        p=p,
+        v=pos.v_neu[:, [1, 0, 2]],
+        quality=pos.quality,
+        sigma=sigma,
+    )
     return log, {}
 
 
@@ -656,6 +665,10 @@ def _aids(
                 dt=dt,
             )
             raw, labels = gnss_raw(sel, faults, name)
+            if sensor.per_epoch_sigma:  # the file's σ after the values (sensors.gnss)
+                # a missing σ is 0: the row keeps the sensor's R (NaN would mean "no epoch")
+                sig = sel.sigma if sel.sigma is not None else np.zeros((sel.t.size, 6))
+                raw = np.concatenate([raw, np.nan_to_num(sig, nan=0.0)], -1)
             raw[_outage_mask(sel.t, outages)] = np.nan
             place = on_grid(sel.t, t0, dt, steps)
             streams.append((place.index, raw[place.kept], labels[place.kept]))

@@ -131,7 +131,8 @@ def read_csv(path: Path, header: bool, delimiter: str, what: str) -> Table:
 
 class PosFile(NamedTuple):
     """An RTKLIB solution: time (s, GPST as Unix seconds), ``lat``/``lon`` (deg), height
-    (m), quality flag, σ N, E, U (m) and velocity N, E, U (m/s; NaN when absent)."""
+    (m), quality flag, σ N, E, U (m), velocity N, E, U (m/s) and its σ (m/s; NaN when
+    absent)."""
 
     t: np.ndarray
     lat_deg: np.ndarray
@@ -141,10 +142,12 @@ class PosFile(NamedTuple):
     sigma_neu: np.ndarray
     v_neu: np.ndarray
     lines: np.ndarray
+    sigma_v_neu: np.ndarray | None = None
 
 
 _POS_REQUIRED = ("latitude(deg)", "longitude(deg)", "height(m)", "Q", "sdn(m)", "sde(m)", "sdu(m)")
 _POS_VELOCITY = ("vn(m/s)", "ve(m/s)", "vu(m/s)")
+_POS_VELOCITY_SIGMA = ("sdvn", "sdve", "sdvu")
 
 
 def _pos_time(date: str, time: str, path: Path, line: int) -> float:
@@ -205,6 +208,11 @@ def read_rtklib_pos(path: Path, what: str = "gnss") -> PosFile:
         if all(n in col for n in _POS_VELOCITY)
         else np.full((len(data), 3), np.nan)
     )
+    sv = (
+        np.stack([c(n) for n in _POS_VELOCITY_SIGMA], -1)
+        if all(n in col for n in _POS_VELOCITY_SIGMA)
+        else np.full((len(data), 3), np.nan)
+    )
     return PosFile(
         t,
         c("latitude(deg)"),
@@ -214,6 +222,7 @@ def read_rtklib_pos(path: Path, what: str = "gnss") -> PosFile:
         np.stack([c("sdn(m)"), c("sde(m)"), c("sdu(m)")], -1),
         v,
         np.array([n for n, _ in data]),
+        sv,
     )
 
 

@@ -62,12 +62,15 @@ class GnssLog(NamedTuple):
     ----------
     t : (K,) s.  p : (K, 3) ``[L, λ, h]`` rad, rad, m.  v : (K, 3) ENU m/s (NaN: none).
     quality : (K,) int solution flag (RTKLIB: 1 fix, 2 float, 5 single).
+    sigma : (K, 6) the file's own σ of the position E, N, U (m) and velocity E, N, U
+        (m/s) per epoch (NaN: none), or None.
     """
 
     t: np.ndarray
     p: np.ndarray
     v: np.ndarray
     quality: np.ndarray
+    sigma: np.ndarray | None = None
 
 
 class Alignment(NamedTuple):

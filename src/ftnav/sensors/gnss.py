@@ -31,6 +31,15 @@ position rows) or ``"velocity"`` (the velocity rows): one receiver as two aids o
 Markov states, R and the simulated errors restricted to the rows measured; the receiver
 output stays the 6 columns (a velocity-only aid's position columns are ignored).
 
+Per-epoch σ ``per_epoch_sigma`` [A]: the receiver output carries each epoch's own σ of
+the six rows after the six values (``[L, λ, h, v_E, v_N, v_U, σ_pE, σ_pN, σ_pU, σ_vE,
+σ_vN, σ_vU]``; a solution file's ``sdn, sde, sdu, sdvn, ...``), and the epoch's
+measurement is whitened to them: each row of ``z``, ``H`` and ``H_private`` is scaled by
+``s = σ_R / σ_k`` (``σ_R`` the row's σ in :attr:`R`), so the filter weighs the row as if
+``R_k = diag(σ_k²)`` — exact for a diagonal R, and the χ² statistic is that of ``R_k``.
+A σ that is missing (NaN) or ≤ 0 keeps the row's :attr:`R` (``s = 1``).  The recorded
+R̂ stays :attr:`R`.  Simulation appends the configured σ (the same filter as without).
+
 Random components (spawn key ``c``): 0 position Markov, 1 velocity Markov, 2 white.  The
 position draws of each run are taken in the order N, E, U (the row order before the rows
 became E, N, U) and then reordered, so a run's errors are those of earlier versions.
@@ -38,7 +47,7 @@ became E, N, U) and then reordered, so a run's errors are those of earlier versi
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar, Literal
 
 import numpy as np
@@ -98,6 +107,7 @@ class Gnss:
         differenced noise for ``"difference"``).
     dt : float, s, sample period (Markov simulation, F and Q of the private states).
     rows : ``"position-velocity"``, ``"position"`` or ``"velocity"`` (module docstring).
+    per_epoch_sigma : bool, the output carries each epoch's σ (module docstring).
     lever_arm_m : (3,) m, the antenna from the IMU in the body frame (x right, y forward,
         z up); the position rows compare the antenna, ``p̃ + C̃_b^n l``, whose attitude
         column is ``[(C_b^n l)×]``.  The velocity rows neglect ``C_b^n (ω × l)`` (below
@@ -126,6 +136,7 @@ class Gnss:
     dt: float = 1.0
     lever_arm_m: Vec3 = 0.0
     rows: Literal["position-velocity", "position", "velocity"] = "position-velocity"
+    per_epoch_sigma: bool = False
 
     z_per_error: ClassVar[int] = -1
     ALL_COMPONENTS: ClassVar[tuple[str, ...]] = (
@@ -156,6 +167,11 @@ class Gnss:
             )
         check_choice(self.name, "markov", self.markov, ("white", "augment", "difference"))
         check_choice(self.name, "rows", self.rows, ("position-velocity", "position", "velocity"))
+        if self.per_epoch_sigma and self.markov == "difference":
+            raise ValueError(
+                f"{self.name}.per_epoch_sigma: not with markov = 'difference' (a difference "
+                "of two epochs whitened to different σ is not the differenced measurement)"
+            )
         object.__setattr__(
             self, "lever_arm_m", check_float(self.name, "lever_arm_m", self.lever_arm_m, n=3)
         )
@@ -280,7 +296,11 @@ class Gnss:
         e[..., self._rows] = e_m
         d = _metres(np.asarray(truth.p, dtype=float))  # (K, 3) N, E, U per L, λ, h
         dp = e[..., _EN] / d  # δL = δN/R_Mh, δλ = δE/(R_Nh cos L), δh = δU
-        return np.concatenate([truth.p + dp, truth.v + e[..., 3:]], -1)
+        out = np.concatenate([truth.p + dp, truth.v + e[..., 3:]], -1)
+        if self.per_epoch_sigma:  # the configured σ of every row (R of all 6 rows)
+            sigma = np.sqrt(np.diag(replace(self, rows="position-velocity").R))
+            out = np.concatenate([out, np.broadcast_to(sigma, out.shape)], -1)
+        return out
 
     def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
         """``z = [D_p(p̃)(p̃ − p_GNSS); ṽ − v_GNSS]`` (B, m: the rows measured) and ``H``.
@@ -294,11 +314,11 @@ class Gnss:
         v = as_batch(v, (3,), "v")
         B = v.shape[0]
         p = as_batch(p, (3,), "p", B)
-        raw = as_batch(raw_k, (6,), "raw_k", B)
+        raw = as_batch(raw_k, (12 if self.per_epoch_sigma else 6,), "raw_k", B)
         d = _metres(p)
         dpos = p - raw[:, :3]
         dpos[:, 1] = (dpos[:, 1] + np.pi) % (2.0 * np.pi) - np.pi
-        z = np.concatenate([(d * dpos)[:, _EN], v - raw[:, 3:]], -1)
+        z = np.concatenate([(d * dpos)[:, _EN], v - raw[:, 3:6]], -1)
         H = np.zeros((B, 6, N_STATES))
         H[:, [1, 0, 2], [6, 7, 8]] = d  # row N ← δL, row E ← δλ, row U ← δh
         H[:, [3, 4, 5], [3, 4, 5]] = 1.0
@@ -311,4 +331,9 @@ class Gnss:
         p_priv = m if self._augmented else 0
         H_private = np.broadcast_to(-np.eye(m)[:, :p_priv], (B, m, p_priv)).copy()
         valid = np.all(np.isfinite(z), -1)
+        if self.per_epoch_sigma:  # whitened to the epoch's σ (module docstring)
+            sigma_k = raw[:, 6:][:, r]
+            ok = np.isfinite(sigma_k) & (sigma_k > 0)
+            scale = np.where(ok, np.sqrt(np.diag(self.R)) / np.where(ok, sigma_k, 1.0), 1.0)
+            z, H, H_private = z * scale, H * scale[..., None], H_private * scale[..., None]
         return Linearized(finite_or_zero(z), H, H_private, valid)
