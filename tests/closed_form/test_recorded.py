@@ -159,3 +159,27 @@ def test_an_outage_removes_every_aid_of_the_receiver():
             assert np.array_equal(out.aids[i].available[g], ~gone[g])
             assert np.isnan(out.aids[i].raw[g, gone[g]]).all()
     assert out.aids[2].available.all() and out.imu.dtheta.shape[0] == 2
+
+
+@pytest.mark.parametrize("psi_deg", [-170.0, -60.0, 0.0, 35.0, 100.0, 179.0])
+def test_gyrocompassing_recovers_the_heading_from_the_earth_rate(psi_deg):
+    """Closed form: a still IMU at latitude L reads f = C_n^b [0, 0, g] and
+    ω = C_n^b [0, Ω cos L, Ω sin L]; the heading is recovered exactly, and a gyro bias b
+    across the Earth rate's horizontal part turns it by atan(b / (Ω cos L)) (to first
+    order the σ gyrocompass_sigma predicts)."""
+    from ftnav.nav.earth import OMEGA_IE, omega_ie_n
+    from ftnav.recorded.stream import gyrocompass, gyrocompass_sigma
+
+    L = np.radians(40.1)
+    euler = np.array([np.radians(3.0), np.radians(-2.0), np.radians(psi_deg)])
+    C = attitude.euler_to_dcm(euler)  # C_b^n
+    f = C.T @ np.array([0.0, 0.0, 9.8])
+    w = C.T @ omega_ie_n(L)
+    theta, gamma, psi = gyrocompass(f, w)
+    np.testing.assert_allclose([theta, gamma], euler[:2], atol=1e-12)
+    assert abs(attitude.wrap_angle(psi - euler[2])) < 1e-9
+    b = 1e-3 * OMEGA_IE  # 0.1 % of the Earth rate, on the body axes that point East
+    _, _, psi_b = gyrocompass(f, w + b * (C.T @ [1.0, 0.0, 0.0]))
+    turn = float(attitude.wrap_angle(psi_b - euler[2]))
+    np.testing.assert_allclose(abs(turn), np.arctan(b / (OMEGA_IE * np.cos(L))), rtol=1e-9)
+    assert gyrocompass_sigma(L, b, 0.0, 30.0) == pytest.approx(b / (OMEGA_IE * np.cos(L)))

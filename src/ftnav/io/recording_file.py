@@ -38,6 +38,7 @@ from ftnav.io.recording_readers import (
     read_rtklib_pos,
 )
 from ftnav.io.sections import MethodConfig, explain_method_key, resolve_methods
+from ftnav.model.imu import ImuErrors
 from ftnav.model.scenario import AidSpec, Evaluation, Fault, Recording
 from ftnav.nav.attitude import euler_to_dcm
 from ftnav.nav.units import parse_quantity
@@ -48,6 +49,7 @@ from ftnav.recorded.stream import (
     align,
     given,
     gnss_raw,
+    gyrocompass_sigma,
     interleave,
     on_grid,
     outage_schedule,
@@ -187,6 +189,15 @@ class AlignmentFile(BaseModel):
     model_config = STRICT
     mode: Literal["static", "given"] = "static"
     static_s: float = Field(default=30.0, gt=0, description="static")
+    heading: Literal["auto", "gnss-course", "gyrocompass"] = Field(
+        default="auto",
+        description=(
+            "static: the heading from the GNSS course once moving, or by gyrocompassing "
+            "the static window; auto: gyrocompassing where the IMU's grade allows "
+            "(predicted σ at most gyrocompass_max_sigma_deg)"
+        ),
+    )
+    gyrocompass_max_sigma_deg: float = Field(default=1.0, gt=0, description="static, auto")
     min_speed_mps: float = Field(default=1.0, gt=0, description="static")
     attitude_deg: list[float] | None = Field(
         default=None,
@@ -581,12 +592,28 @@ def _initial_sigma(
     return np.maximum(np.r_[nav, bias_sigma], 1e-12)
 
 
+def _gyrocompass_sigma(
+    a: AlignmentFile, log: ImuLog, gnss: GnssLog, imu_err: ImuErrors | None
+) -> float:
+    """The predicted σ (rad) of a gyrocompass heading over the static window from the
+    IMU's datasheet (its horizontal gyros' constant and Markov bias σ and ARW)."""
+    if imu_err is None:
+        return float("inf")
+    b = np.broadcast_to(np.asarray(imu_err.gyro_bias_sd, float), (3,))
+    m = np.broadcast_to(np.asarray(imu_err.gyro_markov_sd, float), (3,))
+    arw = float(np.max(np.broadcast_to(np.asarray(imu_err.gyro_arw, float), (3,))[:2]))
+    bias = float(np.max(np.hypot(b, m)[:2]))
+    lat = float(gnss.p[0, 0]) if gnss.t.size else 0.0
+    return gyrocompass_sigma(lat, bias, arw, a.static_s)
+
+
 def _start(
     f: RecordingFile,
     log: ImuLog,
     gnss: GnssLog,
     nav: NavegoImu | None,
     origin: str,
+    imu_err: ImuErrors | None = None,
 ) -> tuple[Alignment, np.ndarray]:
     """The initial solution and the σ of its attitude (rad) (``[alignment]``)."""
     a = f.alignment
@@ -595,13 +622,20 @@ def _start(
             raise ScenarioError(
                 "alignment.attitude_deg", "a setting of mode 'given', not 'static'", origin
             )
+        sigma_gc = _gyrocompass_sigma(a, log, gnss, imu_err)
+        use_gc = a.heading == "gyrocompass" or (
+            a.heading == "auto" and sigma_gc <= a.gyrocompass_max_sigma_deg * _DEG
+        )
         try:
-            al = align(log, gnss, a.static_s, a.min_speed_mps)
+            al = align(log, gnss, a.static_s, a.min_speed_mps, sigma_gc if use_gc else None)
         except ValueError as exc:
             path, _, reason = str(exc).partition(": ")
             raise ScenarioError(path, reason, origin) from None
-        return al, np.asarray(a.attitude_sigma_deg) * _DEG
-    for key in ("static_s", "min_speed_mps"):
+        sigma = np.asarray(a.attitude_sigma_deg) * _DEG
+        if use_gc and "attitude_sigma_deg" not in a.model_fields_set:
+            sigma[2] = sigma_gc
+        return al, sigma
+    for key in ("static_s", "min_speed_mps", "heading", "gyrocompass_max_sigma_deg"):
         if key in a.model_fields_set:
             raise ScenarioError(
                 f"alignment.{key}", "a setting of mode 'static', not 'given'", origin
@@ -760,7 +794,7 @@ def load_recording(
         raise ScenarioError("aids", "a recording needs a gnss aid (its epochs are the filter's)")
     gnss_all, gnss_defaults = _gnss_log(f.aids[first], base, f"aids[{first}]", origin)
     gnss = _select(gnss_all, np.isin(gnss_all.quality, f.aids[first].quality))
-    al, attitude_sigma = _start(f, log, gnss, nav, origin)
+    al, attitude_sigma = _start(f, log, gnss, nav, origin, imu_err)
     raw_log = log
     log = log._replace(gyro=log.gyro - al.gyro_bias)
     dt, steps, spe, sub = _grid(gnss_all, log, al.t, f)

@@ -34,7 +34,8 @@ from ftnav.model.faults import fault_effect, hold_stuck
 from ftnav.model.scenario import Fault
 from ftnav.model.streams import AidStream, ImuStream, InsStream
 from ftnav.nav import attitude
-from ftnav.nav.earth import radii
+from ftnav.nav.attitude import euler_to_dcm
+from ftnav.nav.earth import OMEGA_IE, omega_ie_n, radii
 from ftnav.nav.mechanization import InsState
 from ftnav.recorded.imu import ImuLog, increments
 
@@ -44,6 +45,8 @@ __all__ = [
     "GridPlacement",
     "align",
     "given",
+    "gyrocompass",
+    "gyrocompass_sigma",
     "level",
     "on_grid",
     "outage_schedule",
@@ -79,8 +82,11 @@ class Alignment(NamedTuple):
     Attributes
     ----------
     t : s, the start (a GNSS epoch).  euler : ``[θ, γ, ψ]`` rad.
-    p, v : the start fix's position and velocity.  gyro_bias : (3,) rad/s static mean.
+    p, v : the start fix's position and velocity.  gyro_bias : (3,) rad/s removed from
+    the log (the static mean; less the Earth rate after gyrocompassing).
     static : (samples, mean specific force norm m/s²) of the static window.
+    heading_from : ``"gnss-course"``, ``"gyrocompass"`` or ``"given"``.
+    heading_sigma : rad, σ of the gyrocompass heading (NaN otherwise).
     """
 
     t: float
@@ -89,6 +95,8 @@ class Alignment(NamedTuple):
     v: np.ndarray
     gyro_bias: np.ndarray
     static: tuple[int, float]
+    heading_from: str = "gnss-course"
+    heading_sigma: float = float("nan")
 
 
 def level(f_mean: np.ndarray) -> tuple[float, float]:
@@ -97,8 +105,34 @@ def level(f_mean: np.ndarray) -> tuple[float, float]:
     return float(np.arcsin(np.clip(u[1], -1.0, 1.0))), float(np.arctan2(-u[0], u[2]))
 
 
-def align(imu: ImuLog, gnss: GnssLog, static_s: float, min_speed: float) -> Alignment:
-    """The initial solution from the static window and the first moving fix.
+def gyrocompass(f_mean: np.ndarray, w_mean: np.ndarray) -> tuple[float, float, float]:
+    """Pitch θ, roll γ and heading ψ (rad) of a still IMU from its mean specific force
+    and mean angular rate (the Earth rate): levelled, the rate reads
+    ``C_b^n(θ, γ, 0) ω = R_z(ψ)ᵀ [0, Ω cos L, Ω sin L]``, whose horizontal part is
+    ``Ω cos L [sin ψ, cos ψ]`` (ENU, ψ counter-clockwise), so ``ψ = atan2(ω_x, ω_y)``."""
+    theta, gamma = level(f_mean)
+    w_l = euler_to_dcm(np.array([theta, gamma, 0.0])) @ np.asarray(w_mean, float)
+    return theta, gamma, float(np.arctan2(w_l[0], w_l[1]))
+
+
+def gyrocompass_sigma(lat: float, bias_sd: float, arw: float, seconds: float) -> float:
+    """σ (rad) of the gyrocompass heading: the horizontal gyro error (the bias σ and the
+    ARW averaged over ``seconds``, rad/s and rad/√s) over the Earth rate's horizontal
+    part ``Ω cos L``."""
+    return float(np.hypot(bias_sd, arw / np.sqrt(seconds)) / (OMEGA_IE * np.cos(lat)))
+
+
+def align(
+    imu: ImuLog,
+    gnss: GnssLog,
+    static_s: float,
+    min_speed: float,
+    gyrocompass_sigma_rad: float | None = None,
+) -> Alignment:
+    """The initial solution from the static window and the first moving fix, or, with
+    ``gyrocompass_sigma_rad`` (the predicted σ of :func:`gyrocompass_sigma`), from the
+    static window alone: heading by gyrocompassing, the filter starting at the first fix
+    after the window, the gyro bias the static mean less the Earth rate.
 
     Raises
     ------
@@ -110,6 +144,25 @@ def align(imu: ImuLog, gnss: GnssLog, static_s: float, min_speed: float) -> Alig
         raise ValueError(f"alignment.static_s: {int(w.sum())} IMU samples in {static_s:g} s")
     f_mean = imu.accel[w].mean(0)
     theta, gamma = level(f_mean)
+    if gyrocompass_sigma_rad is not None:
+        after = np.flatnonzero(gnss.t >= imu.t[0] + static_s)
+        if after.size == 0:
+            raise ValueError("alignment.static_s: no GNSS fix after the static window")
+        k = int(after[0])
+        w_mean = imu.gyro[w].mean(0)
+        theta, gamma, psi = gyrocompass(f_mean, w_mean)
+        C_bn = euler_to_dcm(np.array([theta, gamma, psi]))
+        earth = C_bn.T @ omega_ie_n(gnss.p[k, 0])
+        return Alignment(
+            float(gnss.t[k]),
+            np.array([theta, gamma, psi]),
+            gnss.p[k].copy(),
+            gnss.v[k].copy(),
+            w_mean - earth,
+            (int(w.sum()), float(np.linalg.norm(f_mean))),
+            "gyrocompass",
+            float(gyrocompass_sigma_rad),
+        )
     speed = np.hypot(gnss.v[:, 0], gnss.v[:, 1])
     moving = np.flatnonzero((gnss.t >= imu.t[0] + static_s) & (speed >= min_speed))
     if moving.size == 0:
@@ -155,6 +208,7 @@ def given(imu: ImuLog, gnss: GnssLog, euler: np.ndarray) -> Alignment:
         v,
         np.zeros(3),
         (0, float("nan")),
+        "given",
     )
 
 

@@ -40,6 +40,10 @@ def recording_metrics(
             "static_samples": al.static[0],
             "static_specific_force_mps2": al.static[1],
             "gyro_bias_removed_dps": np.degrees(al.gyro_bias).tolist(),
+            "heading_from": al.heading_from,
+            "heading_sigma_deg": (
+                math.degrees(al.heading_sigma) if math.isfinite(al.heading_sigma) else None
+            ),
         },
         "aids": list(rec.sensor_names),
         "data": loaded.counts,
