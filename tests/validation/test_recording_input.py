@@ -182,3 +182,16 @@ def test_a_position_fault_on_a_velocity_aid_is_refused(tmp_path, capsys):
     err = _refused([*argv, "--out", tmp_path / "o"], capsys)
     assert err.startswith("--fault: 'gnss-vel' measures velocity only and a ramp moves"), err
     assert not (tmp_path / "o").exists()
+
+
+def test_the_information_sharing_rule_is_refused_on_a_recording(tmp_path, capsys):
+    """The information rule needs constant measurement matrices; a recording's are
+    linearized every epoch: one line naming the method's setting."""
+    path = _write(tmp_path)
+    path.write_text(
+        path.read_text()
+        + '\n[[methods]]\nname = "fkf-info"\narchitecture = "federated"\nsharing = "information"\n'
+    )
+    err = _refused(["process", path, "--out", tmp_path / "o"], capsys)
+    assert err.startswith("methods[1].sharing: the information rule needs constant"), err
+    assert not (tmp_path / "o").exists()
