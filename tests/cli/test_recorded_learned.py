@@ -24,11 +24,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from recording_runs import traces_of
 
 from ftnav.cli import main
-from ftnav.engine import navigation_model
-from ftnav.engine.driver import run
-from ftnav.eval.montecarlo import build_filters
 from ftnav.fdi.rbf import RBFModel, RBFNetwork
 from ftnav.fusion.neural_model import NeuronModel
 from ftnav.io.learned import compatibility, save_neuron_model, save_rbf_model
@@ -183,18 +181,8 @@ def drive(tmp_path_factory):
     save_neuron_model(_neuron(system, stamp, np.full(3, 1 / 3)), folder / "mean.npz")
 
     loaded = load_recording(path)
-    rec = loaded.recording
-    traces = run(
-        navigation_model(rec),
-        loaded.stream,
-        build_filters(rec, rec.system(), rec.methods),
-        rec.steps,
-    )
-    alone = load_recording(path, methods=["dkf"], aids=["gnss"])
-    ra = alone.recording
-    gnss_only = run(
-        navigation_model(ra), alone.stream, build_filters(ra, ra.system(), ra.methods), ra.steps
-    )
+    traces = traces_of(loaded)
+    gnss_only = traces_of(load_recording(path, methods=["dkf"], aids=["gnss"]))
     return folder, loaded, traces, gnss_only["dkf"]
 
 

@@ -12,27 +12,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from recording_runs import drive_copy, process, traces_of
 
-from ftnav.engine import navigation_model
-from ftnav.engine.driver import run
-from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, score_recording
 from ftnav.io.recording_file import load_recording
 from ftnav.model.scenario import Fault
 from ftnav.recordings import recording_path
 
 
 def _process(name, **kw):
-    loaded = load_recording(recording_path(name), **kw)
-    rec = loaded.recording
-    traces = run(
-        navigation_model(rec),
-        loaded.stream,
-        build_filters(rec, rec.system(), rec.methods),
-        rec.steps,
-    )
-    ref = Reference(loaded.reference_index, loaded.reference_p)
-    return loaded, traces, score_recording(rec, traces, ref, loaded.outages)
+    return process(recording_path(name), **kw)
 
 
 @pytest.fixture(scope="module")
@@ -100,58 +88,41 @@ def test_the_receiver_as_two_aids_equals_the_receiver_as_one_for_the_centralized
 ):
     """Equivalence: independent rows (diagonal R) updated one aid after the other give
     the joint update, so ``rows = "position"`` + ``rows = "velocity"`` is the 6-row aid."""
-    import tomllib
 
-    import tomli_w
+    def short(doc):
+        doc["filter"]["duration_s"] = 60.0
+        doc["methods"] = [m for m in doc["methods"] if m["name"] == "ckf"]
 
-    src = recording_path("rtklib-drive")
-    doc = tomllib.loads(src.read_text())
-    doc["imu"]["file"] = str(src.parent / doc["imu"]["file"])
-    doc["filter"]["duration_s"] = 60.0
-    doc["methods"] = [m for m in doc["methods"] if m["name"] == "ckf"]
-    pos, vel = doc["aids"][0], doc["aids"][1]
-    for a in (pos, vel):
-        a["file"] = str(src.parent / a["file"])
-    one = dict(pos, rows="position-velocity", vel_white_sigma_m_s=vel["vel_white_sigma_m_s"])
-    split, whole = tmp_path / "split.toml", tmp_path / "whole.toml"
-    split.write_text(tomli_w.dumps(doc))
-    whole.write_text(tomli_w.dumps(dict(doc, aids=[one] + doc["aids"][2:])))
-    sols = []
-    for path in (split, whole):
-        loaded = load_recording(path)
-        rec = loaded.recording
-        filters = build_filters(rec, rec.system(), rec.methods)
-        tr = run(navigation_model(rec), loaded.stream, filters, rec.steps)
-        sols.append(tr["ckf"].solution.p[0])
+    def one_aid(doc):
+        short(doc)
+        pos, vel = doc["aids"][0], doc["aids"][1]
+        one = dict(pos, rows="position-velocity", vel_white_sigma_m_s=vel["vel_white_sigma_m_s"])
+        doc["aids"] = [one] + doc["aids"][2:]
+
+    sols = [
+        traces_of(load_recording(drive_copy(tmp_path / f"{i}.toml", edit)))["ckf"].solution.p[0]
+        for i, edit in enumerate((short, one_aid))
+    ]
     d = np.abs(sols[0] - sols[1]) * np.array([6.4e6, 6.4e6, 1.0])
     assert d.max() < 1e-6, d.max()
 
 
 def _short_drive(tmp_path, pos_text=None, per_epoch=False):
-    """The drive's first 30 s of filtering, the centralized filter, data by absolute path
-    (a rewritten .pos when ``pos_text`` is given)."""
-    import tomllib
+    """The drive's first 30 s of filtering, the centralized filter (a rewritten .pos
+    when ``pos_text`` is given)."""
 
-    import tomli_w
+    def edit(doc):
+        doc["filter"]["duration_s"] = 30.0
+        doc["methods"] = [m for m in doc["methods"] if m["name"] == "ckf"]
+        for a in doc["aids"][:2]:
+            if pos_text is not None:
+                pos = tmp_path / "gnss.pos"
+                pos.write_text(pos_text)
+                a["file"] = str(pos)
+            a["per_epoch_sigma"] = per_epoch
 
-    src = recording_path("rtklib-drive")
-    doc = tomllib.loads(src.read_text())
-    doc["imu"]["file"] = str(src.parent / doc["imu"]["file"])
-    doc["filter"]["duration_s"] = 30.0
-    doc["methods"] = [m for m in doc["methods"] if m["name"] == "ckf"]
-    for a in doc["aids"][:2]:
-        a["file"] = str(src.parent / a["file"])
-        if pos_text is not None:
-            pos = tmp_path / "gnss.pos"
-            pos.write_text(pos_text)
-            a["file"] = str(pos)
-        a["per_epoch_sigma"] = per_epoch
-    path = tmp_path / f"short-{per_epoch}.toml"
-    path.write_text(tomli_w.dumps(doc))
-    loaded = load_recording(path)
-    rec = loaded.recording
-    filters = build_filters(rec, rec.system(), rec.methods)
-    return run(navigation_model(rec), loaded.stream, filters, rec.steps)["ckf"].solution.p[0]
+    loaded = load_recording(drive_copy(tmp_path / f"short-{per_epoch}.toml", edit))
+    return traces_of(loaded)["ckf"].solution.p[0]
 
 
 def _pos_with_sigma(sd_pos: float, sd_vel: float) -> str:
@@ -188,16 +159,6 @@ def test_every_architecture_mode_and_sharing_rule_runs_on_the_drive(tmp_path):
     the distributed filter with VB and with chi-square isolation, a centralized chi-square
     filter, on 30 s of the real drive (four aids): finite, and every fusion that is
     exact with fusion reset at every epoch equals the centralized solution."""
-    import tomllib
-
-    import tomli_w
-
-    src = recording_path("rtklib-drive")
-    doc = tomllib.loads(src.read_text())
-    doc["imu"]["file"] = str(src.parent / doc["imu"]["file"])
-    for a in doc["aids"][:2]:
-        a["file"] = str(src.parent / a["file"])
-    doc["filter"]["duration_s"] = 30.0
     chi2 = {"kind": "residual-chi2", "false_alarm_probability": 1e-3}
     methods = [{"name": "ckf", "architecture": "centralized"}]
     methods += [
@@ -222,17 +183,12 @@ def test_every_architecture_mode_and_sharing_rule_runs_on_the_drive(tmp_path):
             "noise": {"kind": "vb", "sensors": ["gnss"]},
         },
     ]
-    doc["methods"] = methods
-    path = tmp_path / "all.toml"
-    path.write_text(tomli_w.dumps(doc))
-    loaded = load_recording(path)
-    rec = loaded.recording
-    traces = run(
-        navigation_model(rec),
-        loaded.stream,
-        build_filters(rec, rec.system(), rec.methods),
-        rec.steps,
-    )
+
+    def edit(doc):
+        doc["filter"]["duration_s"] = 30.0
+        doc["methods"] = methods
+
+    traces = traces_of(load_recording(drive_copy(tmp_path / "all.toml", edit)))
     assert len(traces) == len(methods)
     ckf = traces["ckf"].solution.p[0]
     for name, tr in traces.items():

@@ -16,11 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.io as sio
+from recording_runs import process
 
-from ftnav.engine import navigation_model
-from ftnav.engine.driver import run
-from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, score_recording
 from ftnav.io.recording_file import load_recording
 from ftnav.io.recording_readers import read_navego_imu, read_navego_truth
 from ftnav.nav.attitude import euler_to_dcm
@@ -36,17 +33,7 @@ pytestmark = pytest.mark.skipif(
 
 
 def _process(name):
-    loaded = load_recording(recording_path(name), methods=["ckf"])
-    rec = loaded.recording
-    traces = run(
-        navigation_model(rec),
-        loaded.stream,
-        build_filters(rec, rec.system(), rec.methods),
-        rec.steps,
-        nav_covariance=True,
-    )
-    ref = Reference(loaded.reference_index, loaded.reference_p)
-    scores = score_recording(rec, traces, ref, loaded.outages, truth=loaded.truth)
+    loaded, _, scores = process(recording_path(name), nav_covariance=True, methods=["ckf"])
     return loaded, scores["ckf"]
 
 
@@ -205,10 +192,6 @@ def test_the_filter_is_consistent_on_a_model_exact_imu_of_the_same_truth(tmp_pat
     text = text.replace(f"{DATA}/imu2.mat", str(imu))
     path = tmp_path / "model-exact.toml"
     path.write_text(text)
-    loaded = load_recording(path, methods=["ckf"])
-    rec = loaded.recording
-    filters = build_filters(rec, rec.system(), rec.methods)
-    traces = run(navigation_model(rec), loaded.stream, filters, rec.steps, nav_covariance=True)
-    ref = Reference(loaded.reference_index, loaded.reference_p)
-    s = score_recording(rec, traces, ref, loaded.outages, truth=loaded.truth)["ckf"]["truth"]
+    _, _, scores = process(path, nav_covariance=True, methods=["ckf"])
+    s = scores["ckf"]["truth"]
     assert s["nees"]["fraction_inside"] >= 0.80, s["nees"]

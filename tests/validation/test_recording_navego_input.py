@@ -11,11 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.io as sio
+from recording_runs import traces_of
 
 from ftnav.cli import main
-from ftnav.engine import navigation_model
-from ftnav.engine.driver import run
-from ftnav.eval.montecarlo import build_filters
 from ftnav.io.common import ScenarioError
 from ftnav.io.recording_file import load_recording
 from ftnav.io.recording_readers import read_rtklib_pos
@@ -242,14 +240,7 @@ def _drive_with_csv_gnss(folder: Path, aid: str = CSV_AID) -> tuple[Path, Path]:
 
 
 def _solution(path: Path) -> np.ndarray:
-    loaded = load_recording(path, methods=["ckf"])
-    rec = loaded.recording
-    tr = run(
-        navigation_model(rec),
-        loaded.stream,
-        build_filters(rec, rec.system(), rec.methods),
-        rec.steps,
-    )["ckf"]
+    tr = traces_of(load_recording(path, methods=["ckf"]))["ckf"]
     return np.concatenate([tr.solution.p[0], tr.solution.v[0], tr.solution.q[0]], -1)
 
 
