@@ -175,7 +175,7 @@ def test_named_like_a_built_in_without_its_methods(tmp_path, capsys):
     )
     out = capsys.readouterr().out
     assert (
-        "[not checked] paper 002 §4: Paper 002's claims: the VB-adaptive distributed "
+        "[not checked] paper 002 §2.3: Paper 002's claims: the VB-adaptive distributed "
         "filter against the federated filter with chi-square isolation (not checked: the "
         "scenario has no method fkf-chi2, dkf-vb (a copy of seed002 keeps ckf, fkf-chi2, "
         "dkf-vb))"
