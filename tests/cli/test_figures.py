@@ -179,12 +179,20 @@ def test_builtin_seed000_figures_are_the_paper_comparisons():
         "paper000_fig3",
         "paper000_fig4a",
         "paper000_fig4b",
+        "appendix_fig3_all_states",
+        "appendix_fig4a_all_states",
+        "appendix_fig4b_all_states",
         "other_architectures",
     ]
+    # the paper's figures: its two methods, one panel (the displacement s)
     assert figs["paper000_fig3"].condition == "fault-free"
-    assert {"fkf-fr-trace", "fkf-fr-inverse-trace"} <= set(figs["paper000_fig3"].methods)
-    assert {"fkf-fr10-trace", "fkf-fr10-inverse-trace"} <= set(figs["paper000_fig4a"].methods)
-    assert "fkf-inverse-trace-rbf" in figs["paper000_fig4b"].methods
+    assert figs["paper000_fig3"].methods == ("fkf-fr-eigen-trace", "fkf-fr-inverse-trace")
+    assert figs["paper000_fig4a"].methods == ("fkf-fr10-trace", "fkf-fr10-inverse-trace")
+    assert figs["paper000_fig4b"].methods == ("fkf-fr-eigen-trace", "fkf-inverse-trace-rbf")
+    for name in ("paper000_fig3", "paper000_fig4a", "paper000_fig4b"):
+        assert figs[name].states == ("s",), name
+    # the appendix: every state
+    assert all(figs[n].states == () for n in figs if n.startswith("appendix_"))
     assert all(len(f.methods) <= MAX_FIGURE_METHODS for f in sc.figures)
     assert figs["paper000_fig4a"].title.startswith("Paper 000 Fig. 4a")
 
