@@ -209,7 +209,7 @@ class ScenarioBase:
         return fault_window_mask(self.times, self.faults, sensor, detectable_only)
 
     def without_faults(self) -> Self:
-        """The same scenario with no faults (the paper's Fig. 3 condition)."""
+        """The same scenario with no faults (paper 000 Fig. 3 condition)."""
         return replace(self, faults=())
 
 
