@@ -304,6 +304,12 @@ def _parser() -> _Parser:
         action="store_true",
         help="add the free propagation (no measurements) as an input",
     )
+    f.add_argument(
+        "--method",
+        default=None,
+        help="integrated scenarios: the neural method trained for (its correction; "
+        "default: the first neural method)",
+    )
     f.add_argument("--no-figure", action="store_true", help="skip the RMSE/weights figure")
     f.add_argument("--quiet", action="store_true", help="no progress bar")
     r = command("process", help="process a recorded sensor log through its methods")
@@ -929,14 +935,27 @@ def _train_ins_fusion(sc, out: Path, args) -> int:
     _compile_note("train-integrated", args.quiet)
     t0 = time.perf_counter()
     total = sc.steps * len(ins_configurations(sc))
+    neural = [m for m in sc.methods if m.architecture == "neural"]
+    if args.method is not None:
+        named = {m.name: m for m in neural}
+        if args.method not in named:
+            raise UsageError(
+                f"--method: {args.method!r} is not a neural method of {sc.name} "
+                f"({', '.join(named) or 'none'})"
+            )
+        neural = [named[args.method]]
+    correction = (neural[0].correction if neural else None) or sc.correction
     with _bar(total, args.quiet, f"train-fusion {sc.name}") as bar:
-        model = train_ins_fusion(sc, runs=args.runs, seed=args.seed, progress=bar.update)
+        model = train_ins_fusion(
+            sc, runs=args.runs, seed=args.seed, progress=bar.update, correction=correction
+        )
     mark_kernels_compiled("train-integrated")
     with _staged(out, folder=False) as stage:
         save_neuron_model(model, stage / out.name)
     print(
-        f"{sc.name}: neuron fusion centre, configurations {', '.join(model.configurations)}; "
-        f"inputs {', '.join(model.inputs)}; {time.perf_counter() - t0:.1f} s"
+        f"{sc.name}: neuron fusion centre ({correction} correction), configurations "
+        f"{', '.join(model.configurations)}; inputs {', '.join(model.inputs)}; "
+        f"{time.perf_counter() - t0:.1f} s"
     )
     print("weights of the position neurons (" + ", ".join(model.inputs) + "):")
     for j, st in ((6, "dL"), (7, "dlambda"), (8, "dh")):

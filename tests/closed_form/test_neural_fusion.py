@@ -132,3 +132,18 @@ def test_model_validation(scenario, tmp_path):
         ValueError, match=r"^methods\[n\]\.detector\.kind: 'rbf' is not a detector of the neural"
     ):
         method_config("neural", name="n", detector={"kind": "rbf", "model": "x.npz"})
+
+
+def test_the_convergence_gate_leaves_out_inputs_far_less_certain_and_renormalizes():
+    """Closed form (``convergence_ratio``): per state, inputs whose σ exceed ratio × the
+    smallest σ get weight 0, the rest keep their trained proportions (sum 1); kept inputs
+    with no trained weight share equally."""
+    from ftnav.fusion.neural import converged_only
+
+    W = np.array([[[0.2, 0.5, 0.3], [0.0, 0.0, 1.0]]])  # (B=1, 2 states, 3 inputs)
+    SD = np.array([[[10.0, 15.0, 100.0], [5.0, 9.0, 50.0]]])
+    out = converged_only(W, SD, 2.0)
+    np.testing.assert_allclose(out[0, 0], [0.2 / 0.7, 0.5 / 0.7, 0.0])
+    np.testing.assert_allclose(out[0, 1], [0.5, 0.5, 0.0])  # only the gated input was weighted
+    np.testing.assert_allclose(out.sum(-1), 1.0)
+    np.testing.assert_array_equal(converged_only(W, SD, 100.0), W)  # everything kept

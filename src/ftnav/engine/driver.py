@@ -27,7 +27,17 @@ from ftnav.nav.mechanization import InsState
 #: navigation error states (attitude, velocity, position; spec §8.3 order) of ``P_nav``
 N_NAV = 9
 
-__all__ = ["EpochRecord", "NavigationModel", "Stream", "Trace", "covariance_ok", "iterate", "run"]
+__all__ = [
+    "EpochRecord",
+    "LocalCopies",
+    "NavigationModel",
+    "Stream",
+    "Trace",
+    "covariance_ok",
+    "iterate",
+    "method_feedback",
+    "run",
+]
 
 M = TypeVar("M")  # the model's own state between epochs
 
@@ -64,21 +74,49 @@ class NavigationModel(Protocol[M]):
         """The model's state before the first epoch, for ``copies`` methods."""
         ...
 
-    def epoch(self, state: M, stream: Any, k: int, copies: int) -> tuple[M, Epoch]:
-        """The epoch k (1-based) of the stream: measurements, availability, matrices."""
+    def epoch(
+        self,
+        state: M,
+        stream: Any,
+        k: int,
+        copies: int,
+        local_copies: LocalCopies | None = None,
+    ) -> tuple[M, Epoch]:
+        """The epoch k (1-based) of the stream: measurements, availability, matrices;
+        ``local_copies``: rows whose aids are measured at each local's own corrected
+        copy of the SINS output (output correction, spec §8.5; paper 001 §3)."""
         ...
 
     def navigation(self, state: M) -> InsState | None:
         """Every method's navigation solution before the correction, or None (linear)."""
         ...
 
-    def correct(self, state: M, fused: np.ndarray) -> M:
-        """Feed every method's fused estimate (rows, n) back."""
+    def correct(self, state: M, fused: np.ndarray, rows: np.ndarray | None = None) -> M:
+        """Feed every method's fused estimate (rows, n) back (only the ``rows`` (rows,)
+        that are True, when given)."""
         ...
 
-    def output(self, state: M, fused: np.ndarray) -> InsState | None:
-        """The corrected navigation solution, or None (linear)."""
+    def output(
+        self, state: M, fused: np.ndarray, rows: np.ndarray | None = None
+    ) -> InsState | None:
+        """The corrected navigation solution, or None (linear); ``rows`` as for
+        :meth:`correct` (the others' output is corrected by their estimate)."""
         ...
+
+
+class LocalCopies(NamedTuple):
+    """Rows whose aid i is measured at local i's own copy of the SINS output.
+
+    Attributes
+    ----------
+    rows : (rows,) bool, the SINS rows concerned (methods with output correction whose
+        architecture keeps independent local copies: ``local_copies = True``).
+    estimate : (rows, N, n_c) each local filter's posterior estimate of the common
+        error states at the previous epoch (zeros elsewhere).
+    """
+
+    rows: np.ndarray
+    estimate: np.ndarray
 
 
 class EpochRecord(NamedTuple):
@@ -161,8 +199,16 @@ def iterate(
     mstate = model.start(stream, M)
     states = [filters[nm].init(B) for nm in names]
     n_local = model.n_local or model.system.n_common
+    fb = method_feedback(model, [filters[nm] for nm in names])
+    rows = None if fb is None else np.repeat(fb, B)
+    copies = [
+        j
+        for j, nm in enumerate(names)
+        if fb is not None and not fb[j] and getattr(filters[nm], "local_copies", False)
+    ]
+    local_copies = None
     for k in range(1, steps + 1):
-        mstate, epoch = model.epoch(mstate, stream, k, M)
+        mstate, epoch = model.epoch(mstate, stream, k, M, local_copies)
         outputs, local = [], []
         for j, nm in enumerate(names):
             e_j = _part(epoch, parts[j]) if model.per_method_rows else epoch
@@ -172,16 +218,60 @@ def iterate(
             local.append(filters[nm].local_estimates(states[j], n_local))
             if progress is not None:
                 progress(1)
+        if copies:
+            local_copies = _local_copies(model, filters, names, states, copies, B)
         nav = model.navigation(mstate)
         solution = None
         if nav is not None:
             fused = np.concatenate([o.x for o in outputs], 0)
-            if model.feedback:
+            if rows is None and model.feedback:
                 for j, nm in enumerate(names):
                     states[j] = filters[nm].shift(states[j], outputs[j].x[:, : model.n_fed])
                 mstate = model.correct(mstate, fused)
-            solution = model.output(mstate, fused)
+            elif rows is not None and rows.any():
+                for j, nm in enumerate(names):
+                    if fb is not None and fb[j]:
+                        states[j] = filters[nm].shift(states[j], outputs[j].x[:, : model.n_fed])
+                mstate = model.correct(mstate, fused, rows)
+            solution = model.output(mstate, fused, rows)
         yield EpochRecord(k, tuple(outputs), tuple(local), nav, solution)
+
+
+def method_feedback(
+    model: NavigationModel[Any], filters: list[Architecture[Any]]
+) -> np.ndarray | None:
+    """(M,) whether each method feeds its fused estimate back to its SINS, when a method
+    sets its own ``correction`` against the model's (spec §8.5); None when every method
+    follows the model (its ``feedback``), or for a model without a SINS."""
+    if not model.per_method_rows:
+        return None
+    own = [getattr(getattr(f, "config", None), "correction", None) for f in filters]
+    if all(c is None for c in own):
+        return None
+    fb = np.array([model.feedback if c is None else c == "feedback" for c in own])
+    if (fb == model.feedback).all():
+        return None
+    return fb
+
+
+def _local_copies(
+    model: NavigationModel[Any],
+    filters: Mapping[str, Architecture[Any]],
+    names: list[str],
+    states: list[Any],
+    copies: list[int],
+    B: int,
+) -> LocalCopies:
+    """The local estimates of the methods whose locals keep their own SINS copies."""
+    nc, N = model.system.n_common, model.system.n_sensors
+    rows = np.zeros(len(names) * B, bool)
+    est = np.zeros((len(names) * B, N, nc))
+    for j in copies:
+        local = filters[names[j]].local_estimates(states[j], nc)
+        assert local is not None, "an architecture with local copies has local estimates"
+        rows[j * B : (j + 1) * B] = True
+        est[j * B : (j + 1) * B] = local
+    return LocalCopies(rows, est)
 
 
 class Trace(NamedTuple):

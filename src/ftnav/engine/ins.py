@@ -15,7 +15,14 @@ Per filter epoch k (spec §6.2, §8.4-§8.5):
    the same ones, spec §6.2);
 5. with ``correction = "feedback"`` the fused navigation errors are fed back to the
    SINS and every filter's estimates are shifted by the same correction; with
-   ``"output"`` the SINS runs free and its output is corrected.
+   ``"output"`` the SINS runs free and its output is corrected.  A method may set its
+   own ``correction`` (its SINS rows are fed back or not).  With output correction and
+   an architecture whose local filters each keep their own copy of the SINS output
+   (paper 001 §3: ``local_copies``), aid i is measured at its local's copy: the free
+   SINS corrected by that local's predicted estimate ``x̂_i⁻ = Φ x̂_i``, and
+   ``z_i = h(copy_i) − aid + H_i[:, :9] x̂_i⁻[:9]`` so that the local's innovation
+   ``z_i − H_i x̂_i⁻`` is the aid's residual at its copy (the error-state EKF
+   relinearized at each local's own solution; the terrain slopes are read there).
 
 Aids are applied at the filter epochs ``t_k = k·dt``: every aid's time stamps must be
 epoch times (:meth:`InsModel.check`).  Nothing here reads a truth.
@@ -29,6 +36,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 
 from ftnav.core import kalman as kf
+from ftnav.engine.driver import LocalCopies
 from ftnav.model.streams import InsStream
 from ftnav.model.system import Epoch, Linearization, LinearSystem
 from ftnav.nav import attitude
@@ -58,6 +66,16 @@ class InsModelState(NamedTuple):
     ins: InsState
     previous: Previous
     shift: np.ndarray | None
+
+
+def _rows(rows: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """The (rows,) mask shaped to broadcast over ``a``'s trailing axes."""
+    return rows.reshape(rows.shape + (1,) * (a.ndim - 1))
+
+
+def _pick(rows: np.ndarray, a: InsState, b: InsState) -> InsState:
+    """``a``'s rows where ``rows`` is True, ``b``'s elsewhere."""
+    return InsState(*(np.where(_rows(rows, x), x, y) for x, y in zip(a, b, strict=True)))
 
 
 def _tile(a: np.ndarray, M: int) -> np.ndarray:
@@ -121,9 +139,15 @@ class InsModel:
         return InsModelState(ins, (None,) * len(self.aids), None)
 
     def epoch(
-        self, state: InsModelState, stream: InsStream, k: int, copies: int
+        self,
+        state: InsModelState,
+        stream: InsStream,
+        k: int,
+        copies: int,
+        local_copies: LocalCopies | None = None,
     ) -> tuple[InsModelState, Epoch]:
-        """Propagate every SINS over epoch k, linearize, form the aids' measurements."""
+        """Propagate every SINS over epoch k, linearize, form the aids' measurements
+        (at each local's copy for the rows of ``local_copies``: module step 5)."""
         ins = state.ins
         sl = slice((k - 1) * self.spe, k * self.spe)
         dth = _tile(stream.imu.dtheta[:, sl], copies)
@@ -146,6 +170,8 @@ class InsModel:
             ins, dth, dvel, stream.imu.dt, algorithm=self.algorithm, output_every=self.every
         )
         z, H, avail, previous = self._measure(state, stream, k, copies, ins, Phi)
+        if local_copies is not None and local_copies.rows.any():
+            self._at_local_copies(stream, k, copies, ins, Phi, local_copies, z, H, avail)
         epoch = Epoch(k, tuple(z), avail, stream.labels[k - 1], Linearization(Phi, Q, tuple(H)))
         return InsModelState(ins, previous, state.shift), epoch
 
@@ -186,29 +212,72 @@ class InsModel:
             avail[:, i] = ok
         return z, H, avail, tuple(previous)
 
+    def _at_local_copies(
+        self,
+        stream: InsStream,
+        k: int,
+        copies: int,
+        ins: InsState,
+        Phi: np.ndarray,
+        local: LocalCopies,
+        z: list[np.ndarray],
+        H: list[np.ndarray],
+        avail: np.ndarray,
+    ) -> None:
+        """Re-measure every aid of the rows ``local.rows`` at its local's own copy of the
+        SINS output (module step 5), in place of ``z``, ``H`` and ``avail``."""
+        n = self.system.n_common
+        r = local.rows
+        q, v, p = ins.q[r], ins.v[r], ins.p[r]
+        for i, (sensor, aid) in enumerate(zip(self.aids, stream.aids, strict=True)):
+            if self.psi[i] is not None:
+                raise ValueError(f"aids[{i}]: a differenced aid cannot be measured at local copies")
+            d = np.einsum("bij,bj->bi", Phi[r][:, :N_NAV, :n], local.estimate[r, i])
+            qc, vc, pc = apply_correction(q, v, p, d[:, 0:3], d[:, 3:6], d[:, 6:9])
+            raw = _tile(aid.raw[:, k - 1], copies)[r]
+            lin = sensor.measure(qc, vc, pc, np.nan_to_num(raw, nan=1.0))
+            ok = _tile(aid.available[:, k - 1], copies)[r] & lin.valid
+            zi = lin.z + np.einsum("bij,bj->bi", lin.H[..., :N_NAV], d)
+            ok &= np.isfinite(zi).all(-1)
+            z[i][r] = np.where(ok[:, None], zi, np.nan)
+            H[i][r] = np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1))
+            avail[r, i] = ok
+
     def navigation(self, state: InsModelState) -> InsState:
         """Every method's SINS solution before this epoch's correction."""
         return state.ins
 
-    def correct(self, state: InsModelState, fused: np.ndarray) -> InsModelState:
-        """Feed the fused navigation errors (rows, ≥ 9) back to every SINS (spec §8.5)."""
-        if not self.feedback:
+    def correct(
+        self, state: InsModelState, fused: np.ndarray, rows: np.ndarray | None = None
+    ) -> InsModelState:
+        """Feed the fused navigation errors (rows, ≥ 9) back to every SINS (spec §8.5),
+        or only to the ``rows`` that are True (methods with their own ``correction``)."""
+        if rows is None and not self.feedback:
             return state
         d = fused[:, :N_NAV]
         ins = feedback(state.ins, d[:, 0:3], d[:, 3:6], d[:, 6:9])
+        if rows is not None:  # the other rows' SINS run free
+            ins = _pick(rows, ins, state.ins)
+            d = np.where(rows[:, None], d, 0.0)
         shift = None
         if any(p is not None for p in self.psi):
             n = self.system.n_common
             shift = np.concatenate([d, np.zeros((d.shape[0], n - N_NAV))], 1)
         return InsModelState(ins, state.previous, shift)
 
-    def output(self, state: InsModelState, fused: np.ndarray) -> InsState:
+    def output(
+        self, state: InsModelState, fused: np.ndarray, rows: np.ndarray | None = None
+    ) -> InsState:
         """The corrected navigation solution: the SINS after feedback, or its output
-        corrected by the fused errors (``correction = "output"``)."""
-        if self.feedback:
+        corrected by the fused errors (output correction); ``rows`` as for
+        :meth:`correct`."""
+        if rows is None and self.feedback:
             return state.ins
         d = fused[:, :N_NAV]
         q, v, p = apply_correction(
             state.ins.q, state.ins.v, state.ins.p, d[:, 0:3], d[:, 3:6], d[:, 6:9]
         )
-        return state.ins._replace(q=q, v=v, p=p)
+        out = state.ins._replace(q=q, v=v, p=p)
+        if rows is None:
+            return out
+        return _pick(rows, state.ins, out)

@@ -8,6 +8,8 @@ is fed back: the filters' estimates are the output.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ftnav.model.streams import MeasurementStream
@@ -43,14 +45,19 @@ class LinearModel:
     def navigation(self, state: None) -> None:
         return None
 
-    def correct(self, state: None, fused: np.ndarray) -> None:
+    def correct(self, state: None, fused: np.ndarray, rows: np.ndarray | None = None) -> None:
         return None
 
-    def output(self, state: None, fused: np.ndarray) -> None:
+    def output(self, state: None, fused: np.ndarray, rows: np.ndarray | None = None) -> None:
         return None
 
     def epoch(
-        self, state: None, stream: MeasurementStream, k: int, copies: int
+        self,
+        state: None,
+        stream: MeasurementStream,
+        k: int,
+        copies: int,
+        local_copies: Any = None,
     ) -> tuple[None, Epoch]:
         """The stream's epoch k (1-based) for ``copies`` methods (all see the same rows)."""
         lin = None

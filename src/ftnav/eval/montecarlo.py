@@ -16,13 +16,13 @@ same alone, in a batch, or in another worker process (:mod:`ftnav.parallel`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from ftnav.engine import navigation_model
-from ftnav.engine.driver import EpochRecord, Recorder, iterate
+from ftnav.engine.driver import EpochRecord, Recorder, iterate, method_feedback
 from ftnav.eval.metrics import nees
 from ftnav.eval.navigation import N_NAV, metric_errors, metric_variances
 from ftnav.fusion import registry
@@ -194,9 +194,13 @@ def _score_ins(
     B: int,
     K: int,
     dims: Sequence[int],
-    feedback: bool,
+    feedback: bool | Sequence[bool],
 ) -> dict[str, MethodResult]:
+    """Integrated runs' scores; ``feedback`` per method (or one for all): a fed-back
+    method's output is its SINS after feedback, an output-corrected one's the SINS minus
+    its estimate (spec §8.5)."""
     M = len(names)
+    fb = [bool(feedback)] * M if isinstance(feedback, bool) else [bool(f) for f in feedback]
     parts = [slice(j * B, (j + 1) * B) for j in range(M)]
     scores = {nm: _Scores(B, K, N_NAV, len(dims)) for nm in names}
     tr = truth.epochs
@@ -212,13 +216,13 @@ def _score_ins(
             metric_errors(
                 navigation_errors(r.solution.q, r.solution.v, r.solution.p, q_t, v_t, p_t), p_t
             )
-            if feedback
+            if any(fb)
             else None
         )
         for j, nm in enumerate(names):
             p, s, out = parts[j], scores[nm], r.outputs[j]
             s.error[:, k - 1] = (
-                e_out[p] if feedback else metric_errors(e_true[p] - out.x[:, :N_NAV], p_t)
+                e_out[p] if fb[j] else metric_errors(e_true[p] - out.x[:, :N_NAV], p_t)
             )
             s.nees[:, k - 1], s.P[:, k - 1] = eps[p], var[p]
             if r.local[j] is not None:
@@ -230,12 +234,22 @@ def _score_ins(
 
 
 def score(
-    scenario: Any, records: Any, truth: LinearTruth | InsTruth, names: list[str], B: int, model: Any
+    scenario: Any,
+    records: Any,
+    truth: LinearTruth | InsTruth,
+    names: list[str],
+    B: int,
+    model: Any,
+    filters: Mapping[str, Any] | None = None,
 ) -> dict[str, MethodResult]:
     """Each method's :class:`MethodResult` from the engine's records and the truth."""
     dims = [s.dim for s in model.system.sensors]
     if scenario.kind == "integrated":
-        return _score_ins(records, truth, names, B, scenario.steps, dims, model.feedback)
+        fb: bool | Sequence[bool] = model.feedback
+        if filters is not None:
+            own = method_feedback(model, [filters[nm] for nm in names])
+            fb = fb if own is None else list(own)
+        return _score_ins(records, truth, names, B, scenario.steps, dims, fb)
     return _score_linear(records, truth, names, B, scenario.steps, model.system.n_common, dims)
 
 
@@ -304,7 +318,7 @@ def _task(task: tuple, progress: Callable[[int], None] | None = None) -> Scenari
     B = stream.batch
     truth = sim.truth if not twin else _twin_truth(sim.truth)
     records = iterate(model, stream, filters, sc.steps, progress, check_spd)
-    scored = score(sc, records, truth, names, B, model)
+    scored = score(sc, records, truth, names, B, model, filters)
     results, ff = {}, {}
     for name, res in scored.items():
         if twin:

@@ -181,6 +181,13 @@ class MethodBase(Settings):
     name: str = Field(min_length=1, description="unique method name")
     detector: Detector = NoDetector()
     noise: Noise = FixedNoise()
+    correction: Literal["feedback", "output"] | None = Field(
+        default=None,
+        description=(
+            "integrated navigation: this method's correction of its SINS (spec §8.5); "
+            "default: the scenario's [filter] correction"
+        ),
+    )
 
     def check_pieces(self) -> None:
         """Refuse a detector, noise model or test reference the architecture lacks."""

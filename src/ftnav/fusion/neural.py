@@ -64,7 +64,7 @@ from ftnav.fusion.neural_model import NeuronModel, select_weights
 from ftnav.fusion.protocol import StepOutput, minus, with_common
 from ftnav.model.system import Epoch, LinearSystem
 
-__all__ = ["NeuralConfig", "NeuralFusion", "NeuralState", "check"]
+__all__ = ["NeuralConfig", "NeuralFusion", "NeuralState", "check", "converged_only"]
 
 
 class NeuralConfig(MethodBase):
@@ -94,6 +94,17 @@ class NeuralConfig(MethodBase):
         ),
     )
     isolation: Literal["standalone", "time-update"] = "standalone"
+    convergence_ratio: float | None = Field(
+        default=None,
+        gt=1.0,
+        allow_inf_nan=False,
+        description=(
+            "ftnav's option beside the paper's fixed weights: an input whose σ of a state "
+            "exceeds this multiple of the smallest input σ of that state (not converged, "
+            "or far less accurate) is left out of that state's neuron, the weights "
+            "renormalized over the rest (module docstring)"
+        ),
+    )
 
     @model_validator(mode="after")
     def _check(self) -> NeuralConfig:
@@ -119,6 +130,18 @@ def check(config: NeuralConfig, system: LinearSystem, learned: Learned) -> None:
             f"got {config.uncovered!r}",
             "uncovered",
         )
+
+
+def converged_only(W: np.ndarray, SD: np.ndarray, ratio: float) -> np.ndarray:
+    """(B, n_c, N_in) the weights ``W`` with every input whose σ exceeds ``ratio`` × the
+    smallest σ of its state set to 0 and the rest renormalized to sum 1 (a state whose
+    kept inputs all have weight 0 gets equal weights over them).  ``SD`` (B, n_c, N_in)
+    are the inputs' σ (module docstring, ``convergence_ratio``)."""
+    keep = SD <= ratio * SD.min(-1, keepdims=True)
+    Wk = np.where(keep, W, 0.0)
+    total = Wk.sum(-1, keepdims=True)
+    equal = keep / keep.sum(-1, keepdims=True)
+    return np.where(total > 0, Wk / np.where(total > 0, total, 1.0), equal)
 
 
 class NeuralState(NamedTuple):
@@ -148,6 +171,10 @@ class NeuralFusion:
         the optimum for independent errors).  Closed-loop collection needs the latter:
         its fused estimate is fed back to the SINS.
     """
+
+    #: with output correction each local filter measures its aid at its own copy of the
+    #: SINS output (paper 001 §3, "输出校正"; :mod:`ftnav.engine.ins` step 5)
+    local_copies: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -270,6 +297,8 @@ class NeuralFusion:
             W = np.full(U.shape, 1.0 / self.n_inputs)
         else:
             W = select_weights(self.model, flags, self.config.uncovered)
+        if self.config.convergence_ratio is not None:
+            W = converged_only(W, SD, self.config.convergence_ratio)
         xf = (W * U).sum(-1)
         Pf = np.zeros(xf.shape + (nc,))
         Pf[:, np.arange(nc), np.arange(nc)] = (W * SD).sum(-1) ** 2

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Annotated, Any, NamedTuple, TypeAlias, Union
 from pydantic import Discriminator, Tag, ValidationError
 
 from ftnav.fusion import centralized, distributed, federated, neural
-from ftnav.fusion.config import CONFIG_ERROR, NOTHING_LEARNED, Learned, MethodBase
+from ftnav.fusion.config import CONFIG_ERROR, NOTHING_LEARNED, Learned, MethodBase, config_error
 from ftnav.fusion.protocol import Architecture
 from ftnav.fusion.zero_reset import ZeroResetFilter
 from ftnav.model.system import LinearSystem
@@ -117,4 +117,9 @@ def build(
 
 def check(system: LinearSystem, config: MethodBase, learned: Learned = NOTHING_LEARNED) -> None:
     """The boundary checks of a method that need the system or its trained models."""
+    if config.correction is not None and not system.linearized:
+        raise config_error(
+            "only read by integrated scenarios and recordings (the SINS correction)",
+            "correction",
+        )
     ARCHITECTURES[config.architecture].check(config, system, learned)  # type: ignore[attr-defined]

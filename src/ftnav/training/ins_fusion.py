@@ -9,8 +9,15 @@ closed loop with that element faulty from ``fault_start`` to the end (the magnit
 the scenario's first fault of that element; without one, the configuration is
 skipped).  The collecting filter is the neural architecture's own independent local
 filters, fused by inverse variances over the unflagged inputs with the true fault
-flags (``oracle``); its fused estimate is fed back, as in operation.  Targets are the
-true 18 error states (navigation errors before feedback, the IMU's true biases).  The
+flags (``oracle``), with the correction the trained method uses in operation:
+``"output"`` (paper 001 §3: the SINS runs free, each local filter corrects its own copy
+of its output and measures its aid there) or ``"feedback"`` (the fused estimate fed
+back).  Targets are the true error states of the SINS the locals estimate (its
+navigation errors before any correction, the IMU's true biases).
+
+The training runs draw their random streams from run numbers
+``TRAIN_RUN_OFFSET + r`` (r = 0 … runs − 1) of the root seed: disjoint from the runs
+``ftnav run`` evaluates (0 … runs − 1), so no evaluation run was seen in training.  The
 neurons of each (configuration, state) pair are trained by projected LMS on centred
 inputs (spec §5.3), as :func:`ftnav.training.fusion.train_fusion` does for
 linear scenarios (step below).
@@ -37,6 +44,8 @@ from ftnav.sim.ins import InsTruth, simulate_ins
 __all__ = ["train_ins_fusion", "ins_configurations"]
 
 _SAMPLE_STREAM = 0x4E49
+#: first run number of the training runs (module docstring: disjoint from evaluation)
+TRAIN_RUN_OFFSET = 1_000_000
 
 
 def ins_configurations(sc: InsScenario) -> list[tuple[str, np.ndarray, Fault | None]]:
@@ -67,6 +76,8 @@ def train_ins_fusion(
     epochs: int = 500,
     progress: Callable[[int], None] | None = None,
     samples: dict | None = None,
+    correction: str | None = None,
+    run_offset: int = TRAIN_RUN_OFFSET,
 ) -> NeuronModel:
     """Train the neuron banks of the scenario's integrated system (module docstring).
 
@@ -76,11 +87,17 @@ def train_ins_fusion(
     from the constrained least-squares optimum (healthy δL weights 0.17 / 0.83 / 0.00
     for GPS / TAN / DNS against the optimum 0.94 / 0.03 / 0.02).  ``samples``, if given,
     receives the centred, scaled training arrays ``U`` (J, M, N_in) and ``t`` (J, M).
+    ``correction``: the trained method's (default: the scenario's); ``run_offset``: the
+    first run number of the training runs (module docstring).
     """
+    correction = correction or sc.correction
     system = sc.system()
     model_ = navigation_model(sc, system)
     nc = system.n_common
-    collect_method = NeuralConfig(name="collect", detector=OracleDetector(kind="oracle"))
+    collect_method = NeuralConfig(
+        name="collect", detector=OracleDetector(kind="oracle"), correction=correction
+    )
+    training_runs = range(run_offset, run_offset + runs)
     configs = ins_configurations(sc)
     end = sc.steps * sc.dt
     pick = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(_SAMPLE_STREAM,)))
@@ -88,7 +105,7 @@ def train_ins_fusion(
     for name, pattern, fault in configs:
         faults = () if fault is None else (replace(fault, start=fault_start, end=end + 1.0),)
         variant = replace(sc, faults=faults)
-        sim = simulate_ins(variant, range(runs), seed)
+        sim = simulate_ins(variant, training_runs, seed)
         filt = NeuralFusion(system, collect_method, collect=True, untrained="inverse-variance")
         truth = np.empty((runs, sc.steps, nc))
         feats = np.empty((runs, sc.steps, system.n_sensors * nc))
@@ -126,10 +143,17 @@ def train_ins_fusion(
         "scenario": sc.name,
         "profile": sc.profile.name,
         "runs": runs,
+        "run_numbers": [run_offset, run_offset + runs - 1],
         "seed": seed,
+        "correction": correction,
         "fault_start_s": fault_start,
         "samples_per_neuron": M,
-        "collect": "closed loop, inverse-variance fusion with oracle flags",
+        "collect": (
+            "output correction, each local at its own SINS copy"
+            if correction == "output"
+            else "closed loop (feedback)"
+        )
+        + ", inverse-variance fusion with oracle flags",
         "lms": {
             "projection": "simplex",
             "step": "lms",
