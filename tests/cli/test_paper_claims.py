@@ -212,3 +212,35 @@ def test_seed002_new_claims_are_measured(ramp002):
         assert 0.0 <= v["gnss_flag_rate_in_window"] <= 1.0
         assert set(v["horizontal_rmse_m"]) == {"dkf-vb-chi2", "dkf-vb", "fkf-chi2"}
     assert claims["p002-vb-sigma"]["source"] == "paper 002 §2.3, Fig. 3; spec §7"
+
+
+def test_the_neuron_intent_claim_checks_best_local_federated_and_each_fault_window():
+    """Issue 16 point 2, with known answers: fault-free 2.83 m against a best local of
+    4.24 m and a federated 2.83 m holds; a fault window 2x its fault-free level, or a
+    fused error above 1.5x the federated filter's, does not."""
+    from ftnav.report.claims import _neuron_intent
+
+    sc = _seed001(700)
+    B, K = 2, sc.steps
+    local = np.zeros((B, K, 3, 3))
+    local[..., 0, :2] = 3.0  # gps: 4.24 m horizontal
+    local[..., 1, :2] = 10.0
+    local[..., 2, :2] = 50.0
+    base = np.zeros((B, K, 9))
+    base[..., :2] = 2.0  # 2.83 m horizontal
+    errors = {"neural-chi2": base, "fkf-nr-chi2": base}
+    locals_ = {"neural-chi2": local}
+    (c,) = _neuron_intent(_fake(sc, errors, locals_, errors, locals_))
+    assert c["id"] == "p001-intent-neural-chi2" and c["holds"] is True
+    m = c["measured"]
+    assert m["best_local_horizontal_rmse_m"] == pytest.approx(np.hypot(3.0, 3.0))
+    assert set(m["in_fault_windows"]) == {"dns", "gps", "tan"}
+    faulty = base.copy()
+    gps = next(f for f in sc.faults if f.sensor == "gps")
+    faulty[:, (sc.times >= gps.start) & (sc.times < gps.end), :2] = 4.0  # 2x in the window
+    (c,) = _neuron_intent(_fake(sc, {**errors, "neural-chi2": faulty}, locals_, errors, locals_))
+    assert c["holds"] is False
+    assert c["measured"]["in_fault_windows"]["gps"]["rmse_m"] == pytest.approx(np.hypot(4, 4))
+    good_fkf = {"neural-chi2": base, "fkf-nr-chi2": base / 2}  # federated 1.41 m: 2x better
+    (c,) = _neuron_intent(_fake(sc, good_fkf, locals_, good_fkf, locals_))
+    assert c["holds"] is False

@@ -759,6 +759,7 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
             )
         )
     out += _neural_fig4(result)
+    out += _neuron_intent(result)
     sins = [f for f in sc.faults if f.sensor == "sins"]
     if sins and name is not None and name in result.fault_free:
         f = sins[0]
@@ -834,6 +835,69 @@ def _neural_fig4(result: ScenarioResult) -> list[dict]:
             "position error",
         )
     ]
+
+
+def _horizontal_rms(e: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(e[..., 0] ** 2 + e[..., 1] ** 2)))
+
+
+def _neuron_intent(result: ScenarioResult) -> list[dict]:
+    """Issue 16's criterion for every neuron centre of the run (paper 001's intent, §4):
+    without faults its horizontal error at most its best local filter's and within 1.5x
+    of the federated filter's; under each single-aid fault, within 1.5x of its own
+    fault-free level outside the window's first 10 s."""
+    sc = result.scenario
+    if _P001_FKF not in result.results or not result.fault_free:
+        return []
+    t = sc.times
+    w = t >= sc.evaluation.skip_initial
+    fkf = _horizontal_rms(result.fault_free[_P001_FKF].error[:, w])
+    out = []
+    for m in sc.methods:
+        if m.architecture != "neural" or m.name not in result.results:
+            continue
+        ff, res = result.fault_free[m.name], result.results[m.name]
+        fused = _horizontal_rms(ff.error[:, w])
+        best = (
+            min(_horizontal_rms(ff.local[:, w, i]) for i in range(len(sc.sensor_names)))
+            if ff.local is not None
+            else float("nan")
+        )
+        faults = {}
+        for f in sc.faults:
+            if f.sensor in ("sins",) or f.kind == "outage":
+                continue
+            win = (t >= f.start + 10.0) & (t < f.end)
+            if win.any():
+                faults[f.sensor] = {
+                    "rmse_m": _horizontal_rms(res.error[:, win]),
+                    "fault_free_rmse_m": _horizontal_rms(ff.error[:, win]),
+                }
+        holds = (
+            fused <= best
+            and fused <= 1.5 * fkf
+            and all(v["rmse_m"] <= 1.5 * v["fault_free_rmse_m"] for v in faults.values())
+        )
+        out.append(
+            _claim(
+                f"p001-intent-{m.name}",
+                "paper 001 §4 (issue 16, point 2)",
+                f"{m.name}: without faults at most its best local filter's horizontal error "
+                "and within 1.5x of the federated filter's; under each single-aid fault within "
+                "1.5x of its own fault-free level (outside the window's first 10 s)",
+                {
+                    "correction": m.correction or sc.correction,
+                    "fault_free_horizontal_rmse_m": fused,
+                    "best_local_horizontal_rmse_m": best,
+                    "federated_horizontal_rmse_m": fkf,
+                    "in_fault_windows": faults,
+                },
+                holds,
+                "RMS over runs and epochs after the evaluation's first "
+                f"{sc.evaluation.skip_initial:g} s; federated: {_P001_FKF}, fault-free",
+            )
+        )
+    return out
 
 
 def _neural_fig5(second) -> list[dict]:
