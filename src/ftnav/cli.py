@@ -632,7 +632,8 @@ def _cmd_run(args) -> int:
             if integrated:
                 from ftnav.plot.integrated import save_integrated
 
-                figures = [p.name for p in save_integrated(result, stage)]
+                second_run = second[0] if second is not None else None
+                figures = [p.name for p in save_integrated(result, stage, second_run)]
             else:
                 from ftnav.plot.figures import save_all
 

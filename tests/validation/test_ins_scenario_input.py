@@ -211,3 +211,22 @@ def test_filter_imu_sets_what_the_filters_assume_and_not_the_truth():
     truth = parse_ins_scenario(tomllib.loads(GOOD))
     assert sc.imu == truth.imu  # the simulator's IMU is unchanged
     assert sc.initial_sigma[9] == pytest.approx(10 * truth.initial_sigma[9])  # 1 vs 0.1 deg/h
+
+
+def test_a_second_flight_figure_needs_a_test_profile():
+    """``flight = "second"`` draws the run on the test profile; without one, one line."""
+    import tomllib as _toml
+
+    from ftnav.io.common import ScenarioError
+    from ftnav.io.ins_scenario_file import parse_ins_scenario
+    from ftnav.scenarios import builtin_path
+
+    doc = _toml.loads(builtin_path("seed001").read_text())
+    doc["profile"] = str(builtin_path("seed001").parent / "profiles" / "seed001.toml")
+    doc.pop("test_profile")
+    for m in doc["methods"]:
+        m.pop("model", None)
+    doc["methods"] = [m for m in doc["methods"] if m["architecture"] != "neural"]
+    doc["figures"] = [{"name": "f", "methods": ["ckf"], "states": ["pos_E_m"], "flight": "second"}]
+    with pytest.raises(ScenarioError, match=r"figures\[0\]\.flight: the scenario has no second"):
+        parse_ins_scenario(doc)

@@ -512,6 +512,7 @@ def parse_ins_scenario(
             sensors=names,
             kinds=("errors", "local-fused", "vb-noise"),
             position_states=METRIC_STATES[:3],
+            second_flight=f.test_profile is not None,
         )
     except Exception as exc:  # pydantic custom error outside validation
         ctx = getattr(exc, "context", None) or {}

@@ -11,7 +11,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any, get_args, get_origin
+from typing import Annotated, Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, Field
 from pydantic_core import PydanticCustomError
@@ -61,6 +61,10 @@ class FigureFile(BaseModel):
         default="faults", description="faults: the run with the faults; fault-free: its twin"
     )
     sensor: str = Field(default="", description="vb-noise: the aid whose noise is drawn")
+    flight: Literal["first", "second"] = Field(
+        default="first",
+        description="integrated: the scenario's flight, or its test_profile (second)",
+    )
 
 
 class EvaluationFile(BaseModel):
@@ -163,6 +167,7 @@ def _build_figure(
     sensors: Sequence[str],
     kinds: Sequence[str] = ("errors",),
     position_states: Sequence[str] = (),
+    second_flight: bool = False,
 ) -> FigureSpec:
     """Check one ``[[figures]]`` entry against the scenario's states, methods and sensors.
 
@@ -170,6 +175,8 @@ def _build_figure(
     ones; ``kinds`` are the figure kinds the scenario's kind supports.
     """
     at = ("figures", i)
+    if fg.flight == "second" and not second_flight:
+        raise fail("the scenario has no second flight (test_profile)", *at, "flight")
     if not _FILE_STEM.fullmatch(fg.name):
         raise fail(
             "must be a file name without extension (letters, digits, '_', '-', '.')", *at, "name"
@@ -223,7 +230,14 @@ def _build_figure(
     elif fg.sensor:
         raise fail("only used with kind = 'vb-noise'", *at, "sensor")
     return FigureSpec(
-        fg.name, fg.title, tuple(fg.methods), tuple(fg.states), fg.kind, fg.condition, fg.sensor
+        fg.name,
+        fg.title,
+        tuple(fg.methods),
+        tuple(fg.states),
+        fg.kind,
+        fg.condition,
+        fg.sensor,
+        fg.flight,
     )
 
 

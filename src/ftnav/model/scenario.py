@@ -115,6 +115,8 @@ class FigureSpec:
         of ``sensor``, paper 002 Fig. 3, 5).
     condition : ``faults`` (the run with the faults) or ``fault-free`` (its fault-free twin).
     sensor : ``vb-noise`` only: the aid whose noise σ is drawn.
+    flight : ``first`` (the scenario's profile) or ``second`` (its ``test_profile``: the
+        flight the learned methods were not trained on, paper 001 Fig. 5).
     """
 
     name: str
@@ -124,6 +126,7 @@ class FigureSpec:
     kind: FigureKind = "errors"
     condition: FigureCondition = "faults"
     sensor: str = ""
+    flight: Literal["first", "second"] = "first"
 
 
 @dataclass(frozen=True, slots=True)

@@ -321,14 +321,20 @@ def draw_figure(sr: ScenarioResult, spec: FigureSpec) -> Figure:
     )
 
 
-def save_integrated(sr: ScenarioResult, out_dir) -> list[pathlib.Path]:
+def save_integrated(
+    sr: ScenarioResult, out_dir, second: ScenarioResult | None = None
+) -> list[pathlib.Path]:
     """Write ``<name>.png`` for every figure of the scenario's ``[[figures]]`` (default:
-    :func:`default_figures`); returns the paths."""
+    :func:`default_figures`), a ``flight = "second"`` one from ``second`` (the run on the
+    scenario's test profile; skipped without it); returns the paths."""
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
     for spec in sr.scenario.figures or default_figures(sr):
+        run = sr if spec.flight == "first" else second
+        if run is None:
+            continue
         path = out_dir / f"{spec.name}.png"
-        draw_figure(sr, spec).savefig(path, dpi=_DPI)
+        draw_figure(run, spec).savefig(path, dpi=_DPI)
         paths.append(path)
     return paths
