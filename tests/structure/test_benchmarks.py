@@ -78,10 +78,10 @@ def test_bench_integrated():
         out,
         [
             rf"^FilterPy, one 18-state filter, 3600 epochs: {NUMBER} s",
-            r"^ftnav seed002 \(1 worker\(s\)\), [0-9]+ methods \+ fault-free twin, 1 run\(s\) x 10 s: "
+            r"^ftnav seed002 \(1 worker\(s\)\), \d+ methods \+ fault-free twin, 1 run\(s\) x 10 s: "
             rf"{NUMBER} s .* -> {NUMBER} s per run per 3600 s \(ratio to the FilterPy single "
             rf"filter: {NUMBER}x\)$",
-            r"^ftnav seed002 \(1 worker\(s\)\), [0-9]+ methods \+ fault-free twin, 2 run\(s\) x 10 s",
+            r"^ftnav seed002 \(1 worker\(s\)\), \d+ methods \+ fault-free twin, 2 run\(s\) x 10 s",
         ],
     )
 
