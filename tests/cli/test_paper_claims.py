@@ -211,6 +211,11 @@ def test_seed002_new_claims_are_measured(ramp002):
     for v in c["measured"].values():
         assert 0.0 <= v["gnss_flag_rate_in_window"] <= 1.0
         assert set(v["horizontal_rmse_m"]) == {"dkf-vb-chi2", "dkf-vb", "fkf-chi2"}
+        # a flagged VB local keeps adapting its R-hat, so GNSS comes back: never locked out
+        # (before: flagged 100 % of the window, never re-admitted, 83.6 m / 350 m)
+        assert v["runs_never_readmitted"] == 0 and v["gnss_flag_rate_in_window"] < 0.5, v
+        rmse = v["horizontal_rmse_m"]
+        assert rmse["dkf-vb-chi2"] <= 1.5 * rmse["dkf-vb"], rmse
     assert claims["p002-vb-sigma"]["source"] == "paper 002 §2.3, Fig. 3; spec §7"
 
 
