@@ -156,6 +156,12 @@ def local_fused_figure(
         fault_handles = _shade_faults(ax, sc, injected)
         ax.set_title(f"{_state_label(s)} error, run {run}", fontsize="medium")
         ax.set_ylabel("error [m]")
+        # a diverging local would flatten the fused lines: a linear axis within a few
+        # times the fused errors, logarithmic beyond (every line stays drawn)
+        fused = max(float(np.nanmax(np.abs(pool[n].error[run, :, j]))) for n in names)
+        if loc is not None and np.nanmax(np.abs(loc[run, :, :, j])) > 20.0 * fused > 0:
+            ax.set_yscale("symlog", linthresh=2.0 * fused)
+            ax.set_ylabel(f"error [m] (linear within ±{2.0 * fused:.3g} m)")
         ax.grid(alpha=0.3)
         ax.set_xlim(0.0, t[-1])
     axs[-1].set_xlabel("time [s]")
