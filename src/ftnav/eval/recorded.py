@@ -28,13 +28,12 @@ from ftnav.engine.driver import N_NAV, Trace
 from ftnav.eval.metrics import detection_stats
 from ftnav.model.scenario import Recording, fault_window_mask
 from ftnav.nav import attitude
-from ftnav.nav.earth import radii
+from ftnav.nav.earth import enu_metres
 from ftnav.recorded.truth import Truth
 
 __all__ = [
     "CONVERGENCE_S",
     "Reference",
-    "horizontal_errors",
     "navigation_errors",
     "score_recording",
     "score_truth",
@@ -51,15 +50,6 @@ class Reference(NamedTuple):
 
     index: np.ndarray
     p: np.ndarray
-
-
-def horizontal_errors(p: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """(K, 3) East, North, Up errors in metres of positions ``p`` against ``ref``."""
-    RM, RN = radii(ref[:, 0], ref[:, 2])
-    dlon = (p[:, 1] - ref[:, 1] + np.pi) % (2 * np.pi) - np.pi
-    return np.stack(
-        [dlon * RN * np.cos(ref[:, 0]), (p[:, 0] - ref[:, 0]) * RM, p[:, 2] - ref[:, 2]], -1
-    )
 
 
 def _outages(per_run: Sequence[tuple[np.ndarray, np.ndarray, Sequence]]) -> dict:
@@ -114,8 +104,7 @@ def score_recording(
     for name, tr in traces.items():
         assert tr.solution is not None
         errs = [
-            horizontal_errors(tr.solution.p[g, reference.index], reference.p)
-            for g in range(len(outages))
+            enu_metres(tr.solution.p[g, reference.index], reference.p) for g in range(len(outages))
         ]
         err = errs[0]
         e_h = np.hypot(err[:, 0], err[:, 1])
@@ -186,7 +175,7 @@ def score_truth(
         on &= ~((t >= s) & (t < e))
     e = navigation_errors(tr, truth, run)
     on &= np.isfinite(e).all(-1)
-    enu = horizontal_errors(tr.solution.p[run, truth.index], truth.p)
+    enu = enu_metres(tr.solution.p[run, truth.index], truth.p)
     est = attitude.dcm_to_euler(attitude.quat_to_dcm(tr.solution.q[run, truth.index]))
     ref = attitude.dcm_to_euler(truth.C)
     d_att = np.degrees(attitude.wrap_angle(est - ref))

@@ -22,7 +22,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from ftnav.io.common import ScenarioError, read_toml, to_scenario_error
+from ftnav.io.common import STRICT, ScenarioError, read_toml, to_scenario_error
 from ftnav.io.ins_scenario_file import (
     ImuSpec,
     filter_model,
@@ -68,7 +68,6 @@ __all__ = [
     "recording_json_schema",
 ]
 
-STRICT = ConfigDict(extra="forbid", strict=True)
 _DEG = math.pi / 180.0
 _AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
 
@@ -664,13 +663,6 @@ def _start(
     return al, sigma
 
 
-def _outage_mask(t: np.ndarray, outages: Sequence[tuple[float, float]]) -> np.ndarray:
-    m = np.zeros(t.shape, bool)
-    for s, e in outages:
-        m |= (t >= s) & (t < e)
-    return m
-
-
 def _aids(
     f: RecordingFile,
     base: Path,
@@ -679,9 +671,9 @@ def _aids(
     log: ImuLog,
     grid: tuple[float, float, int, int],
     faults: Sequence[Fault],
-    outages: Sequence[tuple[float, float]] = (),
 ) -> tuple[list[AidSpec], list[tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, Any]]:
-    """Every aid's sensor model and its epochs on the filter grid (absolute outages)."""
+    """Every aid's sensor model and its epochs on the filter grid (outages are cut from the
+    stream afterwards, :func:`ftnav.recorded.stream.with_outages`)."""
     t0, dt, steps, sub = grid
     times = t0 + dt * np.arange(1, steps + 1)
     specs, streams, counts = [], [], {}
@@ -703,7 +695,6 @@ def _aids(
                 # a missing σ is 0: the row keeps the sensor's R (NaN would mean "no epoch")
                 sig = sel.sigma if sel.sigma is not None else np.zeros((sel.t.size, 6))
                 raw = np.concatenate([raw, np.nan_to_num(sig, nan=0.0)], -1)
-            raw[_outage_mask(sel.t, outages)] = np.nan
             place = on_grid(sel.t, t0, dt, steps)
             streams.append((place.index, raw[place.kept], labels[place.kept]))
             counts[name] = {

@@ -27,10 +27,9 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ftnav.engine.driver import Trace
-from ftnav.eval.recorded import horizontal_errors
 from ftnav.io.recording_file import LoadedRecording
 from ftnav.io.solution_file import measurement_rows
-from ftnav.nav.earth import radii
+from ftnav.nav.earth import enu_metres, radii
 
 __all__ = ["errors_figure", "innovations_figure", "save_recording_figures", "track_figure"]
 
@@ -81,10 +80,8 @@ def _time_axis(ax, loaded: LoadedRecording) -> None:
 
 
 def _enu(p: np.ndarray, origin: np.ndarray) -> np.ndarray:
-    RM, RN = radii(origin[0], origin[2])
-    return np.stack(
-        [(p[:, 1] - origin[1]) * RN * np.cos(origin[0]), (p[:, 0] - origin[0]) * RM], -1
-    )
+    """(K, 2) East, North metres of positions ``p`` from ``origin`` (the track's plane)."""
+    return enu_metres(p, np.broadcast_to(origin, p.shape))[:, :2]
 
 
 def _note(loaded: LoadedRecording) -> str:
@@ -143,7 +140,7 @@ def errors_figure(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> Figur
     for row, (name, tr) in zip(axes, traces.items(), strict=True):
         assert tr.solution is not None
         p = _pick(tr.solution.p[:, idx], runs)
-        err = horizontal_errors(p, loaded.reference_p)
+        err = enu_metres(p, loaded.reference_p)
         RM, RN = radii(p[:, 0], p[:, 2])
         var = np.maximum(_pick(tr.P_diag[:, idx], runs), 0.0)
         s_h = np.sqrt(var[:, 6] * RM**2 + var[:, 7] * (RN * np.cos(p[:, 0])) ** 2)
