@@ -33,7 +33,7 @@ from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, config_error
 from ftnav.fusion.detection import Detection, epoch_features, features_needed
 from ftnav.fusion.locals import LocalBank, LocalUpdate, Measurements, NoiseState, measurements
-from ftnav.fusion.protocol import StepOutput, minus, select
+from ftnav.fusion.protocol import StepOutput, minus
 from ftnav.model.system import Epoch, LinearSystem
 
 __all__ = ["DistributedConfig", "DistributedFilter", "DistributedState", "check"]
@@ -182,14 +182,16 @@ class DistributedFilter:
             state.detector, stat, dof, tested, epoch.labels, feats
         )
         use = meas.usable if det_out is None else meas.usable & ~det_out.flag
+        # a flagged VB local keeps adapting its R̂ on its measurement while its state only
+        # time-updates: else R̂ stays at its pre-anomaly value, the residual test against
+        # it never passes again, and an aid whose noise grew is never re-admitted
+        # (measured on seed002, docs/claims.md)
         updates = [
-            bank.update(i, priors[i], epoch.z[i], use[:, i], Hs[i], state.noise[i])
+            bank.update(
+                i, priors[i], epoch.z[i], use[:, i], Hs[i], state.noise[i], meas.usable[:, i]
+            )
             for i in range(N)
         ]
-        if det_out is not None:
-            updates = self._adapt_while_isolated(
-                updates, priors, epoch, meas.usable, use, Hs, state
-            )
         xg, Pg = self._fuse(prior_g, priors, updates, use, epoch.z, Hs)
         prop = None
         test = self.detection.state_test
@@ -240,34 +242,6 @@ class DistributedFilter:
         res = [test.statistic(epoch.k, posts[i].x, posts[i].P, *props[i]) for i in range(N)]
         stat, dof, tested = (np.stack([r[j] for r in res], 1) for j in range(3))
         return stat, dof, tested, posts
-
-    def _adapt_while_isolated(
-        self,
-        updates: list[LocalUpdate],
-        priors: Sequence[Gaussian],
-        epoch: Epoch,
-        usable: np.ndarray,
-        use: np.ndarray,
-        Hs: Sequence[np.ndarray],
-        state: DistributedState,
-    ) -> list[LocalUpdate]:
-        """A flagged VB local keeps adapting its noise estimate on its measurement (its
-        state does the time update only): else the estimate stays at its pre-anomaly value,
-        the residual test against it never passes again, and an aid whose noise grew is
-        never re-admitted (measured on seed002, docs/claims.md)."""
-        out = list(updates)
-        for i in range(self.N):
-            isolated = usable[:, i] & ~use[:, i]
-            if state.noise[i] is None or not isolated.any():
-                continue
-            seen = self.bank.update(i, priors[i], epoch.z[i], usable[:, i], Hs[i], state.noise[i])
-            now, kept = seen.noise, updates[i].noise
-            assert now is not None and kept is not None
-            noise = NoiseState(
-                select(isolated, now.alpha, kept.alpha), select(isolated, now.beta, kept.beta)
-            )
-            out[i] = updates[i]._replace(noise=noise)
-        return out
 
     def _fuse(
         self,

@@ -94,6 +94,7 @@ def local_update(
     R: np.ndarray,
     noise: NoiseState | None,
     vb: VbNoise | None = None,
+    adapt: np.ndarray | None = None,
 ) -> LocalUpdate:
     """Masked Kalman (or VB, spec §7.2) update of one local filter.
 
@@ -105,8 +106,12 @@ def local_update(
     H, R : (m, n) or (B, m, n), (m, m) model; R is the nominal noise.
     noise : VB state, or None for a fixed-R filter.
     vb : the VB settings when this filter adapts R.
+    adapt : (B,) bool, runs whose VB noise estimate learns from the measurement
+        (default ``use``; a superset of it: an isolated filter whose state only
+        time-updates can still adapt its R̂).
     """
-    z0 = np.where(use[:, None], z, 0.0)
+    adapt = use if adapt is None else adapt
+    z0 = np.where(adapt[:, None], z, 0.0)
     if vb is None or noise is None:
         up = kf.update(x, P, z0, H, R)
         Rused = np.broadcast_to(R, (x.shape[0],) + R.shape)
@@ -117,7 +122,7 @@ def local_update(
             x, P, z0, H, a, b, iterations=vb.iterations, variant=vb.variant
         )
         # no measurement: the noise posterior is only forgotten (spec §7.2 predict)
-        new_noise = NoiseState(select(use, a_post, a), select(use, b_post, b))
+        new_noise = NoiseState(select(adapt, a_post, a), select(adapt, b_post, b))
         # the noise the posterior was computed with (what a CKF needs to reproduce it)
         Rused = select(use, R_post, vbk.noise_estimate(a, b))
     return LocalUpdate(
@@ -204,11 +209,12 @@ class LocalBank:
         use: np.ndarray,
         H: np.ndarray,
         noise: NoiseState | None,
+        adapt: np.ndarray | None = None,
     ) -> LocalUpdate:
-        """Local filter i's masked (VB) update from ``prior``."""
-        return local_update(
-            *prior, z, use, H, self.sensors[i].R, noise, self.vb if self.vb_on[i] else None
-        )
+        """Local filter i's masked (VB) update from ``prior`` (``adapt``:
+        :func:`local_update`)."""
+        vb = self.vb if self.vb_on[i] else None
+        return local_update(*prior, z, use, H, self.sensors[i].R, noise, vb, adapt)
 
     def noise_now(self, i: int, noise: NoiseState | None) -> np.ndarray:
         """The noise local filter i's next update starts from (R, or the VB estimate)."""
