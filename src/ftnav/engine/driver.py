@@ -24,7 +24,8 @@ from ftnav.fusion.protocol import Architecture, StepOutput
 from ftnav.model.system import Epoch, Linearization, LinearSystem
 from ftnav.nav.mechanization import InsState
 
-#: navigation error states (attitude, velocity, position; spec §8.3 order) of ``P_nav``
+#: navigation error states (attitude, velocity, position; spec §8.3 order): those fed
+#: back to a SINS and those of ``P_nav``
 N_NAV = 9
 
 __all__ = [
@@ -224,13 +225,9 @@ def iterate(
         solution = None
         if nav is not None:
             fused = np.concatenate([o.x for o in outputs], 0)
-            if rows is None and model.feedback:
+            if model.feedback if rows is None else rows.any():
                 for j, nm in enumerate(names):
-                    states[j] = filters[nm].shift(states[j], outputs[j].x[:, : model.n_fed])
-                mstate = model.correct(mstate, fused)
-            elif rows is not None and rows.any():
-                for j, nm in enumerate(names):
-                    if fb is not None and fb[j]:
+                    if fb is None or fb[j]:
                         states[j] = filters[nm].shift(states[j], outputs[j].x[:, : model.n_fed])
                 mstate = model.correct(mstate, fused, rows)
             solution = model.output(mstate, fused, rows)

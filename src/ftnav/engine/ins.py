@@ -36,7 +36,7 @@ from typing import Literal, NamedTuple
 import numpy as np
 
 from ftnav.core import kalman as kf
-from ftnav.engine.driver import LocalCopies
+from ftnav.engine.driver import N_NAV, LocalCopies
 from ftnav.model.streams import InsStream
 from ftnav.model.system import Epoch, Linearization, LinearSystem
 from ftnav.nav import attitude
@@ -45,9 +45,6 @@ from ftnav.nav.mechanization import InsState, apply_correction, feedback, integr
 from ftnav.sensors.base import AidingSensor
 
 __all__ = ["InsModel", "InsModelState", "N_NAV"]
-
-#: navigation error states fed back: attitude, velocity, position (spec §8.3 order)
-N_NAV = 9
 
 
 Previous = tuple[tuple[np.ndarray, np.ndarray, np.ndarray] | None, ...]
