@@ -93,3 +93,20 @@ def test_a_correction_on_a_linear_scenario_is_refused(tmp_path, capsys):
     assert main(["run", str(path), "--runs", "1", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "correction: only read by integrated scenarios and recordings" in err, err
+
+
+def test_local_copies_follow_output_correction_set_by_the_method_or_the_scenario(seed001):
+    """The neuron centre measures at its locals' copies whether its own ``correction`` or
+    the scenario's ``[filter] correction`` asks for output correction (bit for bit)."""
+    system = seed001.system()
+    sim = simulate_ins(seed001, range(2), 1)
+
+    def solution(sc, correction):
+        cfg = NeuralConfig(name="n", detector=OracleDetector(kind="oracle"), correction=correction)
+        filt = NeuralFusion(system, cfg, collect=True, untrained="inverse-variance")
+        model = navigation_model(sc, system)
+        return np.stack([r.solution.p for r in iterate(model, sim.stream, {"n": filt}, STEPS)])
+
+    by_method = solution(seed001, "output")
+    by_scenario = solution(dataclasses.replace(seed001, correction="output"), None)
+    np.testing.assert_array_equal(by_scenario, by_method)

@@ -202,10 +202,14 @@ def iterate(
     n_local = model.n_local or model.system.n_common
     fb = method_feedback(model, [filters[nm] for nm in names])
     rows = None if fb is None else np.repeat(fb, B)
+    # output-corrected methods whose locals measure at their own SINS copies, whether the
+    # method or the scenario chose output correction
     copies = [
         j
         for j, nm in enumerate(names)
-        if fb is not None and not fb[j] and getattr(filters[nm], "local_copies", False)
+        if model.per_method_rows
+        and not (model.feedback if fb is None else fb[j])
+        and getattr(filters[nm], "local_copies", False)
     ]
     local_copies = None
     for k in range(1, steps + 1):
