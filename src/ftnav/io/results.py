@@ -11,7 +11,14 @@ import numpy as np
 from ftnav.eval.evaluate import split_unit
 from ftnav.eval.montecarlo import ScenarioResult
 
-__all__ = ["write_metrics", "estimates_dataset", "write_estimates", "state_units", "METHOD_DIM"]
+__all__ = [
+    "write_metrics",
+    "estimates_dataset",
+    "write_estimates",
+    "state_units",
+    "METHOD_DIM",
+    "flag_attrs",
+]
 
 
 def _clean(obj):
@@ -37,6 +44,16 @@ def write_metrics(doc: dict, path: Path) -> Path:
 #: Dimension of the methods in ``estimates.nc``; ``method`` would collide with the
 #: ``method`` keyword of xarray's ``.sel`` (nearest-neighbour lookup).
 METHOD_DIM = "method_name"
+
+
+def flag_attrs(long_name: str) -> dict:
+    """netCDF attributes of a fault-flag variable (−1: the method has no detector)."""
+    return {
+        "units": "1",
+        "long_name": long_name,
+        "flag_values": np.array([-1, 0, 1], dtype=np.int8),
+        "flag_meanings": "method_has_no_detector not_flagged flagged",
+    }
 
 
 def state_units(states) -> list[str]:
@@ -122,12 +139,7 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
             "fault_flag": (
                 (M, "run", "time", "sensor"),
                 flag,
-                {
-                    "units": "1",
-                    "long_name": "fault flag after hysteresis",
-                    "flag_values": np.array([-1, 0, 1], dtype=np.int8),
-                    "flag_meanings": "method_has_no_detector not_flagged flagged",
-                },
+                flag_attrs("fault flag after hysteresis"),
             ),
             "beta": (
                 (M, "run", "time", "sensor"),

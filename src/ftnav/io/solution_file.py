@@ -20,7 +20,7 @@ import numpy as np
 
 from ftnav.engine.driver import Trace
 from ftnav.io.recording_file import LoadedRecording
-from ftnav.io.results import METHOD_DIM
+from ftnav.io.results import METHOD_DIM, flag_attrs
 from ftnav.nav import attitude
 from ftnav.nav.earth import radii
 
@@ -332,22 +332,12 @@ def trace_dataset(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> Any:
         "raw_flag": (
             dims4 + ("sensor",),
             raw,
-            {
-                "units": "1",
-                "long_name": "fault flag before hysteresis",
-                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
-                "flag_meanings": "method_has_no_detector not_flagged flagged",
-            },
+            flag_attrs("fault flag before hysteresis"),
         ),
         "fault_flag": (
             dims4 + ("sensor",),
             flag,
-            {
-                "units": "1",
-                "long_name": "fault flag after hysteresis",
-                "flag_values": np.array([-1, 0, 1], dtype=np.int8),
-                "flag_meanings": "method_has_no_detector not_flagged flagged",
-            },
+            flag_attrs("fault flag after hysteresis"),
         ),
         "beta": (
             dims4 + ("sensor",),

@@ -24,6 +24,7 @@ import pathlib
 from collections.abc import Mapping
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ftnav.engine.driver import Trace
@@ -82,6 +83,16 @@ def _time_axis(ax, loaded: LoadedRecording) -> None:
 def _enu(p: np.ndarray, origin: np.ndarray) -> np.ndarray:
     """(K, 2) East, North metres of positions ``p`` from ``origin`` (the track's plane)."""
     return enu_metres(p, np.broadcast_to(origin, p.shape))[:, :2]
+
+
+def _finish_panel(ax: Axes, loaded: LoadedRecording, empty: str | None) -> None:
+    """An aid's panel: ``empty`` said in its middle (None: it has data), the outage and
+    fault windows shaded, the grid, the legend outside on the right."""
+    if empty is not None:
+        ax.text(0.5, 0.35, empty, transform=ax.transAxes, ha="center", color="0.35")
+    _shade(ax, loaded)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=7)
 
 
 def _note(loaded: LoadedRecording) -> str:
@@ -222,18 +233,7 @@ def innovations_figure(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> 
             ax.axhline(1.0, color="k", lw=0.8, ls="--", label="threshold")
             ax.set_yscale("log")
             ax.set_ylabel(f"{aid}\nstatistic / threshold")
-            if not drawn:
-                ax.text(
-                    0.5,
-                    0.35,
-                    f"{aid}: never measured, nothing tested",
-                    transform=ax.transAxes,
-                    ha="center",
-                    color="0.35",
-                )
-            _shade(ax, loaded)
-            ax.grid(alpha=0.3)
-            ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=7)
+            _finish_panel(ax, loaded, None if drawn else f"{aid}: never measured, nothing tested")
         title = (
             f"{rec.name}: fault detector statistic per aid over its threshold, at the epochs "
             "the aid measured\n(shaded: red GNSS outages, purple faults)"
@@ -259,18 +259,7 @@ def innovations_figure(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> 
             ax.set_ylabel(f"{aid}\nσ of R̂ ({units})")
             if avail[i].any():
                 ax.set_yscale("log")
-            if not avail[i].any():
-                ax.text(
-                    0.5,
-                    0.35,
-                    f"{aid}: never measured",
-                    transform=ax.transAxes,
-                    ha="center",
-                    color="0.35",
-                )
-            _shade(ax, loaded)
-            ax.grid(alpha=0.3)
-            ax.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=7)
+            _finish_panel(ax, loaded, None if avail[i].any() else f"{aid}: never measured")
         title = (
             f"{rec.name}: no method has a fault detector and the NIS is not recorded; shown: "
             "the σ of the measurement noise used\nper aid row at the epochs the aid measured "
