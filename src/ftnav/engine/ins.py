@@ -226,10 +226,11 @@ class InsModel:
         n = self.system.n_common
         r = local.rows
         q, v, p = ins.q[r], ins.v[r], ins.p[r]
+        Phi_nav = Phi[r][:, :N_NAV, :n]  # the locals' estimates predicted to this epoch
         for i, (sensor, aid) in enumerate(zip(self.aids, stream.aids, strict=True)):
             if self.psi[i] is not None:
                 raise ValueError(f"aids[{i}]: a differenced aid cannot be measured at local copies")
-            d = np.einsum("bij,bj->bi", Phi[r][:, :N_NAV, :n], local.estimate[r, i])
+            d = np.einsum("bij,bj->bi", Phi_nav, local.estimate[r, i])
             qc, vc, pc = apply_correction(q, v, p, d[:, 0:3], d[:, 3:6], d[:, 6:9])
             raw = _tile(aid.raw[:, k - 1], copies)[r]
             lin = sensor.measure(qc, vc, pc, np.nan_to_num(raw, nan=1.0))
