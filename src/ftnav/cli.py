@@ -44,10 +44,11 @@ import time
 import tomllib
 import traceback
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
@@ -84,6 +85,7 @@ from ftnav.io.solution_file import (
 from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
 from ftnav.model.imu import imu_preset
 from ftnav.model.scenario import Fault
+from ftnav.model.streams import scheduled
 from ftnav.parallel import default_workers
 from ftnav.recordings import recording_names, recording_path
 from ftnav.report.claims import check_claims
@@ -664,7 +666,15 @@ def _cmd_run(args) -> int:
         else:
             print(f"[not checked] {c['source']}: {c['claim']} ({c['note']})")
     print(f"Results written to {out}/: {', '.join(written)}")
+    _integrity_warnings(m.integrity for m in metrics.values())
     return 0
+
+
+def _integrity_warnings(watches: Iterable[dict[str, Any] | None]) -> None:
+    """Every method's integrity findings (what it watched of itself) as warning lines."""
+    for w in watches:
+        for line in (w or {}).get("findings", ()):
+            print(f"ftnav: warning: {_one_line(line)}", file=sys.stderr)
 
 
 _RECORDING_FAULTS = ("bias", "ramp", "outage", "stuck")
@@ -721,7 +731,9 @@ def _cmd_process(args) -> int:
         outage = None
         if args.outage_length is not None:
             outage = (args.outage_length, args.outage_every, args.outage_start)
-        loaded = load_recording(path, outage=outage, faults=faults, methods=names, aids=keep)
+        loaded = load_recording(
+            path, outage=outage, faults=faults, methods=names, aids=keep, warn=False
+        )
         rec = loaded.recording
         out = args.out if args.out is not None else Path("results") / rec.name
         _check_out_folder(out)
@@ -733,6 +745,8 @@ def _cmd_process(args) -> int:
                     f"{rec.t_start + rec.times[-1]:.3f}] s (the recording's time base)"
                 )
         filters = build_filters(rec, rec.system(), rec.methods)
+    for note in loaded.warnings:  # after every check: a refusal comes alone
+        print(f"ftnav: warning: {_one_line(note)}", file=sys.stderr)
     # the engine reports one step per method and epoch, for the whole batch at once
     # (one run per interleaved outage schedule): the bar counts epochs x methods x runs
     runs = loaded.stream.batch
@@ -749,7 +763,14 @@ def _cmd_process(args) -> int:
         )
     elapsed = time.perf_counter() - t0
     ref = Reference(loaded.reference_index, loaded.reference_p)
-    scores = score_recording(rec, traces, ref, loaded.outages, truth=loaded.truth)
+    scores = score_recording(
+        rec,
+        traces,
+        ref,
+        loaded.outages,
+        truth=loaded.truth,
+        scheduled=scheduled(loaded.stream, rec.steps),
+    )
     times = rec.t_start + rec.times
     with _staged(out, folder=True) as stage:
         tables = {nm: solution_table(tr, times) for nm, tr in traces.items()}
@@ -778,6 +799,7 @@ def _cmd_process(args) -> int:
     )
     print(recording_table(scores))
     print(f"Results written to {out}/: {', '.join(written)}")
+    _integrity_warnings(m.get("integrity") for m in scores.values())
     return 0
 
 

@@ -38,7 +38,7 @@ def _alone(scenario, method, sim):
     system = scenario.system()
     model = LinearModel(system)
     records = iterate(model, sim.stream, build_filters(scenario, system, (method,)), scenario.steps)
-    return score(scenario, records, sim.truth, [method.name], sim.stream.batch, model)[method.name]
+    return score(scenario, records, sim.truth, [method.name], sim.stream, model)[method.name]
 
 
 def test_fault_free_twin_in_one_batch_equals_separate_batches(scenario):

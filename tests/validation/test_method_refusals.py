@@ -22,7 +22,7 @@ from ftnav.fusion.registry import ARCHITECTURES
 from ftnav.io.common import ScenarioError
 from ftnav.io.scenario_file import parse_scenario
 
-COMMON = {"name", "architecture", "detector", "noise", "correction"}
+COMMON = {"name", "architecture", "detector", "noise", "correction", "guard"}
 
 
 def _scenario(**method: Any) -> dict[str, Any]:

@@ -30,11 +30,13 @@ N_NAV = 9
 
 __all__ = [
     "EpochRecord",
+    "GuardTrace",
     "LocalCopies",
     "NavigationModel",
     "Stream",
     "Trace",
     "covariance_ok",
+    "guard_trace",
     "iterate",
     "method_feedback",
     "run",
@@ -275,6 +277,23 @@ def _local_copies(
     return LocalCopies(rows, est)
 
 
+class GuardTrace(NamedTuple):
+    """What the isolation guard did (:class:`~ftnav.fusion.guard.GuardOutput`), (B, K, N)
+    each: statistic, hold, alarm, rollback, undone, unobservable, relaxed."""
+
+    statistic: np.ndarray
+    hold: np.ndarray
+    alarm: np.ndarray
+    rollback: np.ndarray
+    undone: np.ndarray
+    unobservable: np.ndarray
+    relaxed: np.ndarray
+
+
+#: the guard's per-epoch outputs as the recorder keys them
+GUARD_KEYS = tuple(f"guard_{f}" for f in GuardTrace._fields)
+
+
 class Trace(NamedTuple):
     """Per-epoch outputs of one method over B runs and K epochs (no reference needed).
 
@@ -293,6 +312,10 @@ class Trace(NamedTuple):
     P_nav : (B, K, 9, 9) the fused covariance of the 9 navigation error states
         (attitude, velocity, position), recorded only on request (``run``'s
         ``nav_covariance``: a truth's NEES needs it), else None.
+    nis : (B, K, N) each aid's NIS against the method's prediction (0: no measurement).
+    used, available : (B, K, N) bool, the aids that updated the method, and those with a
+        finite measurement.
+    guard : what the isolation guard did, or None (a method without a detector).
     """
 
     x: np.ndarray
@@ -308,6 +331,17 @@ class Trace(NamedTuple):
     solution: InsState | None
     local: np.ndarray | None
     P_nav: np.ndarray | None = None
+    nis: np.ndarray | None = None
+    used: np.ndarray | None = None
+    available: np.ndarray | None = None
+    guard: GuardTrace | None = None
+
+
+def guard_trace(arrays: dict[str, np.ndarray]) -> GuardTrace | None:
+    """The guard's arrays a :class:`Recorder` holds, or None."""
+    if GUARD_KEYS[0] not in arrays:
+        return None
+    return GuardTrace(*(arrays[k] for k in GUARD_KEYS))
 
 
 class Recorder:
@@ -343,6 +377,12 @@ class Recorder:
             self.put(f"R{i}", k, r)
         self.nan = out.nan.astype(int) if self.nan is None else self.nan + out.nan
         self.put("features", k, out.features)
+        self.put("nis", k, out.nis)
+        self.put("used", k, out.used, bool)
+        self.put("available", k, out.available, bool)
+        if out.guard is not None:
+            for key, value in zip(GUARD_KEYS, out.guard, strict=True):
+                self.put(key, k, value, float if key == "guard_statistic" else bool)
 
     def record(
         self, k: int, out: StepOutput, local: np.ndarray | None, solution: InsState | None
@@ -378,6 +418,10 @@ class Recorder:
             solution,
             a.get("local"),
             a.get("P_nav"),
+            a.get("nis"),
+            a.get("used"),
+            a.get("available"),
+            guard_trace(a),
         )
 
 

@@ -19,13 +19,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
 from ftnav import __version__
+from ftnav.eval.integrity import MethodWatch, WatchSettings, watch
 from ftnav.eval.metrics import detection_stats, error_stats, nees_stats, position_norms
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
-from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS
+from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS, Evaluation
 
 __all__ = ["MethodMetrics", "evaluate", "metrics_to_json", "split_unit"]
 
@@ -71,6 +73,8 @@ class MethodMetrics:
     max_rel_diff_to_centralized: float | None
     mean_beta: dict[str, float] | None
     nan_measurements: dict[str, int]
+    nis: dict[str, float] | None = None
+    integrity: dict[str, object] | None = None
 
 
 def _named(values: np.ndarray, names) -> dict[str, float]:
@@ -113,6 +117,70 @@ def _max_rel_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a - b).max() / scale)
 
 
+def watch_settings(evaluation: Evaluation) -> WatchSettings:
+    """The watch's settings of a scenario's :class:`~ftnav.model.scenario.Evaluation`."""
+    return WatchSettings(
+        evaluation.watch_window_s,
+        evaluation.watch_probability,
+        evaluation.sigma_bound_m,
+        evaluation.min_availability,
+        evaluation.skip_initial,
+    )
+
+
+def adapts(method: Any, sensors: Any) -> list[bool]:
+    """Per sensor, whether the method adapts its noise (VB on it)."""
+    noise = getattr(method, "noise", None)
+    if noise is None or noise.kind == "none":
+        return [False] * len(sensors)
+    listed = tuple(getattr(noise, "sensors", ()))
+    return [not listed or s in listed for s in sensors]
+
+
+def watched(name: str, res: MethodResult, scenario: Any) -> MethodWatch | None:
+    """The watch of one method's runs (:func:`ftnav.eval.integrity.watch`), or None when
+    the result holds no watch data."""
+    if res.nis is None or res.available is None or res.used is None:
+        return None
+    sc = scenario
+    states = list(sc.metric_states)
+    sigma_h = None
+    if "pos_E_m" in states and "pos_N_m" in states:
+        var = res.P_diag[..., states.index("pos_E_m")] + res.P_diag[..., states.index("pos_N_m")]
+        sigma_h = np.sqrt(var)
+    due = res.scheduled if res.scheduled is not None else res.available
+    return watch(
+        name,
+        sc.times,
+        sc.sensor_names,
+        [s.dim for s in sc.system().sensors],
+        res.nis,
+        res.available,
+        res.used,
+        due,
+        res.guard,
+        sigma_h,
+        watch_settings(sc.evaluation),
+        adapts(next((m for m in sc.methods if m.name == name), None), sc.sensor_names),
+    )
+
+
+def _mean_nis(w: MethodWatch | None) -> dict[str, float] | None:
+    return None if w is None else {a.name: a.mean_nis for a in w.aids}
+
+
+def _readmitted(
+    flag: np.ndarray, t: np.ndarray, windows: list[tuple[float, float]]
+) -> float | None:
+    """Fraction of (run, fault) events whose aid is re-admitted (its flag clears) after the
+    fault's end, before the run ends; None without a fault window."""
+    ends = [e for s, e in windows if (t >= s).any() and e <= t[-1]]
+    if not ends:
+        return None
+    back = [(~flag[:, t >= e]).any(1) for e in ends]
+    return float(np.mean(back))
+
+
 def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
     """Compute every metric of every method."""
     sc = result.scenario
@@ -152,17 +220,23 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
                     k: (None if isinstance(v, float) and math.isnan(v) else float(v))
                     for k, v in d._asdict().items()
                 }
+                detection[sensor]["readmitted"] = _readmitted(res.flag[..., i], t, wins)
         ff = None
         ff_res = result.fault_free.get(name)
         if ff_res is not None:
             ff_err = ff_res.error
             ff_norms = _norms(ff_err, states)
+            ff_ns = nees_stats(ff_res.nees, len(states), window)
             ff = {
                 "rmse": _rmse(ff_err, ff_norms, states, window),
                 "rmse_fault_window": _rmse(ff_err, ff_norms, states, in_fault)
                 if in_fault.any()
                 else None,
+                "anees": float(ff_ns.anees),
+                "nees_in_band_fraction": float(ff_ns.in_band_fraction),
+                "nis": _mean_nis(watched(name, ff_res, sc)),
             }
+        w = watched(name, res, sc)
         rel = None
         if central is not None and name != central:
             ref_res = result.fault_free.get(central) if ff_res is not None else None
@@ -191,6 +265,8 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
             nan_measurements={
                 s: int(res.nan_count[:, i].sum()) for i, s in enumerate(sc.sensor_names)
             },
+            nis=_mean_nis(w),
+            integrity=None if w is None else w.as_dict(),
         )
     return out
 

@@ -22,13 +22,20 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ftnav.engine import navigation_model
-from ftnav.engine.driver import EpochRecord, Recorder, iterate, method_feedback
+from ftnav.engine.driver import (
+    EpochRecord,
+    GuardTrace,
+    Recorder,
+    guard_trace,
+    iterate,
+    method_feedback,
+)
 from ftnav.eval.metrics import nees
 from ftnav.eval.navigation import N_NAV, metric_errors, metric_variances
 from ftnav.fusion import registry
 from ftnav.fusion.config import NOTHING_LEARNED
 from ftnav.fusion.protocol import Architecture
-from ftnav.model.streams import concat_streams
+from ftnav.model.streams import concat_streams, scheduled
 from ftnav.model.system import LinearSystem
 from ftnav.nav.mechanization import navigation_errors
 from ftnav.parallel import run_tasks, split_even
@@ -75,6 +82,9 @@ class MethodResult(NamedTuple):
         or None.
     estimate : (B, K, n) a linear model's fused estimate (None for an integrated run,
         whose estimates are error states).
+    nis, used, available, guard : as :class:`~ftnav.engine.driver.Trace`'s (what the
+        method watches itself with, :mod:`ftnav.eval.integrity`).
+    scheduled : (B, K, N) bool, the epochs each aid was due (the stream's schedule).
     """
 
     error: np.ndarray
@@ -90,6 +100,11 @@ class MethodResult(NamedTuple):
     features: np.ndarray | None = None
     local: np.ndarray | None = None
     estimate: np.ndarray | None = None
+    nis: np.ndarray | None = None
+    used: np.ndarray | None = None
+    available: np.ndarray | None = None
+    guard: GuardTrace | None = None
+    scheduled: np.ndarray | None = None
 
 
 class ScenarioResult(NamedTuple):
@@ -112,7 +127,9 @@ class ScenarioResult(NamedTuple):
 def build_filters(
     scenario: Any, system: LinearSystem, methods: Sequence[Any], **kw: Any
 ) -> dict[str, Architecture[Any]]:
-    """Every method's filter on ``system`` with its trained models (scenario.learned)."""
+    """Every method's filter on ``system`` with its trained models (scenario.learned), at
+    the scenario's filter period (the guard's windows are in seconds)."""
+    kw.setdefault("dt", float(scenario.dt))
     return {
         m.name: registry.build(system, m, scenario.learned_for(m.name) or NOTHING_LEARNED, **kw)
         for m in methods
@@ -168,6 +185,10 @@ class _Scores:
             e.get("features"),
             e.get("local"),
             e.get("estimate"),
+            e.get("nis"),
+            e.get("used"),
+            e.get("available"),
+            guard_trace(e),
         )
 
 
@@ -238,19 +259,29 @@ def score(
     records: Any,
     truth: LinearTruth | InsTruth,
     names: list[str],
-    B: int,
+    stream: Any,
     model: Any,
     filters: Mapping[str, Any] | None = None,
 ) -> dict[str, MethodResult]:
-    """Each method's :class:`MethodResult` from the engine's records and the truth."""
+    """Each method's :class:`MethodResult` from the engine's records and the truth.
+
+    ``stream`` is the batch the engine consumed: its size and each aid's schedule
+    (``MethodResult.scheduled``, the denominator of the availability watch).
+    """
     dims = [s.dim for s in model.system.sensors]
+    B = stream.batch
     if scenario.kind == "integrated":
         fb: bool | Sequence[bool] = model.feedback
         if filters is not None:
             own = method_feedback(model, [filters[nm] for nm in names])
             fb = fb if own is None else list(own)
-        return _score_ins(records, truth, names, B, scenario.steps, dims, fb)
-    return _score_linear(records, truth, names, B, scenario.steps, model.system.n_common, dims)
+        scored = _score_ins(records, truth, names, B, scenario.steps, dims, fb)
+    else:
+        scored = _score_linear(
+            records, truth, names, B, scenario.steps, model.system.n_common, dims
+        )
+    due = scheduled(stream, scenario.steps)
+    return {nm: r._replace(scheduled=due) for nm, r in scored.items()}
 
 
 # ---------------------------------------------------------------------------- runner
@@ -315,10 +346,9 @@ def _task(task: tuple, progress: Callable[[int], None] | None = None) -> Scenari
     if twin:
         stream = concat_streams(stream, simulate_runs(sc.without_faults(), rr, seed).stream)
     names = [m.name for m in methods]
-    B = stream.batch
     truth = sim.truth if not twin else _twin_truth(sim.truth)
     records = iterate(model, stream, filters, sc.steps, progress, check_spd)
-    scored = score(sc, records, truth, names, B, model, filters)
+    scored = score(sc, records, truth, names, stream, model, filters)
     results, ff = {}, {}
     for name, res in scored.items():
         if twin:
@@ -347,13 +377,22 @@ def _twin_truth(truth: LinearTruth | InsTruth) -> LinearTruth | InsTruth:
     return truth  # the flight is shared by every run
 
 
+def _rebuilt(like: tuple, parts: list[Any]) -> tuple:
+    """``parts`` as a tuple of the type of ``like`` (a NamedTuple keeps its type)."""
+    return type(like)(*parts) if hasattr(like, "_fields") else tuple(parts)
+
+
 def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult]:
     """Split a :class:`MethodResult` of a concatenated batch after ``runs`` runs."""
 
     def part(sl: slice) -> MethodResult:
         return MethodResult(
             *(
-                tuple(a[sl] for a in v) if isinstance(v, tuple) else None if v is None else v[sl]
+                _rebuilt(v, [a[sl] for a in v])
+                if isinstance(v, tuple)
+                else None
+                if v is None
+                else v[sl]
                 for v in r
             )
         )
@@ -382,7 +421,7 @@ def _merge(
         if first is None:
             return None
         if isinstance(first, tuple):
-            return tuple(cat(list(a)) for a in zip(*values, strict=True))
+            return _rebuilt(first, [cat(list(a)) for a in zip(*values, strict=True)])
         return np.concatenate(values, 0)
 
     per_chunk = [(union([p.results for p in c]), union([p.fault_free for p in c])) for c in chunks]

@@ -13,7 +13,10 @@ nothing of it enters the engine.  Per method:
 * against a full truth (protocol c, :func:`score_truth`, under ``truth``): RMSE of
   position, velocity and attitude over the GNSS-on epochs, the NEES of the 9
   navigation error states with its χ² band, the estimated IMU biases against the
-  known ones.
+  known ones;
+* ``integrity`` — what the method watched of itself (:mod:`ftnav.eval.integrity`:
+  consistency with each aid, availability, isolation, the horizontal σ against its
+  bound); needs no reference.
 """
 
 from __future__ import annotations
@@ -25,10 +28,12 @@ import numpy as np
 from scipy.stats import chi2
 
 from ftnav.engine.driver import N_NAV, Trace
+from ftnav.eval.evaluate import adapts, watch_settings
+from ftnav.eval.integrity import MethodWatch, watch
 from ftnav.eval.metrics import detection_stats
 from ftnav.model.scenario import Recording, fault_window_mask
 from ftnav.nav import attitude
-from ftnav.nav.earth import enu_metres
+from ftnav.nav.earth import enu_metres, radii
 from ftnav.recorded.truth import Truth
 
 __all__ = [
@@ -37,6 +42,7 @@ __all__ = [
     "navigation_errors",
     "score_recording",
     "score_truth",
+    "watch_trace",
 ]
 
 #: NEES is counted after this time from the start (s): the filter's transient from the
@@ -80,21 +86,58 @@ def _outage_row(s: float, e: float, e_h: np.ndarray) -> dict[str, float]:
     }
 
 
+def horizontal_sigma(tr: Trace) -> np.ndarray:
+    """(B, K) the fused horizontal position σ (m) of an integrated trace (error states
+    δL, δλ in rad at indices 6, 7, spec §8.3) at its solution's latitude and height."""
+    assert tr.solution is not None
+    lat, h = tr.solution.p[..., 0], tr.solution.p[..., 2]
+    R_Mh, R_Nh = radii(lat, h)
+    var_N = tr.P_diag[..., 6] * R_Mh**2
+    var_E = tr.P_diag[..., 7] * (R_Nh * np.cos(lat)) ** 2
+    out: np.ndarray = np.sqrt(var_N + var_E)
+    return out
+
+
+def watch_trace(name: str, rec: Recording, tr: Trace, scheduled: np.ndarray) -> MethodWatch | None:
+    """What one method of a recording watched of itself (:func:`ftnav.eval.integrity.watch`);
+    ``scheduled`` (B, K, N) the epochs each aid was due.  None without the watch data."""
+    if tr.nis is None or tr.available is None or tr.used is None:
+        return None
+    return watch(
+        name,
+        rec.times,
+        rec.sensor_names,
+        [a.dim for a in rec.aids],
+        tr.nis,
+        tr.available,
+        tr.used,
+        scheduled,
+        tr.guard,
+        horizontal_sigma(tr) if tr.solution is not None else None,
+        watch_settings(rec.evaluation),
+        adapts(next((m for m in rec.methods if m.name == name), None), rec.sensor_names),
+    )
+
+
 def score_recording(
     rec: Recording,
     traces: Mapping[str, Trace],
     reference: Reference,
     outages: Sequence[Sequence[tuple[float, float]]] = ((),),
-    grace: float = 10.0,
+    grace: float | None = None,
     truth: Truth | None = None,
+    scheduled: np.ndarray | None = None,
 ) -> dict[str, dict[str, Any]]:
     """Every method's scores (module docstring); times relative to ``rec.t_start``.
 
     ``outages`` are per run of the batch (interleaved outage schedules); the GNSS-on
     scores are those of the first run outside its outages.  With a ``truth``
     (:attr:`ftnav.io.recording_file.LoadedRecording.truth`) each method also has
-    ``truth`` (:func:`score_truth`).
+    ``truth`` (:func:`score_truth`).  ``grace`` after a fault (default the recording's
+    ``[evaluation] grace``); ``scheduled`` (B, K, N) the epochs each aid was due (the
+    stream's, :func:`ftnav.model.streams.scheduled`), for ``integrity``.
     """
+    grace = rec.evaluation.grace if grace is None else grace
     times = rec.times
     t_ref = times[reference.index]
     blocked = fault_window_mask(t_ref, rec.faults)
@@ -124,6 +167,10 @@ def score_recording(
             m["detection"] = _detection(rec, tr.flag[0], grace)
         if truth is not None:
             m["truth"] = score_truth(rec, tr, truth, outages[0])
+        if scheduled is not None:
+            w = watch_trace(name, rec, tr, scheduled)
+            if w is not None:
+                m["integrity"] = w.as_dict()
         out[name] = m
     return out
 

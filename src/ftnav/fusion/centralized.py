@@ -3,7 +3,9 @@
 Works on the augmented state (common + every sensor's private states).  Sensors are
 processed sequentially, which equals the stacked update because R is block-diagonal
 (spec §6.1).  With a residual test every sensor is tested against the common prior
-first; a flagged sensor is skipped (isolation).
+first; a flagged sensor is skipped (isolation).  The guard (:mod:`ftnav.fusion.guard`)
+tracks each sensor's pull on the filter's own estimate, decides the isolation and rolls
+a newly isolated sensor's recent pull back after the update.
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from ftnav.fdi.chi2 import DetectorState
 from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, RbfDetector, config_error
 from ftnav.fusion.detection import Detection
-from ftnav.fusion.locals import LocalBank, NoiseState, measurements
-from ftnav.fusion.protocol import StepOutput, minus
+from ftnav.fusion.guard import Guard, GuardState
+from ftnav.fusion.locals import LocalBank, NoiseState, gated, measurements
+from ftnav.fusion.protocol import StepOutput, minus, select
 from ftnav.model.system import Epoch, LinearSystem
 
 __all__ = ["CentralizedConfig", "CentralizedFilter", "CentralizedState", "check"]
@@ -32,7 +35,15 @@ class CentralizedConfig(MethodBase):
     Its residual test uses the filter's own prior, so the test has no ``prior``.
     """
 
-    DETECTORS: ClassVar[tuple[str, ...]] = ("none", "oracle", "residual-chi2", "rbf")
+    DETECTORS: ClassVar[tuple[str, ...]] = (
+        "none",
+        "oracle",
+        "residual-chi2",
+        "cusum",
+        "glr",
+        "separation",
+        "rbf",
+    )
     PRIORS: ClassVar[tuple[str, ...]] = ("local",)
 
     architecture: Literal["centralized"] = "centralized"
@@ -48,6 +59,7 @@ class CentralizedState(NamedTuple):
     P: np.ndarray  # (B, n_aug, n_aug)
     noise: tuple[NoiseState | None, ...]
     detector: DetectorState | None
+    guard: GuardState | None = None
 
 
 class CentralizedFilter:
@@ -58,15 +70,28 @@ class CentralizedFilter:
     system : the linear system.
     config : the method's settings.
     learned : the trained RBF model of an ``rbf`` detector.
+    dt : the filter period (s): the guard's windows.
     """
 
     def __init__(
-        self, system: LinearSystem, config: CentralizedConfig, learned: Learned = NOTHING_LEARNED
+        self,
+        system: LinearSystem,
+        config: CentralizedConfig,
+        learned: Learned = NOTHING_LEARNED,
+        dt: float = 1.0,
     ):
         self.system = system
         self.config = config
-        self.detection = Detection(config.detector, learned.detector)
+        dims = [s.dim for s in system.sensors]
+        self.detection = Detection(config.detector, learned.detector, dims)
         self.bank = LocalBank(system, config.noise, augmented=True)
+        g = config.guard_settings
+        N = system.n_sensors
+        self.guard = (
+            None
+            if g is None
+            else Guard(g, [tuple(range(N))], [system.n_aug], dims, dt, self.detection.separation)
+        )
 
     @property
     def n_filters(self) -> int:
@@ -79,6 +104,7 @@ class CentralizedFilter:
             np.broadcast_to(P0, (batch,) + P0.shape).copy(),
             self.bank.initial_noise(batch),
             self.detection.init(batch, self.n_filters),
+            None if self.guard is None else self.guard.init(batch),
         )
 
     def step(self, state: CentralizedState, epoch: Epoch) -> tuple[CentralizedState, StepOutput]:
@@ -87,23 +113,43 @@ class CentralizedFilter:
         F, Q = self.system.augmented_transition(lin=epoch.lin)
         Hs = bank.H(epoch.lin)
         x, P = kf.predict(state.x, state.P, F, Q)
-        meas = measurements(epoch, self.system.sensors)
+        prior = Gaussian(x, P)
+        meas0 = measurements(epoch, self.system.sensors)
+        meas = gated(
+            meas0,
+            self.system.sensors,
+            lambda i: bank.residual(
+                i, prior, epoch.z[i], meas0.usable[:, i], Hs[i], state.noise[i]
+            ),
+        )
         usable = meas.usable
         R_now = [bank.noise_now(i, state.noise[i]) for i in range(N)]
-        # the residual test's statistic (spec §3.1); no other detector reads it
-        stat = (
-            np.stack(
+        # every finite measurement against the prediction: what the method watches
+        watch = np.stack(
+            [
+                bank.residual(i, prior, epoch.z[i], meas0.usable[:, i], Hs[i], state.noise[i])
+                for i in range(N)
+            ],
+            1,
+        )
+        # the residual test's statistic (spec §3.1) or the whitened innovations (§3.3)
+        innov = None
+        if self.detection.whitened:
+            innov = [
+                bank.whitened(i, prior, epoch.z[i], usable[:, i], Hs[i], state.noise[i])
+                for i in range(N)
+            ]
+            stat = np.stack([(w**2).sum(-1) for w in innov], 1)
+        elif self.detection.residual:
+            stat = np.stack(
                 [
-                    bank.residual(
-                        i, Gaussian(x, P), epoch.z[i], usable[:, i], Hs[i], state.noise[i]
-                    )
+                    bank.residual(i, prior, epoch.z[i], usable[:, i], Hs[i], state.noise[i])
                     for i in range(N)
                 ],
                 1,
             )
-            if self.detection.residual
-            else np.zeros(usable.shape)
-        )
+        else:
+            stat = np.zeros(usable.shape)
         feats = None
         if isinstance(self.config.detector, RbfDetector):
             feats = np.concatenate(
@@ -114,8 +160,15 @@ class CentralizedFilter:
                 1,
             )
         det_state, det_out = self.detection.step(
-            state.detector, stat, meas.dof, usable, epoch.labels, feats
+            state.detector, stat, meas.dof, usable, epoch.labels, feats, innov
         )
+        guarded = None
+        if self.guard is not None:
+            assert state.guard is not None
+            guarded = self.guard.begin(
+                state.guard, [prior], [F], epoch.z, Hs, R_now, usable, det_out
+            )
+            det_out = guarded.detection
         use = usable if det_out is None else usable & ~det_out.flag
         noise, R_hat = [], []
         for i in range(N):
@@ -123,9 +176,26 @@ class CentralizedFilter:
             x, P = up.x, up.P
             noise.append(up.noise)
             R_hat.append(np.diagonal(up.R, axis1=-2, axis2=-1))
+        guard_state = None
+        if guarded is not None:
+            assert self.guard is not None
+            guard_state, (amend,) = self.guard.finish(guarded, [prior], epoch.z, Hs, R_now, usable)
+            x = select(amend.where, x - amend.dx, x)
+            P = select(amend.where, P + amend.dP, P)
         nc = self.system.n_common
-        out = StepOutput(x[:, :nc], P[:, :nc, :nc], None, det_out, tuple(R_hat), meas.nan)
-        return CentralizedState(x, P, tuple(noise), det_state), out
+        out = StepOutput(
+            x[:, :nc],
+            P[:, :nc, :nc],
+            None,
+            det_out,
+            tuple(R_hat),
+            meas.nan,
+            guard=None if guarded is None else guarded.output,
+            nis=watch,
+            used=use,
+            available=meas0.usable,
+        )
+        return CentralizedState(x, P, tuple(noise), det_state, guard_state), out
 
     def shift(self, state: CentralizedState, delta: np.ndarray) -> CentralizedState:
         return state._replace(x=minus(state.x, delta))

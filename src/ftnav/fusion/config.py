@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Annotated, Any, ClassVar, Literal, NamedTuple, TypeVar
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from ftnav.fdi.rbf import RBFModel
@@ -30,7 +30,10 @@ __all__ = [
     "Count",
     "Tuple",
     "Detector",
+    "Cusum",
     "FixedNoise",
+    "Glr",
+    "GuardSettings",
     "Learned",
     "NOTHING_LEARNED",
     "MethodBase",
@@ -39,6 +42,7 @@ __all__ = [
     "OracleDetector",
     "RbfDetector",
     "ResidualChi2",
+    "Separation",
     "Settings",
     "StateChi2",
     "VbNoise",
@@ -118,6 +122,61 @@ class StateChi2(Settings):
     reset: Annotated[int, Field(ge=5)] = 100
 
 
+ARL0 = Annotated[
+    float,
+    Field(
+        gt=1.0,
+        allow_inf_nan=False,
+        description="mean number of tests of an aid between false alarms (ARL0)",
+    ),
+]
+
+
+class Cusum(Settings):
+    """Page's CUSUM on each aid's whitened innovation (spec §3.3, :mod:`ftnav.fdi.sequential`).
+
+    Two one-sided mean CUSUMs per component with ``drift`` k (half the shift, in σ, it
+    detects fastest), and with ``variance_ratio`` c a variance CUSUM for ``S → c S``; the
+    thresholds are solved from ``arl0``.  ``prior`` as for ``residual-chi2``.
+    """
+
+    kind: Literal["cusum"]
+    arl0: ARL0 = 1e4
+    drift: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 0.5
+    variance_ratio: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] | None = None
+    n_on: Count = 1
+    n_off: Count = 5
+    prior: Literal["local", "global", "intersection"] = "local"
+
+
+class Glr(Settings):
+    """Windowed GLR of a mean shift in each aid's whitened innovation (spec §3.3).
+
+    Over the last ``window`` tests (geometric window lengths); threshold from ``arl0``.
+    """
+
+    kind: Literal["glr"]
+    arl0: ARL0 = 1e4
+    window: Count = 64
+    n_on: Count = 1
+    n_off: Count = 5
+    prior: Literal["local", "global", "intersection"] = "local"
+
+
+class Separation(Settings):
+    """Solution separation over windows of each aid's tracked pull (issue 20; the guard's
+    test, :mod:`ftnav.fusion.guard`): the filter against the filter without the aid's
+    measurements of the last seconds, which sees a slow fault the filter follows.
+
+    ``false_alarm_probability`` per test of an aid over all its windows (Bonferroni),
+    windows up to ``window_s``; re-admission is the guard's.
+    """
+
+    kind: Literal["separation"]
+    false_alarm_probability: Probability = 1e-5
+    window_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 30.0
+
+
 class RbfDetector(Settings):
     """Paper 000's RBF network (spec §4): a trained model file, its threshold and hysteresis."""
 
@@ -131,10 +190,57 @@ class RbfDetector(Settings):
 
 
 Detector = Annotated[
-    NoDetector | OracleDetector | ResidualChi2 | StateChi2 | RbfDetector,
+    NoDetector | OracleDetector | ResidualChi2 | StateChi2 | Cusum | Glr | Separation | RbfDetector,
     BeforeValidator(_kind_alone),
     Field(discriminator="kind"),
 ]
+
+
+# --------------------------------------------------------------------- guard (issue 20)
+class GuardSettings(Settings):
+    """Isolation that cannot lock out (:mod:`ftnav.fusion.guard`), on by default for
+    every method with a detector (``guard = false`` turns it off).
+
+    ``window_s`` is the longest window of an aid's tracked pull (what a rollback can
+    remove: a slow fault as long as that), finely resolved over the last ``fine_s`` in
+    ``blocks`` blocks, coarsely (blocks of ``fine_s``) before; ``false_alarm_probability``
+    that of the guard's χ² tests; ``kappa`` the optimism allowed for a coasting
+    covariance's growth; ``growth`` the growth of an isolated aid's predicted variance
+    that reports it unobservable without the aid; ``n_off`` re-admission tests in a row
+    (default the detector's ``n_off``, else 5), ``confirm`` those that undo a rollback;
+    ``override`` passes after which the guard re-admits against a detector still
+    alarming.
+    """
+
+    window_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 600.0
+    fine_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 60.0
+    blocks: Count = 12
+    false_alarm_probability: Probability = 1e-4
+    kappa: Annotated[float, Field(ge=1.0, allow_inf_nan=False)] = 1.5
+    growth: Annotated[float, Field(gt=1.0, allow_inf_nan=False)] = 4.0
+    n_off: Count | None = None
+    confirm: Count = 20
+    override: Count = 50
+
+    @model_validator(mode="after")
+    def _check(self) -> GuardSettings:
+        if self.fine_s > self.window_s:
+            raise config_error(
+                f"must be at most window_s ({self.window_s:g} s), got {self.fine_s:g}", "fine_s"
+            )
+        return self
+
+
+def _guard_switch(value: Any) -> Any:
+    """``guard = true`` is the default settings, ``guard = false`` none."""
+    if value is True:
+        return {}
+    if value is False:
+        return None
+    return value
+
+
+Guard = Annotated[GuardSettings | None, BeforeValidator(_guard_switch)]
 
 
 # ----------------------------------------------------------------- noise adaptation (§7)
@@ -174,13 +280,28 @@ class MethodBase(Settings):
     the architecture implements, :attr:`PRIORS` the residual test's references.
     """
 
-    DETECTORS: ClassVar[tuple[str, ...]] = ("none", "oracle", "residual-chi2", "state-chi2", "rbf")
+    DETECTORS: ClassVar[tuple[str, ...]] = (
+        "none",
+        "oracle",
+        "residual-chi2",
+        "state-chi2",
+        "cusum",
+        "glr",
+        "rbf",
+    )
     NOISE: ClassVar[tuple[str, ...]] = ("none", "vb", "vb-literal")
     PRIORS: ClassVar[tuple[str, ...]] = ("local", "global")
 
     name: str = Field(min_length=1, description="unique method name")
     detector: Detector = NoDetector()
     noise: Noise = FixedNoise()
+    guard: Guard = Field(
+        default=GuardSettings(),
+        description=(
+            "isolation that cannot lock out (rollback, re-admission, sole-source aids); "
+            "read with a detector other than none and oracle; false: off"
+        ),
+    )
     correction: Literal["feedback", "output"] | None = Field(
         default=None,
         description=(
@@ -206,7 +327,19 @@ class MethodBase(Settings):
                 "noise",
                 "kind",
             )
-        if isinstance(self.detector, ResidualChi2) and self.detector.prior not in self.PRIORS:
+        if isinstance(self.detector, Separation) and self.guard is None:
+            raise config_error(
+                "the separation detector is the guard's test: it needs the guard", "guard"
+            )
+        if "guard" in self.model_fields_set and self.guard is not None and not self.guarded:
+            raise config_error(
+                f"only read with a detector that isolates (detector is {self.detector.kind!r})",
+                "guard",
+            )
+        if (
+            isinstance(self.detector, ResidualChi2 | Cusum | Glr)
+            and self.detector.prior not in self.PRIORS
+        ):
             raise config_error(
                 f"{self.detector.prior!r} is not available with the {arch} "
                 f"architecture (expected one of {list(self.PRIORS)})",
@@ -225,6 +358,22 @@ class MethodBase(Settings):
                     )
                 if s in self.noise.sensors[:j]:
                     raise config_error(f"duplicate sensor {s!r}", "noise", "sensors", j)
+
+    @property
+    def guarded(self) -> bool:
+        """Whether the method's flags isolate aids through the guard (a real detector)."""
+        return self.detector.kind not in ("none", "oracle")
+
+    @property
+    def guard_settings(self) -> GuardSettings | None:
+        """The guard the method runs, or None (no detector, oracle, or ``guard = false``);
+        its ``n_off`` resolved (the detector's, else 5)."""
+        if not self.guarded or self.guard is None:
+            return None
+        if self.guard.n_off is not None:
+            return self.guard
+        n_off = getattr(self.detector, "n_off", None)
+        return self.guard.model_copy(update={"n_off": 5 if n_off is None else int(n_off)})
 
     @property
     def model_file(self) -> str | None:

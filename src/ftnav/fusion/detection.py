@@ -7,6 +7,9 @@ network, its trained model, loaded at the boundary) and runs one epoch of the te
   architecture computed against the configured reference (spec §3.1);
 * ``state-chi2`` the state statistic against a pure propagator per local filter,
   restarted every ``reset`` epochs (spec §3.2, :class:`StateTest`);
+* ``cusum`` and ``glr`` the sequential tests of spec §3.3 on each aid's whitened
+  innovation against the configured reference (:mod:`ftnav.fdi.sequential`);
+* ``separation`` is the guard's own test (:mod:`ftnav.fusion.guard`): no output here;
 * ``rbf`` evaluates the network on the epoch's features (spec §4);
 * ``oracle`` returns the labelled fault windows of a simulated stream;
 * ``none`` returns no output: every filter is fused.
@@ -18,15 +21,24 @@ fault factors, bank selection), not in this piece.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from ftnav.core.kalman import Gaussian
-from ftnav.fdi.chi2 import ChiSquareDetector, DetectorOutput, DetectorState, state_statistic
+from ftnav.fdi.chi2 import ChiSquareDetector, DetectorOutput, state_statistic
 from ftnav.fdi.features import detector_features, whitened_innovation
 from ftnav.fdi.rbf import RBFDetector, RBFModel
-from ftnav.fusion.config import Detector, RbfDetector, ResidualChi2, StateChi2
+from ftnav.fdi.sequential import CusumDetector, GlrDetector
+from ftnav.fusion.config import (
+    Cusum,
+    Detector,
+    Glr,
+    RbfDetector,
+    ResidualChi2,
+    Separation,
+    StateChi2,
+)
 from ftnav.fusion.locals import LocalBank, NoiseState
 from ftnav.fusion.protocol import with_common
 from ftnav.model.system import Epoch
@@ -72,14 +84,24 @@ class Detection:
     ----------
     config : the method's detector settings.
     model : the trained RBF model (``kind = "rbf"`` only).
+    dims : each aid's measurement dimension (the sequential tests' components).
     """
 
-    def __init__(self, config: Detector, model: RBFModel | None = None):
+    def __init__(self, config: Detector, model: RBFModel | None = None, dims: Sequence[int] = ()):
         self.config = config
         self.kind = config.kind
         self.chi2: ChiSquareDetector | None = None
         self.rbf: RBFDetector | None = None
         self.state_test: StateTest | None = None
+        self.sequential: CusumDetector | GlrDetector | None = None
+        if isinstance(config, Cusum):
+            self.sequential = CusumDetector(
+                dims, config.arl0, config.drift, config.variance_ratio, config.n_on, config.n_off
+            )
+        if isinstance(config, Glr):
+            self.sequential = GlrDetector(
+                dims, config.arl0, config.window, config.n_on, config.n_off
+            )
         if isinstance(config, ResidualChi2 | StateChi2):
             self.chi2 = ChiSquareDetector(
                 config.false_alarm_probability, config.window, config.n_on, config.n_off
@@ -96,31 +118,48 @@ class Detection:
         return self.kind == "residual-chi2"
 
     @property
+    def separation(self) -> Separation | None:
+        """The separation detector's settings (the guard runs it), or None."""
+        return self.config if isinstance(self.config, Separation) else None
+
+    @property
+    def whitened(self) -> bool:
+        """Whether the architecture must compute each aid's whitened innovation (§3.3)."""
+        return self.sequential is not None
+
+    @property
     def prior(self) -> str:
         """Reference of the residual test (or of the RBF innovations): local | global | ..."""
         if self.rbf is not None:
             return self.rbf.model.prior
-        return self.config.prior if isinstance(self.config, ResidualChi2) else "local"
+        if isinstance(self.config, ResidualChi2 | Cusum | Glr):
+            return self.config.prior
+        return "local"
 
     @property
     def features(self) -> tuple[str, ...] | None:
         """Feature kinds the RBF network reads (spec §4.1), None for other detectors."""
         return None if self.rbf is None else self.rbf.features
 
-    def init(self, batch: int, n_filters: int) -> DetectorState | None:
-        detector = self.chi2 if self.chi2 is not None else self.rbf
+    def init(self, batch: int, n_filters: int) -> Any:
+        detector = self.chi2 or self.rbf or self.sequential
         return None if detector is None else detector.init(batch, n_filters)
 
     def step(
         self,
-        state: DetectorState | None,
+        state: Any,
         statistic: np.ndarray,
         dof: np.ndarray,
         tested: np.ndarray,
         labels: np.ndarray,
         features: np.ndarray | None = None,
-    ) -> tuple[DetectorState | None, DetectorOutput | None]:
-        """One epoch of the test; ``labels`` (N,) or (B, N): the labelled fault windows."""
+        innovations: Sequence[np.ndarray] | None = None,
+    ) -> tuple[Any, DetectorOutput | None]:
+        """One epoch of the test; ``labels`` (N,) or (B, N): the labelled fault windows;
+        ``innovations`` per aid (B, m_i) whitened (the sequential tests)."""
+        if self.sequential is not None:
+            assert state is not None and innovations is not None
+            return self.sequential.step(state, innovations, tested)
         if self.rbf is not None:
             assert state is not None and features is not None
             return self.rbf.step(state, features, tested)

@@ -30,10 +30,18 @@ from ftnav.core import kalman as kf
 from ftnav.core.kalman import Gaussian
 from ftnav.core.linalg import spd_solve
 from ftnav.fdi.chi2 import DetectorState
-from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, config_error
+from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, Separation, config_error
 from ftnav.fusion.detection import Detection, epoch_features, features_needed
-from ftnav.fusion.locals import LocalBank, LocalUpdate, Measurements, NoiseState, measurements
-from ftnav.fusion.protocol import StepOutput, minus
+from ftnav.fusion.guard import Guard, GuardState
+from ftnav.fusion.locals import (
+    LocalBank,
+    LocalUpdate,
+    Measurements,
+    NoiseState,
+    gated,
+    measurements,
+)
+from ftnav.fusion.protocol import StepOutput, minus, select
 from ftnav.model.system import Epoch, LinearSystem
 
 __all__ = ["DistributedConfig", "DistributedFilter", "DistributedState", "check"]
@@ -82,6 +90,7 @@ class DistributedState(NamedTuple):
     noise: tuple[NoiseState | None, ...]
     detector: DetectorState | None
     propagator: tuple[kf.Gaussian, ...] | None
+    guard: GuardState | None = None
 
 
 class DistributedFilter:
@@ -97,6 +106,7 @@ class DistributedFilter:
     features : feature kinds (spec §4.1) to compute every epoch even without an
         RBF detector (training data collection); ``feature_prior`` the prior their
         innovations are whitened against (default: the test's reference).
+    dt : the filter period (s): the guard's windows.
     """
 
     def __init__(
@@ -108,14 +118,22 @@ class DistributedFilter:
         local_P0_scale: Sequence[float] | None = None,
         features: tuple[str, ...] | None = None,
         feature_prior: str | None = None,
+        dt: float = 1.0,
     ):
         self.system = system
         self.config = config
         self.N = N = system.n_sensors
         self.bank = LocalBank(system, config.noise, augmented=True)
+        dims = [s.dim for s in system.sensors]
+        g = config.guard_settings
+        # the guard tracks every aid's pull on the centre (an information sum: the CKF)
+        self.guard = None
+        if g is not None:
+            sd = config.detector if isinstance(config.detector, Separation) else None
+            self.guard = Guard(g, [tuple(range(N))], [system.n_aug], dims, dt, sd)
         self.q_scale = np.ones(N) if local_Q_scale is None else np.asarray(local_Q_scale, float)
         self.p_scale = np.ones(N) if local_P0_scale is None else np.asarray(local_P0_scale, float)
-        self.detection = Detection(config.detector, learned.detector)
+        self.detection = Detection(config.detector, learned.detector, dims)
         self.features = features_needed(
             self.detection, features, feature_prior or self.detection.prior
         )
@@ -143,6 +161,7 @@ class DistributedFilter:
             self.bank.initial_noise(B),
             self.detection.init(B, self.N),
             prop,
+            None if self.guard is None else self.guard.init(B),
         )
 
     def step(self, state: DistributedState, epoch: Epoch) -> tuple[DistributedState, StepOutput]:
@@ -151,14 +170,23 @@ class DistributedFilter:
         F, Q = self.system.augmented_transition(lin=epoch.lin)
         Hs = bank.H(epoch.lin)
         prior_g = kf.predict(state.xg, state.Pg, F, Q)
-        meas = measurements(epoch, self.system.sensors)
+        meas0 = measurements(epoch, self.system.sensors)
+        meas = gated(  # pseudo-measurements against the centre's prior
+            meas0,
+            self.system.sensors,
+            lambda i: bank.residual(
+                i, prior_g, epoch.z[i], meas0.usable[:, i], Hs[i], state.noise[i]
+            ),
+        )
         priors = [kf.predict(state.x[i], state.P[i], F, Q * self.q_scale[i]) for i in range(N)]
         props = (
             []
             if state.propagator is None
             else [kf.predict(*state.propagator[i], F, Q * self.q_scale[i]) for i in range(N)]
         )
-        stat, dof, tested, posts = self._statistic(state, epoch, meas, priors, props, prior_g, Hs)
+        stat, dof, tested, posts, innov = self._statistic(
+            state, epoch, meas, priors, props, prior_g, Hs
+        )
         feats = None
         if self.features is not None:
             # features see each local posterior before the isolation decision (spec §4.1)
@@ -179,8 +207,16 @@ class DistributedFilter:
                 Hs,
             )
         det_state, det_out = self.detection.step(
-            state.detector, stat, dof, tested, epoch.labels, feats
+            state.detector, stat, dof, tested, epoch.labels, feats, innov
         )
+        guarded = None
+        R_now = [bank.noise_now(i, state.noise[i]) for i in range(N)]
+        if self.guard is not None:
+            assert state.guard is not None
+            guarded = self.guard.begin(
+                state.guard, [prior_g], [F], epoch.z, Hs, R_now, meas.usable, det_out
+            )
+            det_out = guarded.detection
         use = meas.usable if det_out is None else meas.usable & ~det_out.flag
         # a flagged VB local keeps adapting its R̂ on its measurement while its state only
         # time-updates: else R̂ stays at its pre-anomaly value, the residual test against
@@ -197,15 +233,52 @@ class DistributedFilter:
         test = self.detection.state_test
         Ps = [u.P / self.gamma if self.gamma != 1.0 else u.P for u in updates]
         xs = [u.x for u in updates]
+        guard_state = None
+        if guarded is not None:
+            assert self.guard is not None
+            guard_state, (amend,) = self.guard.finish(
+                guarded, [prior_g], epoch.z, Hs, R_now, meas.usable
+            )
+            xg = select(amend.where, xg - amend.dx, xg)
+            Pg = select(amend.where, Pg + amend.dP, Pg)
+            for i in range(N):  # a rolled-back local restarts from the amended centre
+                back = guarded.output.rollback[:, i]
+                xs[i], Ps[i] = select(back, xg, xs[i]), select(back, Pg, Ps[i])
         if test is not None:
             prop = tuple(
                 kf.Gaussian(*test.restart(epoch.k, xs[i], Ps[i], *props[i])) for i in range(N)
             )
         nc = self.system.n_common
         R_hat = tuple(np.diagonal(u.R, axis1=-2, axis2=-1) for u in updates)
-        out = StepOutput(xg[:, :nc], Pg[:, :nc, :nc], None, det_out, R_hat, meas.nan, feats)
+        watch = np.stack(  # every finite measurement against the centre's prediction
+            [
+                bank.residual(i, prior_g, epoch.z[i], meas0.usable[:, i], Hs[i], state.noise[i])
+                for i in range(N)
+            ],
+            1,
+        )
+        out = StepOutput(
+            xg[:, :nc],
+            Pg[:, :nc, :nc],
+            None,
+            det_out,
+            R_hat,
+            meas.nan,
+            feats,
+            None if guarded is None else guarded.output,
+            watch,
+            use,
+            meas0.usable,
+        )
         return DistributedState(
-            tuple(xs), tuple(Ps), xg, Pg, tuple(u.noise for u in updates), det_state, prop
+            tuple(xs),
+            tuple(Ps),
+            xg,
+            Pg,
+            tuple(u.noise for u in updates),
+            det_state,
+            prop,
+            guard_state,
         ), out
 
     def _statistic(
@@ -217,11 +290,20 @@ class DistributedFilter:
         props: Sequence[Gaussian],
         prior_g: Gaussian,
         Hs: Sequence[np.ndarray],
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[LocalUpdate] | None]:
-        """(statistic, dof, tested, posteriors or None) of the epoch's test."""
+    ) -> tuple[
+        np.ndarray, np.ndarray, np.ndarray, list[LocalUpdate] | None, list[np.ndarray] | None
+    ]:
+        """(statistic, dof, tested, posteriors or None, whitened innovations or None)."""
         N, bank = self.N, self.bank
-        if self.detection.residual:  # no other detector reads the residual statistic
-            base = [prior_g if self.detection.prior == "global" else priors[i] for i in range(N)]
+        base = [prior_g if self.detection.prior == "global" else priors[i] for i in range(N)]
+        innov = None
+        if self.detection.whitened:  # the sequential tests (spec §3.3)
+            innov = [
+                bank.whitened(i, base[i], epoch.z[i], meas.usable[:, i], Hs[i], state.noise[i])
+                for i in range(N)
+            ]
+            stat = np.stack([(w**2).sum(-1) for w in innov], 1)
+        elif self.detection.residual:  # no other detector reads the residual statistic
             stat = np.stack(
                 [
                     bank.residual(i, base[i], epoch.z[i], meas.usable[:, i], Hs[i], state.noise[i])
@@ -233,7 +315,7 @@ class DistributedFilter:
             stat = np.zeros(meas.usable.shape)
         test = self.detection.state_test
         if test is None:
-            return stat, meas.dof, meas.usable, None
+            return stat, meas.dof, meas.usable, None, innov
         # the state test compares this epoch's posterior with the propagator
         posts: list[LocalUpdate] = [
             bank.update(i, priors[i], epoch.z[i], meas.usable[:, i], Hs[i], state.noise[i])
@@ -241,7 +323,7 @@ class DistributedFilter:
         ]
         res = [test.statistic(epoch.k, posts[i].x, posts[i].P, *props[i]) for i in range(N)]
         stat, dof, tested = (np.stack([r[j] for r in res], 1) for j in range(3))
-        return stat, dof, tested, posts
+        return stat, dof, tested, posts, None
 
     def _fuse(
         self,

@@ -14,6 +14,11 @@ k and runs standalone (``Q_i = Q``) on its own measurements; a recovery flagged
 at epoch k re-admits it at the next sharing, so it is fused again from k+1
 (with reset interval 1).  ``no-reset`` re-admits a recovered filter at once.
 
+The guard (:mod:`ftnav.fusion.guard`) decides the isolation from the detector's flags:
+with fusion-reset it tracks every aid's pull on the fused estimate (which the locals
+are reset to), with no-reset each local's pull by its own aid, and rolls a newly
+isolated aid's recent pull back from that estimate.
+
 ``no-reset`` with ``isolation = "time-update"``: a flagged local filter discards its
 measurements, so its estimate is its last healthy one propagated (spec §6.3); nothing
 of the fault enters it and, the locals staying independent, it stays in the fusion with
@@ -44,8 +49,16 @@ from ftnav.fusion.config import (
     config_error,
 )
 from ftnav.fusion.detection import Detection, epoch_features, features_needed
+from ftnav.fusion.guard import Amend, Guard, GuardState
 from ftnav.fusion.isolation import IsolationPolicy
-from ftnav.fusion.locals import LocalBank, LocalUpdate, Measurements, NoiseState, measurements
+from ftnav.fusion.locals import (
+    LocalBank,
+    LocalUpdate,
+    Measurements,
+    NoiseState,
+    gated,
+    measurements,
+)
 from ftnav.fusion.protocol import StepOutput, minus, select, with_common
 from ftnav.model.system import Epoch, LinearSystem
 
@@ -111,7 +124,9 @@ class FederatedConfig(MethodBase):
     @model_validator(mode="after")
     def _check(self) -> FederatedConfig:
         allowed = MODE_SETTINGS[self.mode]
-        for key in sorted(self.model_fields_set - {"name", "architecture", "detector", "noise"}):
+        for key in sorted(
+            self.model_fields_set - {"name", "architecture", "detector", "noise", "guard"}
+        ):
             if key not in allowed:
                 raise config_error(f"not a setting of the {self.mode} mode", key)
         self.check_pieces()
@@ -137,7 +152,9 @@ class FederatedConfig(MethodBase):
     @property
     def DETECTORS(self) -> tuple[str, ...]:  # type: ignore[override]  # noqa: N802
         if self.mode == "zero-reset":  # the locals have no prior, no propagator
-            return ("none", "oracle", "residual-chi2")
+            return ("none", "oracle", "residual-chi2", "cusum", "glr", "separation")
+        if self.mode == "no-reset":  # no fused estimate the aids share: no separation
+            return tuple(d for d in MethodBase.DETECTORS if d != "separation")
         return MethodBase.DETECTORS
 
     @property
@@ -198,6 +215,7 @@ class FederatedState(NamedTuple):
     noise: tuple[NoiseState | None, ...]
     detector: DetectorState | None
     propagator: tuple[kf.Gaussian, ...] | None
+    guard: GuardState | None = None
 
 
 class _Locals(NamedTuple):
@@ -207,10 +225,17 @@ class _Locals(NamedTuple):
     updates: list[LocalUpdate]
     props: list[Gaussian]
     Hs: list[np.ndarray]
+    Fs: list[np.ndarray]
 
     @property
     def posts(self) -> list[Gaussian]:
         return [Gaussian(u.x, u.P) for u in self.updates]
+
+
+#: the guard's inputs: priors and transitions per group, z, H and R per aid
+_GuardInputs = tuple[
+    list[Gaussian], list[np.ndarray], tuple[np.ndarray, ...], list[np.ndarray], list[np.ndarray]
+]
 
 
 def _constant(H: np.ndarray | None) -> np.ndarray:
@@ -239,14 +264,30 @@ class FederatedFilter:
         learned: Learned = NOTHING_LEARNED,
         features: tuple[str, ...] | None = None,
         feature_prior: str | None = None,
+        dt: float = 1.0,
     ):
         self.system = system
         self.config = config
-        self.N = system.n_sensors
+        self.N = N = system.n_sensors
         self.nc = system.n_common
         self.bank = LocalBank(system, config.noise)
-        self.detection = Detection(config.detector, learned.detector)
-        self.global_prior = self.detection.prior == "global" and self.detection.residual
+        dims = [s.dim for s in system.sensors]
+        self.detection = Detection(config.detector, learned.detector, dims)
+        self.global_prior = self.detection.prior == "global" and (
+            self.detection.residual or self.detection.whitened
+        )
+        g = config.guard_settings
+        self.guard: Guard | None = None
+        #: the guard tracks each local (no-reset) or the fused estimate (fusion-reset)
+        self.local_guard = config.mode == "no-reset"
+        sd = self.detection.separation
+        if g is not None:
+            if self.local_guard:  # independent locals: tested against the fused prior
+                sizes = [self.bank.models[i].n for i in range(N)]
+                groups = [(i,) for i in range(N)]
+                self.guard = Guard(g, groups, sizes, dims, dt, rollback=False)
+            else:
+                self.guard = Guard(g, [tuple(range(N))], [self.nc], dims, dt, sd)
         self.features = features_needed(
             self.detection, features, feature_prior or self.detection.prior
         )
@@ -326,6 +367,7 @@ class FederatedFilter:
             self.bank.initial_noise(B),
             self.detection.init(B, self.N),
             prop,
+            None if self.guard is None else self.guard.init(B),
         )
 
     # ------------------------------------------------------------------------------
@@ -333,15 +375,10 @@ class FederatedFilter:
         """Advance one epoch (spec §1.3): predict, update, test, fuse, share."""
         F, Q = self.system.transition(epoch.lin)
         # the fused prior: needed by global-prior tests and when every local is isolated
-        need_prior = (
-            self.global_prior
-            or self.features is not None
-            or not state.active.any(1).all()
-            and state.master is None
-        )
-        prior_g = kf.predict(state.xg, state.Pg, F, Q) if need_prior else None
-        meas = measurements(epoch, self.system.sensors)
-        loc = self._locals(state, epoch, meas.usable)
+        # the fused prior: the method's prediction, which it watches every aid against
+        prior_g = kf.predict(state.xg, state.Pg, F, Q)
+        meas0 = measurements(epoch, self.system.sensors)
+        loc, meas = self._locals(state, epoch, meas0, None if self.local_guard else prior_g)
         feats = None
         if self.features is not None:
             assert prior_g is not None  # need_prior holds whenever features are computed
@@ -357,29 +394,124 @@ class FederatedFilter:
                 loc.Hs,
             )
         det_state, det_out, flag = self._detect(state, epoch, meas, loc, prior_g, feats)
+        guarded = guard_state = gin = None
+        if self.guard is not None:
+            assert state.guard is not None
+            gin = self._guard_inputs(state, epoch, loc, prior_g, F)
+            guarded = self.guard.begin(
+                state.guard, *gin, meas.usable, det_out, keep=self.policy.flags
+            )
+            det_out, flag = guarded.detection, guarded.flags
+            if self.local_guard:  # each local takes its own aid's rollback
+                guard_state, amends = self.guard.finish(guarded, *_without_F(gin), meas.usable)
+                loc = _amended(loc, amends)
         xg, Pg, master = self._fuse(state, loc, flag, prior_g, F, Q)
+        if guarded is not None and not self.local_guard:  # the fused estimate takes it
+            assert self.guard is not None and gin is not None
+            guard_state, (amend,) = self.guard.finish(guarded, *_without_F(gin), meas.usable)
+            xg = select(amend.where, xg - amend.dx, xg)
+            Pg = select(amend.where, Pg + amend.dP, Pg)
         new = self._share(state, epoch.k, loc, flag, xg, Pg, master)
         beta_report = np.where(new.active, new.share, 0.0)
         R_hat = tuple(np.diagonal(u.R, axis1=-2, axis2=-1) for u in loc.updates)
-        out = StepOutput(xg, Pg, beta_report, det_out, R_hat, meas.nan, feats)
-        return new._replace(noise=tuple(u.noise for u in loc.updates), detector=det_state), out
+        watch = np.stack(  # every finite measurement against the fused prediction
+            [
+                self.bank.residual(
+                    i,
+                    with_common(loc.priors[i], *prior_g),
+                    epoch.z[i],
+                    meas0.usable[:, i],
+                    loc.Hs[i],
+                    state.noise[i],
+                )
+                for i in range(self.N)
+            ],
+            1,
+        )
+        out = StepOutput(
+            xg,
+            Pg,
+            beta_report,
+            det_out,
+            R_hat,
+            meas.nan,
+            feats,
+            None if guarded is None else guarded.output,
+            watch,
+            meas.usable & ~flag,
+            meas0.usable,
+        )
+        new = new._replace(
+            noise=tuple(u.noise for u in loc.updates), detector=det_state, guard=guard_state
+        )
+        return new, out
 
-    def _locals(self, state: FederatedState, epoch: Epoch, usable: np.ndarray) -> _Locals:
-        """Predict (with ``Q/β_i`` while sharing) and update every local filter."""
+    def _guard_inputs(
+        self,
+        state: FederatedState,
+        epoch: Epoch,
+        loc: _Locals,
+        prior_g: Gaussian | None,
+        F: np.ndarray,
+    ) -> _GuardInputs:
+        """The guard's priors and transitions per group, the measurements, H and R per aid.
+
+        No-reset: each local's prior with its common block the fused prior (the
+        reference its aid is tested against; the guard does not roll the locals back).
+        Fusion-reset: the fused prior; an aid's private states are folded into its noise,
+        ``R + H_p P_p H_pᵀ`` (the fused estimate holds the common states only).
+        """
+        R_now = [self.bank.noise_now(i, state.noise[i]) for i in range(self.N)]
+        assert prior_g is not None
+        if self.local_guard:
+            ref = [with_common(p, *prior_g) for p in loc.priors]
+            return ref, list(loc.Fs), epoch.z, list(loc.Hs), R_now
+        nc = self.nc
+        Hc, Reff = [], []
+        for i in range(self.N):
+            H = loc.Hs[i]
+            Hc.append(H[..., :nc])
+            if H.shape[-1] > nc:
+                Hp = H[..., nc:]
+                Pp = loc.priors[i][1][:, nc:, nc:]
+                Reff.append(R_now[i] + Hp @ Pp @ kf.mT(Hp))
+            else:
+                Reff.append(R_now[i])
+        return [prior_g], [F], epoch.z, Hc, Reff
+
+    def _locals(
+        self,
+        state: FederatedState,
+        epoch: Epoch,
+        meas: Measurements,
+        prior_g: Gaussian | None,
+    ) -> tuple[_Locals, Measurements]:
+        """Predict (with ``Q/β_i`` while sharing) and update every local filter, the gated
+        pseudo-measurements left out (against the fused prior with fusion-reset, each
+        local's own with no-reset); the measurements after the gates."""
         Hs = self.bank.H(epoch.lin)
-        priors, updates, props = [], [], []
+        priors, updates, props, Fs = [], [], [], []
         for i in range(self.N):
             sharing = state.active[:, i] & (state.share[:, i] > 0)
             scale = np.where(sharing, 1.0 / np.where(sharing, state.share[:, i], 1.0), 1.0)
             Fi, Qi = self.system.local_transition(i, scale, epoch.lin)
-            prior = kf.predict(state.x[i], state.P[i], Fi, Qi)
-            priors.append(prior)
+            Fs.append(Fi)
+            priors.append(kf.predict(state.x[i], state.P[i], Fi, Qi))
+
+        def reference(i: int) -> np.ndarray:
+            base = priors[i] if prior_g is None else with_common(priors[i], *prior_g)
+            return self.bank.residual(i, base, epoch.z[i], meas.usable[:, i], Hs[i], state.noise[i])
+
+        meas = gated(meas, self.system.sensors, reference)
+        usable = meas.usable
+        for i in range(self.N):
+            prior = priors[i]
             updates.append(
                 self.bank.update(i, prior, epoch.z[i], usable[:, i], Hs[i], state.noise[i])
             )
             if state.propagator is not None:
                 props.append(kf.predict(*state.propagator[i], Fi, Qi))
-        return _Locals(priors, updates, props, Hs)
+        return _Locals(priors, updates, props, Hs, Fs), meas
 
     def _detect(
         self,
@@ -392,7 +524,23 @@ class FederatedFilter:
     ) -> tuple[DetectorState | None, DetectorOutput | None, np.ndarray]:
         """The epoch's test statistic, the detector, the common-mode rule."""
         B, N = meas.usable.shape
-        if not self.detection.residual:  # no other detector reads the statistic
+        innov = None
+        if self.detection.whitened:  # the sequential tests read whitened innovations
+            innov = [
+                self.bank.whitened(
+                    i,
+                    with_common(loc.priors[i], *prior_g)
+                    if self.global_prior and prior_g is not None
+                    else loc.priors[i],
+                    epoch.z[i],
+                    meas.usable[:, i],
+                    loc.Hs[i],
+                    state.noise[i],
+                )
+                for i in range(N)
+            ]
+            stat = np.stack([(w**2).sum(-1) for w in innov], 1)
+        elif not self.detection.residual:  # no other detector reads the statistic
             stat = np.zeros((B, N))
         elif self.global_prior:
             assert prior_g is not None
@@ -418,7 +566,7 @@ class FederatedFilter:
             res = [test.statistic(epoch.k, *loc.posts[i], *loc.props[i]) for i in range(N)]
             stat, dof, tested = (np.stack([r[j] for r in res], 1) for j in range(3))
         det_state, det_out = self.detection.step(
-            state.detector, stat, dof, tested, epoch.labels, feats
+            state.detector, stat, dof, tested, epoch.labels, feats, innov
         )
         flag = np.zeros((B, N), dtype=bool) if det_out is None else det_out.flag
         return det_state, det_out, self.policy.flags(flag)
@@ -554,3 +702,26 @@ class FederatedFilter:
 
     def local_estimates(self, state: FederatedState, n: int) -> np.ndarray:
         return np.stack([x[:, :n] for x in state.x], 1)
+
+
+def _without_F(
+    gin: _GuardInputs,
+) -> tuple[list[Gaussian], tuple[np.ndarray, ...], list[np.ndarray], list[np.ndarray]]:
+    """The guard inputs :meth:`~ftnav.fusion.guard.Guard.finish` reads (no transitions)."""
+    priors, _, z, H, R = gin
+    return priors, z, H, R
+
+
+def _amended(loc: _Locals, amends: tuple[Amend, ...]) -> _Locals:
+    """Each local's prior and posterior less its own aid's rollback (no-reset guard)."""
+    priors, updates = list(loc.priors), list(loc.updates)
+    for i, a in enumerate(amends):
+        if not a.where.any():
+            continue
+        x, P = priors[i]
+        priors[i] = Gaussian(select(a.where, x - a.dx, x), select(a.where, P + a.dP, P))
+        u = updates[i]
+        updates[i] = u._replace(
+            x=select(a.where, u.x - a.dx, u.x), P=select(a.where, u.P + a.dP, u.P)
+        )
+    return loc._replace(priors=priors, updates=updates)

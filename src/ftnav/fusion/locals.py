@@ -13,14 +13,16 @@ isolated keep their prior.  Shapes: batch B, common states ``n_c``, local states
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import numpy as np
+from scipy.stats import chi2
 
 from ftnav.core import kalman as kf
 from ftnav.core import vb as vbk
 from ftnav.core.kalman import Gaussian
+from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.config import Noise, VbNoise
 from ftnav.fusion.protocol import select
 from ftnav.model.system import Epoch, Linearization, LinearSystem, Sensor
@@ -29,6 +31,7 @@ __all__ = [
     "LocalBank",
     "LocalUpdate",
     "Measurements",
+    "gated",
     "NoiseState",
     "initial_noise",
     "local_update",
@@ -76,6 +79,22 @@ def measurements(epoch: Epoch, sensors: Sequence[Sensor]) -> Measurements:
     usable = epoch.available & finite
     dims = np.array([s.dim for s in sensors])[None, :]
     return Measurements(usable, epoch.available & ~finite, dims * usable)
+
+
+def gated(
+    meas: Measurements, sensors: Sequence[Sensor], nis: Callable[[int], np.ndarray]
+) -> Measurements:
+    """The measurements with every gated sensor's (:attr:`Sensor.gate`) left out where
+    its innovation's χ² ``nis(i)`` (B,) against the method's reference fails the gate
+    (a pseudo-measurement whose constraint does not hold: neither used nor tested)."""
+    if not any(s.gate for s in sensors):
+        return meas
+    usable = meas.usable.copy()
+    for i, s in enumerate(sensors):
+        if s.gate and usable[:, i].any():
+            usable[:, i] &= nis(i) <= chi2.isf(s.gate, s.dim)
+    dims = np.array([s.dim for s in sensors])[None, :]
+    return Measurements(usable, meas.nan, dims * usable)
 
 
 def initial_noise(R: np.ndarray, batch: int, alpha0: float = 1.0) -> NoiseState:
@@ -231,3 +250,16 @@ class LocalBank:
     ) -> np.ndarray:
         """NIS of sensor i's measurement against ``prior`` (spec §3.1), 0 where unused."""
         return residual_statistic(*prior, z, use, H, self.noise_now(i, noise))
+
+    def whitened(
+        self,
+        i: int,
+        prior: Gaussian,
+        z: np.ndarray,
+        use: np.ndarray,
+        H: np.ndarray,
+        noise: NoiseState | None,
+    ) -> np.ndarray:
+        """(B, m) sensor i's innovation against ``prior`` whitened by its covariance
+        (spec §3.3; zero where unused); its squared norm is :meth:`residual`."""
+        return whitened_innovation(*prior, z, use, H, self.noise_now(i, noise))

@@ -58,10 +58,11 @@ from ftnav.core.kalman import Gaussian
 from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, config_error
 from ftnav.fusion.detection import Detection
+from ftnav.fusion.guard import Guard, GuardState
 from ftnav.fusion.isolation import IsolationPolicy
-from ftnav.fusion.locals import LocalBank, LocalUpdate, measurements
+from ftnav.fusion.locals import LocalBank, LocalUpdate, gated, measurements
 from ftnav.fusion.neural_model import NeuronModel, select_weights
-from ftnav.fusion.protocol import StepOutput, minus, with_common
+from ftnav.fusion.protocol import StepOutput, minus, select, with_common
 from ftnav.model.system import Epoch, LinearSystem
 
 __all__ = ["NeuralConfig", "NeuralFusion", "NeuralState", "check", "converged_only"]
@@ -74,7 +75,13 @@ class NeuralConfig(MethodBase):
     flag pattern no configuration covers; ``isolation`` what a flagged local does.
     """
 
-    DETECTORS: ClassVar[tuple[str, ...]] = ("none", "oracle", "residual-chi2")
+    DETECTORS: ClassVar[tuple[str, ...]] = (
+        "none",
+        "oracle",
+        "residual-chi2",
+        "cusum",
+        "glr",
+    )
     NOISE: ClassVar[tuple[str, ...]] = ("none",)
     PRIORS: ClassVar[tuple[str, ...]] = ("local", "global", "intersection")
 
@@ -153,6 +160,7 @@ class NeuralState(NamedTuple):
     xf: np.ndarray
     Pf: np.ndarray
     detector: DetectorState | None
+    guard: GuardState | None = None
 
 
 class NeuralFusion:
@@ -170,6 +178,7 @@ class NeuralFusion:
         ``"inverse-variance"`` (per state, weights ∝ 1/σ² over the unflagged inputs,
         the optimum for independent errors).  Closed-loop collection needs the latter:
         its fused estimate is fed back to the SINS.
+    dt : the filter period (s): the guard's windows.
     """
 
     #: with output correction each local filter measures its aid at its own copy of the
@@ -184,6 +193,7 @@ class NeuralFusion:
         collect: bool = False,
         free_input: bool = False,
         untrained: str = "uniform",
+        dt: float = 1.0,
     ):
         self.system = system
         self.config = config
@@ -196,8 +206,16 @@ class NeuralFusion:
         self.free_input = self.model.free_input if self.model is not None else bool(free_input)
         self.n_inputs = self.N + int(self.free_input)
         self.bank = LocalBank(system, config.noise)
-        self.detection = Detection(config.detector)
+        dims = [s.dim for s in system.sensors]
+        self.detection = Detection(config.detector, dims=dims)
         self.policy = IsolationPolicy(config.isolation, n_filters=self.N)
+        g = config.guard_settings
+        # the locals are independent: each tracks its own aid's pull
+        sizes = [m.n for m in self.bank.models]
+        self.guard = None
+        if g is not None:  # independent locals: tested against the detector's reference
+            groups = [(i,) for i in range(self.N)]
+            self.guard = Guard(g, groups, sizes, dims, dt, rollback=False)
 
     @property
     def n_filters(self) -> int:
@@ -212,33 +230,86 @@ class NeuralFusion:
             np.broadcast_to(x0, (B, nc)).copy(), np.broadcast_to(P0, (B, nc, nc)).copy()
         )
         return NeuralState(
-            xs, Ps, free, free.x.copy(), free.P.copy(), self.detection.init(B, self.N)
+            xs,
+            Ps,
+            free,
+            free.x.copy(),
+            free.P.copy(),
+            self.detection.init(B, self.N),
+            None if self.guard is None else self.guard.init(B),
         )
 
     def step(self, state: NeuralState, epoch: Epoch) -> tuple[NeuralState, StepOutput]:
         """Advance one epoch: local filters, detection, configuration, neuron fusion."""
         N, bank = self.N, self.bank
         F, Q = self.system.transition(epoch.lin)
-        meas = measurements(epoch, self.system.sensors)
+        meas0 = measurements(epoch, self.system.sensors)
         Hs = bank.H(epoch.lin)
-        priors, updates = [], []
+        priors, updates, Fs = [], [], []
         for i in range(N):
             Fi, Qi = self.system.local_transition(i, lin=epoch.lin)
+            Fs.append(Fi)
             priors.append(kf.predict(state.x[i], state.P[i], Fi, Qi))
-            updates.append(bank.update(i, priors[i], epoch.z[i], meas.usable[:, i], Hs[i], None))
-        stat = self._statistic(state, epoch, meas.usable, priors, updates, Hs, F, Q)
-        det_state, det_out = self.detection.step(
-            state.detector, stat, meas.dof, meas.usable, epoch.labels
+        meas = gated(  # pseudo-measurements against each local's own prior
+            meas0,
+            self.system.sensors,
+            lambda i: bank.residual(i, priors[i], epoch.z[i], meas0.usable[:, i], Hs[i], None),
         )
+        for i in range(N):
+            updates.append(bank.update(i, priors[i], epoch.z[i], meas.usable[:, i], Hs[i], None))
+        stat, innov, bases = self._statistic(state, epoch, meas.usable, priors, updates, Hs, F, Q)
+        det_state, det_out = self.detection.step(
+            state.detector, stat, meas.dof, meas.usable, epoch.labels, None, innov
+        )
+        posts = [Gaussian(u.x, u.P) for u in updates]
+        guard_state = guarded = None
+        if self.guard is not None:
+            assert state.guard is not None
+            R = [s.R for s in self.system.sensors]
+            guarded = self.guard.begin(state.guard, bases, Fs, epoch.z, Hs, R, meas.usable, det_out)
+            det_out = guarded.detection
+            guard_state, amends = self.guard.finish(guarded, bases, epoch.z, Hs, R, meas.usable)
+            for i, a in enumerate(amends):  # a relaxed re-admission's update, inflation
+                if a.where.any():
+                    priors[i] = Gaussian(
+                        select(a.where, priors[i].x - a.dx, priors[i].x),
+                        select(a.where, priors[i].P + a.dP, priors[i].P),
+                    )
+                    posts[i] = Gaussian(
+                        select(a.where, posts[i].x - a.dx, posts[i].x),
+                        select(a.where, posts[i].P + a.dP, posts[i].P),
+                    )
         flags = np.zeros((stat.shape[0], N), dtype=bool) if det_out is None else det_out.flag
-        xs, Ps = self.policy.discard(flags, priors, [Gaussian(u.x, u.P) for u in updates])
+        xs, Ps = self.policy.discard(flags, priors, posts)
         free = kf.Gaussian(*kf.predict(state.free.x, state.free.P, F, Q))
         xf, Pf, u = self._fuse(xs, Ps, free, flags)
         feats = np.swapaxes(u, 1, 2).reshape(u.shape[0], -1) if self.collect else None
         B = stat.shape[0]
         R_hat = tuple(np.broadcast_to(np.diag(s.R), (B, s.dim)) for s in self.system.sensors)
-        out = StepOutput(xf, Pf, None, det_out, R_hat, meas.nan, feats)
-        return NeuralState(tuple(xs), tuple(Ps), free, xf, Pf, det_state), out
+        ref = kf.predict(state.xf, state.Pf, F, Q)  # the predicted neuron output, its bound
+        watch = np.stack(
+            [
+                bank.residual(
+                    i, with_common(priors[i], *ref), epoch.z[i], meas0.usable[:, i], Hs[i], None
+                )
+                for i in range(N)
+            ],
+            1,
+        )
+        out = StepOutput(
+            xf,
+            Pf,
+            None,
+            det_out,
+            R_hat,
+            meas.nan,
+            feats,
+            None if guarded is None else guarded.output,
+            watch,
+            meas.usable & ~flags,
+            meas0.usable,
+        )
+        return NeuralState(tuple(xs), tuple(Ps), free, xf, Pf, det_state, guard_state), out
 
     def _statistic(
         self,
@@ -250,26 +321,38 @@ class NeuralFusion:
         Hs: Sequence[np.ndarray],
         F: np.ndarray,
         Q: np.ndarray,
-    ) -> np.ndarray:
-        """(B, N) residual statistic against the configured reference (module docstring)."""
+    ) -> tuple[np.ndarray, list[np.ndarray] | None, list[Gaussian]]:
+        """(B, N) residual statistic against the configured reference (module docstring),
+        the whitened innovations the sequential tests read (else None), and each local's
+        prior with that reference (what the guard tests against)."""
         nc, prior = self.nc, self.detection.prior
-        if prior == "local":
-            return np.stack([u.nis for u in updates], 1)
+        if prior == "local" and not self.detection.whitened:
+            return np.stack([u.nis for u in updates], 1), None, list(priors)
+        ref: Gaussian | None = None
         if prior == "global":  # the predicted neuron output and its bound
             ref = kf.predict(state.xf, state.Pf, F, Q)
-        else:  # covariance intersection of the local priors (module doc)
+        elif prior == "intersection":  # covariance intersection of the local priors (module doc)
             ref = kf.intersect(
                 np.stack([p[0][:, :nc] for p in priors], 1),
                 np.stack([p[1][:, :nc, :nc] for p in priors], 1),
             )
-        return np.stack(
-            [
-                self.bank.residual(
-                    i, with_common(priors[i], *ref), epoch.z[i], usable[:, i], Hs[i], None
-                )
+        bases = [priors[i] if ref is None else with_common(priors[i], *ref) for i in range(self.N)]
+        if self.detection.whitened:
+            innov = [
+                self.bank.whitened(i, bases[i], epoch.z[i], usable[:, i], Hs[i], None)
                 for i in range(self.N)
-            ],
-            1,
+            ]
+            return np.stack([(w**2).sum(-1) for w in innov], 1), innov, bases
+        return (
+            np.stack(
+                [
+                    self.bank.residual(i, bases[i], epoch.z[i], usable[:, i], Hs[i], None)
+                    for i in range(self.N)
+                ],
+                1,
+            ),
+            None,
+            bases,
         )
 
     def _fuse(

@@ -16,6 +16,7 @@ import numpy as np
 
 from ftnav.core.kalman import Gaussian
 from ftnav.fdi.chi2 import DetectorOutput
+from ftnav.fusion.guard import GuardOutput
 from ftnav.model.system import Epoch
 
 __all__ = ["Architecture", "StepOutput", "minus", "select", "with_common"]
@@ -35,6 +36,14 @@ class StepOutput(NamedTuple):
     R_hat : per sensor (B, m_i) diagonal of the noise used (adapted under VB).
     nan : (B, N) bool, scheduled measurements that were NaN/inf (treated as missing).
     features : (B, F) learned-detector features of the epoch (spec §4.1), or None.
+    guard : what the isolation guard did (:mod:`ftnav.fusion.guard`), or None.
+    nis : (B, N) each aid's NIS against the method's own prediction of it (its fused
+        prior, a neuron centre's bound), 0 where the aid has no finite measurement: what
+        the filter watches its consistency with (:mod:`ftnav.eval.integrity`); or None.
+    used : (B, N) bool, the aids whose measurement updated the method this epoch (after
+        the gates and the isolation), or None.
+    available : (B, N) bool, the aids with a finite measurement this epoch (before the
+        gates and the isolation), or None.
     """
 
     x: np.ndarray
@@ -44,6 +53,10 @@ class StepOutput(NamedTuple):
     R_hat: tuple[np.ndarray, ...]
     nan: np.ndarray
     features: np.ndarray | None = None
+    guard: GuardOutput | None = None
+    nis: np.ndarray | None = None
+    used: np.ndarray | None = None
+    available: np.ndarray | None = None
 
 
 class Architecture(Protocol[S]):

@@ -21,8 +21,9 @@ from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.config import NOTHING_LEARNED, Learned
 from ftnav.fusion.detection import Detection
 from ftnav.fusion.federated import FederatedConfig
+from ftnav.fusion.guard import Guard, GuardState
 from ftnav.fusion.isolation import IsolationPolicy
-from ftnav.fusion.locals import LocalBank, measurements
+from ftnav.fusion.locals import LocalBank, gated, measurements
 from ftnav.fusion.protocol import StepOutput, minus, select
 from ftnav.model.system import Epoch, LinearSystem
 
@@ -43,20 +44,33 @@ class ZeroResetState(NamedTuple):
     Pg: np.ndarray
     active: np.ndarray
     detector: DetectorState | None
+    guard: GuardState | None = None
 
 
 class ZeroResetFilter:
     """The zero-reset federated filter (module docstring); a :class:`FederatedConfig`."""
 
     def __init__(
-        self, system: LinearSystem, config: FederatedConfig, learned: Learned = NOTHING_LEARNED
+        self,
+        system: LinearSystem,
+        config: FederatedConfig,
+        learned: Learned = NOTHING_LEARNED,
+        dt: float = 1.0,
     ):
         self.system = system
         self.config = config
-        self.N = system.n_sensors
+        self.N = N = system.n_sensors
         self.nc = system.n_common
         self.bank = LocalBank(system, config.noise)
-        self.detection = Detection(config.detector, learned.detector)
+        dims = [s.dim for s in system.sensors]
+        self.detection = Detection(config.detector, learned.detector, dims)
+        g = config.guard_settings
+        # the guard tracks every aid's pull on the fused estimate (the master's)
+        self.guard = (
+            None
+            if g is None
+            else Guard(g, [tuple(range(N))], [self.nc], dims, dt, self.detection.separation)
+        )
         self.policy = IsolationPolicy(
             "standalone", config.common_mode, config.common_mode_quorum, self.N
         )
@@ -79,6 +93,7 @@ class ZeroResetFilter:
             np.broadcast_to(P0c, (B, nc, nc)).copy(),
             np.ones((B, self.N), dtype=bool),
             self.detection.init(B, self.N),
+            None if self.guard is None else self.guard.init(B),
         )
 
     def step(self, state: ZeroResetState, epoch: Epoch) -> tuple[ZeroResetState, StepOutput]:
@@ -86,8 +101,13 @@ class ZeroResetFilter:
         N = self.N
         F, Q = self.system.transition(epoch.lin)
         prior_g = kf.predict(state.xg, state.Pg, F, Q)
-        meas = measurements(epoch, self.system.sensors)
         Hs = self.bank.H(epoch.lin)
+        meas0 = measurements(epoch, self.system.sensors)
+        meas = gated(
+            meas0,
+            self.system.sensors,
+            lambda i: self.bank.residual(i, prior_g, epoch.z[i], meas0.usable[:, i], Hs[i], None),
+        )
         priors: list[Information] = []
         posts: list[Information] = []
         R_hat = []
@@ -102,23 +122,54 @@ class ZeroResetFilter:
             priors.append((y, Y))
             posts.append((y_post, Y_post))
             R_hat.append(np.broadcast_to(np.diag(s.R), (state.xg.shape[0], s.dim)))
-        stat = (
-            np.stack(
+        innov = None
+        if self.detection.whitened:  # the sequential tests, against the fused prior
+            innov = [
+                self.bank.whitened(i, prior_g, epoch.z[i], meas.usable[:, i], Hs[i], None)
+                for i in range(N)
+            ]
+            stat = np.stack([(w**2).sum(-1) for w in innov], 1)
+        elif self.detection.residual:
+            stat = np.stack(
                 [
                     self.bank.residual(i, prior_g, epoch.z[i], meas.usable[:, i], Hs[i], None)
                     for i in range(N)
                 ],
                 1,
             )
-            if self.detection.residual
-            else np.zeros(meas.usable.shape)
-        )
+        else:
+            stat = np.zeros(meas.usable.shape)
         det_state, det_out = self.detection.step(
-            state.detector, stat, meas.dof, meas.usable, epoch.labels
+            state.detector, stat, meas.dof, meas.usable, epoch.labels, None, innov
         )
-        flag = np.zeros(meas.usable.shape, dtype=bool) if det_out is None else det_out.flag
-        flag = self.policy.flags(flag)
+        guarded = guard_state = None
+        R = [s.R for s in self.system.sensors]
+        if self.guard is not None:
+            assert state.guard is not None
+            guarded = self.guard.begin(
+                state.guard,
+                [prior_g],
+                [F],
+                epoch.z,
+                Hs,
+                R,
+                meas.usable,
+                det_out,
+                keep=self.policy.flags,
+            )
+            det_out = guarded.detection
+            flag = guarded.flags
+        else:
+            flag = np.zeros(meas.usable.shape, dtype=bool) if det_out is None else det_out.flag
+            flag = self.policy.flags(flag)
         xg, Pg, master_pr = self._fuse(state, priors, posts, state.active & flag, F, Q)
+        if guarded is not None:
+            assert self.guard is not None
+            guard_state, (amend,) = self.guard.finish(
+                guarded, [prior_g], epoch.z, Hs, R, meas.usable
+            )
+            xg = select(amend.where, xg - amend.dx, xg)
+            Pg = select(amend.where, Pg + amend.dP, Pg)
         reset_epoch = epoch.k % self.config.reset_interval == 0
         active_next = ~flag if reset_epoch else state.active & ~flag
         ys, Ys = [p[0] for p in posts], [p[1] for p in posts]
@@ -126,8 +177,28 @@ class ZeroResetFilter:
         if reset_epoch:
             ys, Ys = [np.zeros_like(y) for y in ys], [np.zeros_like(Y) for Y in Ys]
             master = kf.Gaussian(xg, Pg)
-        out = StepOutput(xg, Pg, np.zeros(flag.shape), det_out, tuple(R_hat), meas.nan)
-        return ZeroResetState(tuple(ys), tuple(Ys), master, xg, Pg, active_next, det_state), out
+        watch = np.stack(  # every finite measurement against the fused prediction
+            [
+                self.bank.residual(i, prior_g, epoch.z[i], meas0.usable[:, i], Hs[i], None)
+                for i in range(N)
+            ],
+            1,
+        )
+        out = StepOutput(
+            xg,
+            Pg,
+            np.zeros(flag.shape),
+            det_out,
+            tuple(R_hat),
+            meas.nan,
+            guard=None if guarded is None else guarded.output,
+            nis=watch,
+            used=meas.usable & ~flag,
+            available=meas0.usable,
+        )
+        return ZeroResetState(
+            tuple(ys), tuple(Ys), master, xg, Pg, active_next, det_state, guard_state
+        ), out
 
     def _fuse(
         self,

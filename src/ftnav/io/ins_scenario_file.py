@@ -37,7 +37,6 @@ from ftnav.model.scenario import (
     POSITION_NORMS,
     SINS,
     AidSpec,
-    Evaluation,
     Fault,
     InsScenario,
 )
@@ -209,6 +208,10 @@ class InsScenarioFile(BaseModel):
     methods: list[MethodConfig] = Field(default_factory=list)
     evaluation: EvaluationFile = Field(default_factory=EvaluationFile)
     figures: list[FigureFile] = Field(default_factory=list)
+
+
+#: the bound on the horizontal position σ an integrated model is watched against (m)
+DEFAULT_SIGMA_BOUND_M = 100.0
 
 
 class ScenarioWarning(UserWarning):
@@ -533,7 +536,7 @@ def parse_ins_scenario(
         aids=tuple(aids),
         faults=tuple(faults),
         methods=tuple(methods),
-        evaluation=Evaluation(float(ev.skip_initial), float(ev.grace)),
+        evaluation=ev.settings(DEFAULT_SIGMA_BOUND_M),
         correction=fl.correction,
         discretization=fl.discretization,
         description=f.description,

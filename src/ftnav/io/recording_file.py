@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import warnings
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -24,7 +25,9 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ftnav.io.common import STRICT, ScenarioError, read_toml, to_scenario_error
 from ftnav.io.ins_scenario_file import (
+    DEFAULT_SIGMA_BOUND_M,
     ImuSpec,
+    ScenarioWarning,
     filter_model,
     imu_errors,
     sensor_from_table,
@@ -37,12 +40,24 @@ from ftnav.io.recording_readers import (
     read_navego_truth,
     read_rtklib_pos,
 )
-from ftnav.io.sections import MethodConfig, explain_method_key, resolve_methods
+from ftnav.io.sections import (
+    EvaluationFile,
+    MethodConfig,
+    explain_method_key,
+    resolve_methods,
+)
 from ftnav.model.imu import ImuErrors
-from ftnav.model.scenario import AidSpec, Evaluation, Fault, Recording
+from ftnav.model.scenario import AidSpec, Fault, Recording
 from ftnav.nav.attitude import euler_to_dcm
 from ftnav.nav.units import parse_quantity
-from ftnav.recorded.imu import ImuCleaning, ImuLog, TimeGoesBack, clean, stationary
+from ftnav.recorded.imu import (
+    ImuCleaning,
+    ImuLog,
+    TimeGoesBack,
+    clean,
+    noise_density,
+    stationary,
+)
 from ftnav.recorded.stream import (
     Alignment,
     GnssLog,
@@ -165,7 +180,9 @@ class AidTable(BaseModel):
             "stamped t describes t + offset; RTKLIB's lag theirs by 0.10-0.15 s: -0.125)"
         ),
     )
-    window_s: float = Field(default=0.5, gt=0, description="zupt: stationarity window")
+    window_s: float = Field(
+        default=0.5, gt=0, description="zupt: stationarity half-window (the span is ±window_s)"
+    )
     accel_std_mps2: float = Field(default=0.25, gt=0, description="zupt: accel std threshold")
     gyro_std_dps: float = Field(default=0.25, gt=0, description="zupt: gyro std threshold")
 
@@ -198,6 +215,14 @@ class AlignmentFile(BaseModel):
     )
     gyrocompass_max_sigma_deg: float = Field(default=1.0, gt=0, description="static, auto")
     min_speed_mps: float = Field(default=1.0, gt=0, description="static")
+    noise: Literal["max", "datasheet"] = Field(
+        default="max",
+        description=(
+            "static: the filter's gyro and accelerometer white noise, per axis the larger "
+            "of the datasheet's and the static window's (Allan deviation at 1 s: engine "
+            "vibration), or the datasheet's alone"
+        ),
+    )
     attitude_deg: list[float] | None = Field(
         default=None,
         min_length=3,
@@ -241,6 +266,7 @@ class RecordingFile(BaseModel):
     reference: ReferenceFile = Field(default_factory=ReferenceFile)
     alignment: AlignmentFile = Field(default_factory=AlignmentFile)
     filter: RecordingFilterFile = Field(default_factory=RecordingFilterFile)
+    evaluation: EvaluationFile = Field(default_factory=EvaluationFile)
     methods: list[MethodConfig] = Field(min_length=1)
 
 
@@ -254,6 +280,8 @@ class LoadedRecording(NamedTuple):
     alignment : the initial solution.  counts : what the readers handled (for output).
     outages : per run of the batch, the primary GNSS's outages, s relative to
         ``recording.t_start`` (interleaved schedules, :func:`ftnav.recorded.stream.interleave`).
+    truth : a full truth (``[reference] source = "truth"``), or None.
+    warnings : one line each, what the recording's data suggest is wrong but legal.
     """
 
     recording: Recording
@@ -264,6 +292,7 @@ class LoadedRecording(NamedTuple):
     counts: dict[str, Any]
     outages: tuple[tuple[tuple[float, float], ...], ...]
     truth: Truth | None = None
+    warnings: tuple[str, ...] = ()
 
 
 _ENV = re.compile(r"\$\{(\w+)(?::-([^}]*))?\}")
@@ -606,6 +635,43 @@ def _gyrocompass_sigma(
     return gyrocompass_sigma(lat, bias, arw, a.static_s)
 
 
+def _static_noise(
+    f: RecordingFile, log: ImuLog, imu_err: ImuErrors, origin: str
+) -> tuple[ImuErrors, dict[str, Any] | None, str | None]:
+    """The IMU errors with the static window's white noise where it exceeds the
+    datasheet's (``[alignment] noise = "max"``, :func:`ftnav.recorded.imu.noise_density`),
+    what was measured (for ``metrics.json``) and a one-line warning when that is more
+    than twice the datasheet's and the file does not say ``noise`` (or None)."""
+    a = f.alignment
+    if a.mode != "static" or a.noise == "datasheet":
+        return imu_err, None, None
+    try:  # clusters of 1 s, shorter in a window of less than 4 s
+        gyro, accel = noise_density(log, log.t[0] + a.static_s, min(1.0, a.static_s / 4))
+    except ValueError as exc:
+        path, _, reason = str(exc).partition(": ")
+        raise ScenarioError(path, reason, origin) from None
+    arw = np.maximum(imu_err.gyro_arw, gyro)
+    vrw = np.maximum(imu_err.accel_vrw, accel)
+    r_g = float(np.max(gyro / np.maximum(imu_err.gyro_arw, 1e-300)))
+    r_a = float(np.max(accel / np.maximum(imu_err.accel_vrw, 1e-300)))
+    message = None
+    if max(r_g, r_a) > 2.0 and "noise" not in a.model_fields_set:
+        message = (
+            f"{origin}: alignment.noise: the static window's white noise is up to "
+            f"{r_g:.3g} times the datasheet's for the gyros ({np.max(gyro) * 180 / np.pi:.3g} "
+            f"deg/s/sqrt(Hz)) and {r_a:.3g} times for the accelerometers "
+            f"({np.max(accel) / 9.80665e-6:.3g} ug/sqrt(Hz)): vibration; the filter uses the "
+            f"larger per axis (set noise = 'max' to say so, 'datasheet' for the datasheet's)"
+        )
+    note = {
+        "gyro_deg_s_rt_hz": (gyro * 180 / np.pi).tolist(),
+        "accel_ug_rt_hz": (accel / 9.80665e-6).tolist(),
+        "used_gyro_deg_s_rt_hz": (arw * 180 / np.pi).tolist(),
+        "used_accel_ug_rt_hz": (vrw / 9.80665e-6).tolist(),
+    }
+    return replace(imu_err, gyro_arw=arw, accel_vrw=vrw), note, message
+
+
 def _start(
     f: RecordingFile,
     log: ImuLog,
@@ -634,7 +700,7 @@ def _start(
         if use_gc and "attitude_sigma_deg" not in a.model_fields_set:
             sigma[2] = sigma_gc
         return al, sigma
-    for key in ("static_s", "min_speed_mps", "heading", "gyrocompass_max_sigma_deg"):
+    for key in ("static_s", "min_speed_mps", "heading", "gyrocompass_max_sigma_deg", "noise"):
         if key in a.model_fields_set:
             raise ScenarioError(
                 f"alignment.{key}", "a setting of mode 'static', not 'given'", origin
@@ -763,6 +829,7 @@ def load_recording(
     faults: Sequence[Fault] = (),
     methods: Sequence[str] | None = None,
     aids: Sequence[str] | None = None,
+    warn: bool = True,
 ) -> LoadedRecording:
     """Read and validate a recording file and its data files; build what the engine runs.
 
@@ -775,6 +842,9 @@ def load_recording(
         time base.
     methods : the names of the methods to run (default: every method of the file).
     aids : the names of the aids to use (default: every aid of the file).
+    warn : issue the recording's warnings (:attr:`LoadedRecording.warnings`) as
+        :class:`~ftnav.io.ins_scenario_file.ScenarioWarning` once it is all valid (the
+        command line issues them after its own checks).
     """
     origin, base = str(source), Path(source).parent
     f = _keep_aids(_validated(source), aids)
@@ -786,6 +856,7 @@ def load_recording(
     gnss_all, gnss_defaults = _gnss_log(f.aids[first], base, f"aids[{first}]", origin)
     gnss = _select(gnss_all, np.isin(gnss_all.quality, f.aids[first].quality))
     al, attitude_sigma = _start(f, log, gnss, nav, origin, imu_err)
+    imu_err, noise_note, noise_warning = _static_noise(f, log, imu_err, origin)
     raw_log = log
     log = log._replace(gyro=log.gyro - al.gyro_bias)
     dt, steps, spe, sub = _grid(gnss_all, log, al.t, f)
@@ -825,7 +896,7 @@ def load_recording(
         steps=steps,
         faults=rel,
         methods=tuple(chosen),
-        evaluation=Evaluation(),
+        evaluation=f.evaluation.settings(DEFAULT_SIGMA_BOUND_M),
         t_start=al.t,
         t_origin=t_origin,
         samples_per_epoch=spe,
@@ -871,8 +942,14 @@ def load_recording(
         "samples_per_epoch": spe,
     }
     counts["model_notes"] = list(fm.notes)
+    if noise_note is not None:
+        counts["imu"]["static_noise"] = noise_note
     outages_rel = tuple(tuple(g) for g in runs)
-    return LoadedRecording(rec, stream, ref_index, ref_p, al, counts, outages_rel, truth)
+    notes = () if noise_warning is None else (noise_warning,)
+    if warn:  # once everything is valid: a refusal comes alone
+        for note in notes:
+            warnings.warn(note, ScenarioWarning, stacklevel=2)
+    return LoadedRecording(rec, stream, ref_index, ref_p, al, counts, outages_rel, truth, notes)
 
 
 def _truth(

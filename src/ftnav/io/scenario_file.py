@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -54,7 +54,7 @@ from ftnav.io.sections import (
     explain_method_key,
     resolve_methods,
 )
-from ftnav.model.scenario import Evaluation, Fault, Scenario
+from ftnav.model.scenario import Fault, Scenario
 from ftnav.model.system import LinearModel, PrivateStates, Sensor
 
 __all__ = [
@@ -396,7 +396,7 @@ def _build(f: ScenarioFile) -> Scenario:
         sensors=tuple(sensors),
         faults=faults,
         methods=tuple(methods),
-        evaluation=Evaluation(float(ev.skip_initial), float(ev.grace)),
+        evaluation=ev.settings(),
         description=f.description,
         figures=figures,
     )
@@ -546,10 +546,7 @@ def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
             for f in sc.faults
         ],
         "methods": methods,
-        "evaluation": {
-            "skip_initial": float(sc.evaluation.skip_initial),
-            "grace": float(sc.evaluation.grace),
-        },
+        "evaluation": {k: v for k, v in asdict(sc.evaluation).items() if v is not None},
         "figures": [
             {
                 "name": g.name,

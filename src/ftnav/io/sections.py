@@ -27,7 +27,13 @@ from ftnav.fusion.registry import check as check_method
 from ftnav.io.common import STRICT, Name, ScenarioError, fail, format_loc, number, unique
 from ftnav.io.learned import learned_for
 from ftnav.io.model_file import ModelFileError
-from ftnav.model.scenario import MAX_FIGURE_METHODS, FigureCondition, FigureKind, FigureSpec
+from ftnav.model.scenario import (
+    MAX_FIGURE_METHODS,
+    Evaluation,
+    FigureCondition,
+    FigureKind,
+    FigureSpec,
+)
 from ftnav.model.system import LinearSystem
 
 __all__ = [
@@ -76,6 +82,40 @@ class EvaluationFile(BaseModel):
         "initial convergence period left out of metrics (s)", default=0.0, ge=0
     )
     grace: float = number("post-fault grace period (s)", default=10.0, ge=0)
+    watch_window_s: float = number(
+        "the sliding window of each aid's NIS mean the method watches (s)", default=60.0, gt=0
+    )
+    watch_probability: float = number(
+        "probability outside the NIS band of a consistent filter", default=0.01, gt=0, lt=1
+    )
+    sigma_bound_m: float | None = Field(
+        default=None,
+        gt=0,
+        allow_inf_nan=False,
+        description=(
+            "the bound on the fused horizontal position σ (m) the method is flagged past "
+            "(integrated scenarios and recordings; default 100 there, none on a linear model)"
+        ),
+    )
+    min_availability: float = number(
+        "an aid with a measurement at (or used at) less than this fraction of its epochs is "
+        "reported",
+        default=0.5,
+        ge=0,
+        le=1,
+    )
+
+    def settings(self, sigma_bound_m: float | None = None) -> Evaluation:
+        """The validated settings; ``sigma_bound_m`` is the default bound of the model."""
+        bound = self.sigma_bound_m if self.sigma_bound_m is not None else sigma_bound_m
+        return Evaluation(
+            float(self.skip_initial),
+            float(self.grace),
+            float(self.watch_window_s),
+            float(self.watch_probability),
+            bound,
+            float(self.min_availability),
+        )
 
 
 def explain_method_key(key: str, model: type[BaseModel]) -> str | None:

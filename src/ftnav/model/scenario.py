@@ -131,10 +131,17 @@ class FigureSpec:
 
 @dataclass(frozen=True, slots=True)
 class Evaluation:
-    """Metric settings (spec §11): initial convergence period and post-fault grace."""
+    """Metric settings (spec §11): initial convergence period and post-fault grace; what
+    the method watches itself against (:mod:`ftnav.eval.integrity`): the NIS window and
+    the probability outside its band, the bound on the horizontal position σ (None: no
+    bound), the least availability and use of an aid."""
 
     skip_initial: float = 0.0
     grace: float = 10.0
+    watch_window_s: float = 60.0
+    watch_probability: float = 0.01
+    sigma_bound_m: float | None = None
+    min_availability: float = 0.5
 
 
 def fault_window_mask(
@@ -308,7 +315,16 @@ class SinsScenario(ScenarioBase):
         P0 = np.diag(np.asarray(self.initial_sigma[:n], float) ** 2)
         model = LinearModel(self.error_model.names, None, None, np.zeros(n), P0, None)
         sensors = tuple(
-            Sensor(a.name, None, a.sensor.R, a.sensor.R, a.every, a.offset, a.sensor.private)
+            Sensor(
+                a.name,
+                None,
+                a.sensor.R,
+                a.sensor.R,
+                a.every,
+                a.offset,
+                a.sensor.private,
+                getattr(a.sensor, "gate_probability", 0.0) or None,
+            )
             for a in self.aids
         )
         return LinearSystem(model, sensors)

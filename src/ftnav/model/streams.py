@@ -23,7 +23,14 @@ import numpy as np
 
 from ftnav.nav.mechanization import InsState
 
-__all__ = ["AidStream", "ImuStream", "InsStream", "MeasurementStream", "concat_streams"]
+__all__ = [
+    "scheduled",
+    "AidStream",
+    "ImuStream",
+    "InsStream",
+    "MeasurementStream",
+    "concat_streams",
+]
 
 
 class MeasurementStream(NamedTuple):
@@ -120,3 +127,11 @@ def concat_streams(*streams):  # noqa: ANN002, ANN201 - streams of one type, the
     )
     start = InsState(*(np.concatenate(u) for u in zip(*(s.start for s in streams), strict=True)))
     return InsStream(imu, aids, start, labels)
+
+
+def scheduled(stream: MeasurementStream | InsStream, steps: int) -> np.ndarray:
+    """(B, steps, N) bool: the epochs each aid was due (its schedule and outages), what
+    its availability is measured against (:mod:`ftnav.eval.integrity`)."""
+    if isinstance(stream, MeasurementStream):
+        return np.asarray(stream.available[:, :steps], bool)
+    return np.stack([np.asarray(a.available[:, :steps], bool) for a in stream.aids], -1)

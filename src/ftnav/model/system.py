@@ -57,7 +57,10 @@ class Sensor:
 
     ``R`` is what the filters assume; ``R_true`` is what the simulator draws
     (equal to ``R`` unless the scenario sets it), so mismatch studies need no
-    code change.  ``H`` is None for a sensor linearized at every epoch.
+    code change.  ``H`` is None for a sensor linearized at every epoch.  ``gate`` (a
+    probability, or None) makes it a pseudo-measurement used only where its innovation's
+    χ² passes that gate: a vehicle constraint that does not hold at that epoch (a slip in
+    a turn, a creep mistaken for a stop) is left out, neither used nor tested.
     """
 
     name: str
@@ -67,6 +70,7 @@ class Sensor:
     every: int = 1
     offset: int = 0
     private: PrivateStates | None = None
+    gate: float | None = None
 
     @property
     def dim(self) -> int:

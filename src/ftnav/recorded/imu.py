@@ -21,7 +21,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["ImuLog", "ImuCleaning", "TimeGoesBack", "clean", "increments", "stationary"]
+__all__ = [
+    "noise_density",
+    "ImuLog",
+    "ImuCleaning",
+    "TimeGoesBack",
+    "clean",
+    "increments",
+    "stationary",
+]
 
 
 class TimeGoesBack(ValueError):
@@ -109,17 +117,18 @@ def increments(log: ImuLog, grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def stationary(
     log: ImuLog, times: np.ndarray, window_s: float, accel_tol: float, gyro_tol: float
 ) -> np.ndarray:
-    """(K,) bool: at rest over the ``window_s`` centred on each time.
+    """(K,) bool: at rest around each time.
 
-    At rest when, over the window, the standard deviation of every accelerometer axis
-    is below ``accel_tol`` (m/s²) and that of every gyro axis below ``gyro_tol``
-    (rad/s): a still vehicle's IMU reads constant values up to its noise, whatever its
-    biases and tilt.  Fewer than 5 samples in the window: not at rest.  The window is
-    centred (a recording is processed after the fact): a trailing one still looks at
-    rest for half a window after the vehicle starts to move.
+    At rest when, over ``[t − window_s, t + window_s]``, the standard deviation of every
+    accelerometer axis is below ``accel_tol`` (m/s²) and that of every gyro axis below
+    ``gyro_tol`` (rad/s): a still vehicle's IMU reads constant values up to its noise,
+    whatever its biases and tilt.  Fewer than 5 samples: not at rest.  The span is
+    centred (a recording is processed after the fact) and a window wide on each side: a
+    vehicle creeping at constant speed reads still (its IMU sees no acceleration), so
+    the acceleration that starts or ends the creep must fall in it; a stop lasts longer.
     """
-    lo = np.searchsorted(log.t, times - window_s / 2, side="left")
-    hi = np.searchsorted(log.t, times + window_s / 2, side="right")
+    lo = np.searchsorted(log.t, times - window_s, side="left")
+    hi = np.searchsorted(log.t, times + window_s, side="right")
     out = np.zeros(times.shape, bool)
     for k, (a, b) in enumerate(zip(lo, hi, strict=True)):
         if b - a < 5:
@@ -128,3 +137,37 @@ def stationary(
             np.all(log.accel[a:b].std(0) < accel_tol) and np.all(log.gyro[a:b].std(0) < gyro_tol)
         )
     return out
+
+
+def noise_density(log: ImuLog, until: float, tau: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """White-noise density per body axis of a still IMU: gyro (rad/√s), accel (m/s/√s).
+
+    Over the samples before ``until`` (the static window), the Allan deviation at ``tau``
+    (non-overlapping clusters of ``tau`` seconds: ``σ_A² = ½ mean((ȳ_{k+1} − ȳ_k)²)``)
+    times ``√tau``: for white noise of density N, ``σ_A(τ) = N/√τ``; a constant bias
+    cancels.  At τ = 1 s it holds what integrates into the navigation errors over the
+    filter's horizon, engine or road vibration included, which a datasheet's angle and
+    velocity random walk (a bench figure) leaves out; the high-frequency part of a
+    vibration (tens of Hz) averages out in the clusters.
+
+    Raises
+    ------
+    ValueError : fewer than 3 clusters in the window.
+    """
+    w = log.t < until
+    t = log.t[w]
+    if t.size < 2:
+        raise ValueError(f"alignment.static_s: {t.size} IMU samples")
+    dt = float(np.median(np.diff(t)))
+    n = max(1, int(round(tau / dt)))
+    K = t.size // n
+    if K < 3:
+        raise ValueError(
+            f"alignment.static_s: {t.size * dt:.3g} s holds fewer than 3 clusters of {tau:g} s"
+        )
+    out = []
+    for y in (log.gyro[w], log.accel[w]):
+        means = y[: K * n].reshape(K, n, 3).mean(1)
+        adev = np.sqrt(0.5 * np.mean(np.diff(means, axis=0) ** 2, axis=0))
+        out.append(adev * np.sqrt(n * dt))
+    return out[0], out[1]

@@ -19,6 +19,11 @@ in the aid's metric space, ``H`` on the 18 error states of spec §8.3, attitude 
   Which epochs are at rest is decided outside the filter, from the IMU alone
   (:func:`ftnav.recorded.imu.stationary`); the aid is available only there.
 
+Both are gated (``gate_probability``, 0: off): an epoch whose innovation's χ² against
+the filter's prior fails the gate is left out (the constraint does not hold there: a
+slip in a hard turn, a creep the IMU reads as a stop), neither used nor tested for a
+fault (:func:`ftnav.fusion.locals.gated`).
+
 Simulation: the reading is white noise of σ (spawn key component 0), a vehicle that
 keeps the constraint up to that noise.
 """
@@ -56,6 +61,7 @@ class _Constraint:
     name: str = "constraint"
     sigma_m_s: float = 0.1
     dt: float = 1.0
+    gate_probability: float = 1e-3
 
     z_per_error: ClassVar[int] = -1
     components: ClassVar[tuple[str, ...]] = ()
@@ -67,6 +73,10 @@ class _Constraint:
             "sigma_m_s",
             check_float(self.name, "sigma_m_s", self.sigma_m_s, low=0.0, strict=True),
         )
+        p = check_float(self.name, "gate_probability", self.gate_probability, low=0.0)
+        if p >= 1.0:
+            raise ValueError(f"{self.name}.gate_probability: must be in [0, 1), got {p}")
+        object.__setattr__(self, "gate_probability", p)
 
     @property
     def dim(self) -> int:

@@ -1,0 +1,201 @@
+"""Solution separation by tracked pulls: what one aid moved an estimate by, per window.
+
+The *pull* of aid i over a window is the difference between an estimate and the same
+filter without aid i's measurements of that window, to first order (the other aids'
+gains held; Brenner, "Integrated GPS/inertial fault detection availability",
+Navigation 43(2), 1996, solution separation; spec §3.2 with the exclusion filter in
+place of the pure propagator):
+
+* aid i's own update adds ``d = K ν`` to its pull and ``D = K S Kᵀ`` (the covariance
+  reduction ``P⁻ − P⁺``) to its covariance;
+* another aid j's update maps it by ``M_j = I − K_j H_j`` (both filters take ``z_j``):
+  ``c ← M_j c``, ``Γ ← M_j Γ M_jᵀ``;
+* the time update by Φ: ``c ← Φ c``, ``Γ ← Φ Γ Φᵀ`` (Q cancels in the difference).
+
+Under H0 the innovations are white, so ``Γ = Cov(c)``, and for the optimal filter
+``Γ = P_without − P`` (the exclusion filter's covariance less the filter's: the
+orthogonality argument of spec §3.2).  A fault of aid i that the filter absorbs, a slow
+ramp that no single epoch's test sees, accumulates in ``c`` while ``Γ`` grows only as
+the rest of the system lets the aid's quantity drift: ``λ = (H c)ᵀ (H Γ Hᵀ)⁺ (H c)``,
+the separation seen in aid i's own measurement space, is ``χ²(m)`` under H0 for any
+window.  With a window of one epoch it is the NIS of spec §3.1.  And removing the pull,
+``x − c``, ``P + Γ``, is the estimate of the filter that excluded the aid over the
+window: the rollback of :mod:`ftnav.fusion.guard`.
+
+Windows are kept as blocks, each accumulated and propagated on its own: ``nf`` fine
+blocks of ``L`` epochs and the current partial one, and (optionally) ``nc`` coarse
+blocks of ``nf · L`` epochs and a partial one, into which the fine blocks that leave
+go.  Newest first, the windows are the cumulative sums: the current block, then one
+more fine block each, then one more coarse block each; ``nc + nf + 2`` accumulators per
+aid cover ``(nc + 1) · nf · L`` epochs, finely where it is recent.  The layout, oldest
+first: ``[coarse full …, coarse partial, fine full …, current]``.  Arrays carry the
+batch axis; ``A`` aids share one tracked estimate of dimension n.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = [
+    "Pulls",
+    "clear",
+    "init_pulls",
+    "map_others",
+    "propagate",
+    "rotate",
+    "measured",
+    "separation",
+    "separation_of",
+    "with_own",
+    "windows",
+]
+
+
+class Pulls(NamedTuple):
+    """Block accumulators of every aid of one estimate.
+
+    Attributes
+    ----------
+    c : (B, A, nb + 1, n) pulls, oldest block first, the current partial block last.
+    G : (B, A, nb + 1, n, n) their covariances under H0.
+    """
+
+    c: np.ndarray
+    G: np.ndarray
+
+
+def init_pulls(batch: int, aids: int, blocks: int, n: int, coarse: int = 0) -> Pulls:
+    """Empty accumulators: ``blocks`` fine blocks and the current one, and with ``coarse``
+    that many coarse blocks and their partial one (``blocks = -1``: none at all)."""
+    J = blocks + 1 + (coarse + 1 if coarse else 0)
+    return Pulls(np.zeros((batch, aids, J, n)), np.zeros((batch, aids, J, n, n)))
+
+
+def propagate(p: Pulls, F: np.ndarray) -> Pulls:
+    """The time update ``c ← Φ c``, ``Γ ← Φ Γ Φᵀ``; F (n, n) or per run (B, n, n)."""
+    if F.ndim == 2:
+        c = p.c @ F.T
+        G = F @ p.G @ F.T
+    else:
+        c = np.einsum("bij,bakj->baki", F, p.c)
+        Fb = F[:, None, None]
+        G = Fb @ p.G @ np.swapaxes(Fb, -1, -2)
+    return Pulls(c, G)
+
+
+def map_others(p: Pulls, aid: int, K: np.ndarray, H: np.ndarray, use: np.ndarray) -> Pulls:
+    """Aid ``aid``'s update maps every *other* aid's pulls by ``I − K H`` where ``use``.
+
+    K (B, n, m), H (B, m, n) or (m, n), use (B,) bool.
+    """
+    A = p.c.shape[1]
+    others = [a for a in range(A) if a != aid]
+    if not others or not use.any():
+        return p
+    H = np.broadcast_to(H, (K.shape[0],) + H.shape[-2:])
+    c, G = p.c.copy(), p.G.copy()
+    co, Go = c[:, others], G[:, others]  # (B, A', J, n), (B, A', J, n, n)
+    Hc = np.einsum("bmn,bajn->bajm", H, co)
+    c_new = co - np.einsum("bnm,bajm->bajn", K, Hc)
+    HG = np.einsum("bmn,bajnk->bajmk", H, Go)  # H Γ
+    KHG = np.einsum("bnm,bajmk->bajnk", K, HG)  # K H Γ
+    HGHt = np.einsum("bajmk,bqk->bajmq", HG, H)  # H Γ Hᵀ
+    KHGHtKt = np.einsum("bnm,bajmq,bpq->bajnp", K, HGHt, K)
+    G_new = Go - KHG - np.swapaxes(KHG, -1, -2) + KHGHtKt
+    u4, u5 = use[:, None, None, None], use[:, None, None, None, None]
+    c[:, others] = np.where(u4, c_new, co)
+    G[:, others] = np.where(u5, 0.5 * (G_new + np.swapaxes(G_new, -1, -2)), Go)
+    return Pulls(c, G)
+
+
+def with_own(p: Pulls, aid: int, d: np.ndarray, D: np.ndarray) -> Pulls:
+    """Aid ``aid``'s own update: ``d`` (B, n) and ``D`` (B, n, n) added to its current block."""
+    c, G = p.c.copy(), p.G.copy()
+    c[:, aid, -1] += d
+    G[:, aid, -1] += D
+    return Pulls(c, G)
+
+
+def rotate(p: Pulls, coarse: int = 0, close_coarse: bool = False) -> Pulls:
+    """The current block becomes the newest fine block; the oldest fine block goes into
+    the coarse partial one (dropped without coarse blocks).  With ``close_coarse`` the
+    coarse partial block then becomes the newest coarse block, the oldest dropped."""
+    first = coarse + 1 if coarse else 0  # the oldest fine block
+    out = []
+    for a in (p.c, p.G):
+        a = a.copy()
+        if coarse:
+            a[:, :, coarse] += a[:, :, first]
+        a[:, :, first:-1] = a[:, :, first + 1 :].copy()
+        a[:, :, -1] = 0.0
+        if coarse and close_coarse:
+            a[:, :, :coarse] = a[:, :, 1 : coarse + 1].copy()
+            a[:, :, coarse] = 0.0
+        out.append(a)
+    return Pulls(out[0], out[1])
+
+
+def windows(p: Pulls, aid: int) -> tuple[np.ndarray, np.ndarray]:
+    """(B, nb + 1, n), (B, nb + 1, n, n): the pull and its covariance of the windows
+    "current block + the last j full blocks", j = 0..nb (shortest first)."""
+    c = np.cumsum(p.c[:, aid, ::-1], axis=1)
+    G = np.cumsum(p.G[:, aid, ::-1], axis=1)
+    return c, G
+
+
+def clear(p: Pulls, aid: int, where: np.ndarray, window: np.ndarray | None = None) -> Pulls:
+    """Aid ``aid``'s accumulators zeroed in the runs ``where`` (B,): all of them, or those
+    of the window ``window`` (B,) (index of :func:`windows`: its newest blocks) only."""
+    if not where.any():
+        return p
+    c, G = p.c.copy(), p.G.copy()
+    J = c.shape[2]
+    w = np.full(where.shape, J - 1) if window is None else np.asarray(window)
+    newest = np.arange(J)[None, :] >= (J - 1 - w)[:, None]
+    m = where[:, None] & newest  # (B, J)
+    c[:, aid] = np.where(m[..., None], 0.0, c[:, aid])
+    G[:, aid] = np.where(m[..., None, None], 0.0, G[:, aid])
+    return Pulls(c, G)
+
+
+def measured(c: np.ndarray, G: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pulls of J windows as aid i measures them: ``H c`` (B, J, m) and ``H Γ Hᵀ``
+    (B, J, m, m); c (B, J, n), G (B, J, n, n), H (B, m, n) or (m, n)."""
+    H = np.broadcast_to(H, (c.shape[0],) + H.shape[-2:])
+    e = np.einsum("bmn,bjn->bjm", H, c)
+    HG = np.einsum("bmn,bjnk->bjmk", H, G)
+    T = np.einsum("bjmk,bqk->bjmq", HG, H)
+    return e, 0.5 * (T + np.swapaxes(T, -1, -2))
+
+
+def separation(
+    c: np.ndarray, G: np.ndarray, H: np.ndarray, rtol: float = 1e-9
+) -> tuple[np.ndarray, np.ndarray]:
+    """``λ = (H c)ᵀ (H Γ Hᵀ)⁺ (H c)`` and its degrees of freedom (the rank).
+
+    Parameters
+    ----------
+    c : (B, J, n) pulls of J windows.   G : (B, J, n, n) their covariances.
+    H : (B, m, n) or (m, n) the aid's measurement matrix.
+
+    Returns
+    -------
+    lam : (B, J).   dof : (B, J) int, the rank of ``H Γ Hᵀ`` (tolerance ``rtol`` of its
+    largest eigenvalue; 0 for an empty window).
+    """
+    e, T = measured(c, G, H)
+    return separation_of(e, T, rtol)
+
+
+def separation_of(
+    e: np.ndarray, T: np.ndarray, rtol: float = 1e-9
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`separation` from the measured pulls ``e`` (B, J, m), ``T`` (B, J, m, m)."""
+    w, V = np.linalg.eigh(T)
+    top = np.abs(w).max(-1, keepdims=True)
+    keep = (w > rtol * top) & (top > 0)
+    proj = np.einsum("bjmi,bjm->bji", V, e)
+    lam = np.where(keep, proj**2 / np.where(keep, w, 1.0), 0.0).sum(-1)
+    return lam, keep.sum(-1)

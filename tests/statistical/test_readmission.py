@@ -1,0 +1,70 @@
+"""Isolation that cannot lock out (ftnav.fusion.guard), on the built-in ``slowramp``.
+
+``slowramp``: a GNSS-like fix, the only absolute position (σ 1 m), and an odometer
+(σ 0.1 m/s); the fix drifts by 30 m over [300, 500) s, then comes back at once.  The
+filter follows the ramp before a single-epoch test sees it; when the ramp ends the
+healthy fixes look like a jump of what it absorbed, and the coasting covariance grows
+too slowly to cover it.  Oracles, 60 runs:
+
+* the plain filter's error after the fault (the issue's rule: never worse than it once
+  a fault ended) and its fault-free twin (no fault-tolerant method more than 10 % worse);
+* the same χ² method without the guard, which locks the fix out in about half the runs
+  (what the guard is for);
+* re-admission (the flag clears after the fault) in every run: the issue asks ≥ 99 %.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from ftnav.eval.evaluate import evaluate
+from ftnav.eval.montecarlo import run_scenario
+from ftnav.io.scenario_file import load_scenario
+from ftnav.scenarios import builtin_path
+
+RUNS = 60
+GUARDED = ("ckf-chi2", "fkf-chi2", "dkf-chi2", "ckf-cusum", "ckf-glr", "ckf-separation")
+END = 500.0  # the ramp's end
+
+
+@pytest.fixture(scope="module")
+def slowramp():
+    sc = load_scenario(builtin_path("slowramp"))
+    keep = ("ckf", "ckf-chi2-unguarded", *GUARDED)
+    sc = dataclasses.replace(sc, methods=tuple(m for m in sc.methods if m.name in keep))
+    result = run_scenario(sc, RUNS, 1)
+    return sc, result, evaluate(result)
+
+
+def _after(sc, res) -> float:
+    """RMS position error after the fault ended (plus 20 s)."""
+    after = sc.times >= END + 20.0
+    return float(np.sqrt(np.mean(res.error[:, after, 0] ** 2)))
+
+
+@pytest.mark.parametrize("name", GUARDED)
+def test_the_fix_comes_back_after_the_ramp_in_every_run(slowramp, name):
+    sc, result, metrics = slowramp
+    assert metrics[name].detection["gnss"]["readmitted"] == 1.0
+    assert metrics[name].detection["gnss"]["mean_recovery_s"] <= 10.0
+    plain = _after(sc, result.results["ckf"])
+    assert _after(sc, result.results[name]) <= 1.5 * plain
+
+
+def test_without_the_guard_the_fix_is_locked_out_in_many_runs(slowramp):
+    sc, result, metrics = slowramp
+    unguarded = metrics["ckf-chi2-unguarded"].detection["gnss"]["readmitted"]
+    assert unguarded < 0.8, unguarded
+    assert _after(sc, result.results["ckf-chi2-unguarded"]) > 5 * _after(
+        sc, result.results["ckf-chi2"]
+    )
+
+
+@pytest.mark.parametrize("name", GUARDED)
+def test_fault_free_twins_are_within_10_percent_of_the_plain_filter(slowramp, name):
+    _, _, metrics = slowramp
+    plain = metrics["ckf"].fault_free["rmse"]["s"]
+    assert metrics[name].fault_free["rmse"]["s"] <= 1.1 * plain
