@@ -93,6 +93,7 @@ architecture = "federated"
 mode = "fusion-reset"
 sharing = "equal"
 detector = {{ kind = "rbf", model = "always.npz" }}
+guard = false  # the raw detector's flags, as the network raises them (no re-admission)
 
 [[methods]]
 name = "dkf-rbf-never"

@@ -63,8 +63,8 @@ def test_bench_federated():
             rf"^ratio    : ftnav is {NUMBER}x faster per run$",
             r"^agreement: max relative difference of fused estimates",
             r"^target   : <= 3 ms per run per 1200 steps -> (met|NOT met) as measured",
-            rf"^run_scenario\(seed000, runs=2, workers=1\): 18 methods .* in {NUMBER} s",
-            rf"^run_scenario\(seed000, runs=2, workers=2\): 18 methods .* in {NUMBER} s",
+            rf"^run_scenario\(seed000, runs=2, workers=1\): \d+ methods .* in {NUMBER} s",
+            rf"^run_scenario\(seed000, runs=2, workers=2\): \d+ methods .* in {NUMBER} s",
         ],
     )
     # ftnav and FilterPy implement the same equations: their fused estimates agree

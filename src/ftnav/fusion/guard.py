@@ -467,8 +467,11 @@ class Guard:
             if pend.any():  # the other hypothesis: the rollback undone
                 ok_alt[:, a] = pend & self._alternative(a, t, S, test, state, usable)
         # the detector tests against the coasting covariance; where the aid's quantity is
-        # unheld (the guard allows for that covariance's optimism) it need not be quiet
-        quiet = ~det_raw | overruled | unobs
+        # unheld (the guard allows for that covariance's optimism) it need not be quiet.
+        # Without a rollback (independent locals) a fault the allowance let back in
+        # could never be taken out again: the detector's word is then kept
+        loose = unobs if self.rollback else np.zeros_like(unobs)
+        quiet = ~det_raw | overruled | loose
         tested = state.hold & usable
         passes = np.where(tested, np.where(ok & quiet, state.passes + 1, 0), state.passes)
         # the detector tests against the rolled-back estimate: the alternative is judged
@@ -494,7 +497,7 @@ class Guard:
         # aid) within the allowance is taken at once, the covariance inflated to cover it
         # (in :meth:`record`): the detector tested it against the coasting covariance the
         # allowance is for
-        welcome = ~state.hold & det_flag & ~overruled & unobs & ok
+        welcome = ~state.hold & det_flag & ~overruled & loose & ok
         overruled = overruled | welcome
         # an overruled detector's aid is watched by the guard's own χ² instead
         own = np.zeros((B, N), bool)

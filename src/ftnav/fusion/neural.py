@@ -263,17 +263,23 @@ class NeuralFusion:
         )
         posts = [Gaussian(u.x, u.P) for u in updates]
         guard_state = guarded = None
+        ref = kf.predict(state.xf, state.Pf, F, Q)  # the predicted neuron output, its bound
         if self.guard is not None:
             assert state.guard is not None
             R = [s.R for s in self.system.sensors]
+            if self.detection.prior == "local":
+                # paper 001's own-residual test: an isolated local coasts on its own SINS
+                # and drifts with the fault (module docstring of the seed001 tests), so
+                # the guard re-tests the aid against the neuron output's common states
+                bases = [with_common(priors[i], *ref) for i in range(N)]
             guarded = self.guard.begin(state.guard, bases, Fs, epoch.z, Hs, R, meas.usable, det_out)
             det_out = guarded.detection
             guard_state, amends = self.guard.finish(guarded, bases, epoch.z, Hs, R, meas.usable)
-            for i, a in enumerate(amends):  # a relaxed re-admission's update, inflation
-                if a.where.any():
+            for i, a in enumerate(amends):  # a relaxed re-admission's update, inflation:
+                if a.where.any():  # the local restarts from the reference it was tested on
                     priors[i] = Gaussian(
-                        select(a.where, priors[i].x - a.dx, priors[i].x),
-                        select(a.where, priors[i].P + a.dP, priors[i].P),
+                        select(a.where, bases[i].x - a.dx, priors[i].x),
+                        select(a.where, bases[i].P + a.dP, priors[i].P),
                     )
                     posts[i] = Gaussian(
                         select(a.where, posts[i].x - a.dx, posts[i].x),
@@ -286,7 +292,6 @@ class NeuralFusion:
         feats = np.swapaxes(u, 1, 2).reshape(u.shape[0], -1) if self.collect else None
         B = stat.shape[0]
         R_hat = tuple(np.broadcast_to(np.diag(s.R), (B, s.dim)) for s in self.system.sensors)
-        ref = kf.predict(state.xf, state.Pf, F, Q)  # the predicted neuron output, its bound
         watch = np.stack(
             [
                 bank.residual(
