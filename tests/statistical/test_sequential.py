@@ -99,7 +99,7 @@ def test_variance_cusum_meets_its_arl0_and_detects_a_noise_step():
 
 
 def test_glr_false_alarms_no_more_often_than_its_setting():
-    det = GlrDetector([3], arl0=200.0, window=16)
+    det = GlrDetector([3], arl0=200.0, window=16, memory=0)  # the textbook test
     assert det.h[0] == pytest.approx(glr_threshold(200.0, 16, 3))
     rng = np.random.default_rng(7)
     rl = run_lengths(det, 0.0, 1000, rng, m=3)
@@ -110,11 +110,52 @@ def test_glr_false_alarms_no_more_often_than_its_setting():
 
 def test_glr_sees_a_small_shift_a_single_epoch_test_misses():
     rng = np.random.default_rng(11)
-    glr = GlrDetector([1], arl0=1e3, window=64)
+    glr = GlrDetector([1], arl0=1e3, window=64, memory=0)
     rl = run_lengths(glr, 0.5, 400, rng)
     # a single-epoch χ²(1) test at the same per-test rate 1e-3 fires on a 0.5σ shift
     # once in ~450 tests (P(|x + 0.5| > 3.29) ≈ 2.2e-3)
     assert rl.mean() < 60.0
+
+
+def _ar1(rng, runs: int, steps: int, rho: float) -> np.ndarray:
+    """(steps, runs) unit-variance AR(1) sequences: correlated innovations."""
+    x = np.zeros((steps, runs))
+    x[0] = rng.standard_normal(runs)
+    e = rng.standard_normal((steps, runs)) * np.sqrt(1.0 - rho**2)
+    for k in range(1, steps):
+        x[k] = rho * x[k - 1] + e[k]
+    return x
+
+
+def _alarms(det, x: np.ndarray, start: int = 0) -> np.ndarray:
+    """(runs,) raw alarms of one aid fed the sequences ``x`` (steps, runs) after ``start``."""
+    runs = x.shape[1]
+    state, tested = det.init(runs, 1), np.ones((runs, 1), bool)
+    count = np.zeros(runs, int)
+    for k in range(x.shape[0]):
+        state, out = det.step(state, [x[k][:, None]], tested)
+        count += out.raw[:, 0] & (k >= start)
+    return count
+
+
+def test_glr_learns_the_null_level_of_correlated_innovations():
+    """AR(1) innovations, ρ = 0.8: the long-run variance is (1 + ρ)/(1 − ρ) = 9 times the
+    white one, so the textbook GLR alarms far more often than its setting; learning each
+    window's null level (the default) brings the rate after the warm-up back to the order
+    of the setting, and a 3σ mean shift after the warm-up is still caught."""
+    rng = np.random.default_rng(5)
+    runs, steps, warm = 200, 4000, 2000
+    x = _ar1(rng, runs, steps, 0.8)
+    white = GlrDetector([1], arl0=1e3, window=32, memory=0)
+    learned = GlrDetector([1], arl0=1e3, window=32)
+    rate_white = _alarms(white, x, warm).sum() / (runs * (steps - warm))
+    rate_learned = _alarms(learned, x, warm).sum() / (runs * (steps - warm))
+    assert rate_white > 20 * 1e-3, rate_white
+    assert rate_learned < 3 * 1e-3, rate_learned
+    shifted = x.copy()
+    shifted[warm:] += 3.0
+    caught = _alarms(learned, shifted[: warm + 32], warm)
+    assert (caught > 0).mean() >= 0.95
 
 
 def test_bad_settings_are_refused():

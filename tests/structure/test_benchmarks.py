@@ -141,3 +141,18 @@ def test_bench_mechanization(tmp_path):
             r"^targets       : one run <= 1 s -> (met|NOT met); <= 0.3 s per run batched",
         ],
     )
+
+
+def test_bench_detection():
+    out = run_benchmark("bench_detection", "--quick", "--no-drive")
+    assert_lines(
+        out,
+        [
+            r"^seed002, GNSS north position, 2 runs",
+            r"^fault +fkf-chi2 +fkf-cusum +fkf-glr$",
+            r"^ramp 0\.5 m/s ",
+            r"^false alarms/h ",
+            r"^seed000, pos1, 2 runs",
+            r"fkf-inverse-trace-rbf$",
+        ],
+    )

@@ -195,3 +195,24 @@ def test_the_information_sharing_rule_is_refused_on_a_recording(tmp_path, capsys
     err = _refused(["process", path, "--out", tmp_path / "o"], capsys)
     assert err.startswith("methods[1].sharing: the information rule needs constant"), err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "detector, field",
+    [
+        ('{ kind = "residual-chi2", window = 8 }', "methods[1].detector.window"),
+        ('{ kind = "state-chi2" }', "methods[1].detector"),
+    ],
+)
+def test_detectors_that_cannot_run_on_real_noise_are_refused(tmp_path, capsys, detector, field):
+    """Issue 20: on the fault-free real drive they flag 19-77 % of the epochs; a
+    recording refuses them in one line naming the setting and why."""
+    path = _write(tmp_path)
+    path.write_text(
+        path.read_text()
+        + f'\n[[methods]]\nname = "x"\narchitecture = "federated"\ndetector = {detector}\n'
+    )
+    err = _refused(["process", path, "--out", tmp_path / "o"], capsys)
+    assert err.startswith(f"{field}: "), err
+    assert "cannot run on real noise" in err
+    assert not (tmp_path / "o").exists()

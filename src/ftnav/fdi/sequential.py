@@ -25,6 +25,20 @@ Its threshold is the ``χ²(m)`` quantile at ``1/(arl0 · |set|)`` (a per-test a
 probability at most ``1/arl0``, Bonferroni over the windows, whose overlap makes the
 realized ARL₀ larger: tests/statistical/test_sequential.py measures it).
 
+**Correlated innovations** (real sensors).  A GNSS receiver's errors are correlated over
+seconds to minutes, so the innovations of a filter that models them white are too, and
+a window sum's variance is ``w τ_w`` with ``τ_w = 1 + 2 Σ_j (1 − j/w) ρ_j`` (the
+long-run variance of the sequence; Newey & West, Econometrica 55, 1987), not ``w``:
+each term above is then ``τ_w χ²(m)``, and the textbook threshold alarms at every
+multipath episode (measured on the real drive: 18 isolations, 31 m with GNSS alone).
+With ``memory`` set (the default), the GLR learns each window's null level
+``τ̂_w`` as the running mean of ``term_w / m`` over the tests that did not alarm (the
+mean of the first tests, then an exponential memory of ``memory`` tests) and divides
+the term by ``max(τ̂_w, 1)``: never more sensitive than the white test, the threshold
+valid for the innovations the aid really has.  A fault slower than the memory is
+learned as normal: the memory is long (``50 W`` tests by default).  ``memory = 0`` is
+the textbook test.
+
 After an alarm an aid's statistics restart from zero (so a fault that persists alarms
 again, and one that ended does not), and the hysteresis of spec §3.1 (``n_on``,
 ``n_off``) gives the flag.  Arrays carry the batch axis ``(B, N)`` (runs × aids);
@@ -255,13 +269,16 @@ class CusumDetector:
 
 
 class GlrState(NamedTuple):
-    """The last W tested whitened innovations (B, N, W, m_max), how many, the hysteresis."""
+    """The last W tested whitened innovations (B, N, W, m_max), how many, the hysteresis,
+    and each window's learned null level with its number of updates (B, N, |windows|)."""
 
     history: np.ndarray
     count: np.ndarray
     on_count: np.ndarray
     off_count: np.ndarray
     flag: np.ndarray
+    level: np.ndarray
+    seen: np.ndarray
 
 
 class GlrDetector:
@@ -273,14 +290,26 @@ class GlrDetector:
     arl0 : target mean number of tests of an aid between false alarms.
     window : W, the longest window (tests).
     n_on, n_off : hysteresis counts (spec §3.1).
+    memory : tests over which each window's null level is learned (module docstring,
+        correlated innovations); None: ``50 W``; 0: none (the textbook test).
     """
 
     def __init__(
-        self, dims: Sequence[int], arl0: float, window: int = 64, n_on: int = 1, n_off: int = 5
+        self,
+        dims: Sequence[int],
+        arl0: float,
+        window: int = 64,
+        n_on: int = 1,
+        n_off: int = 5,
+        memory: int | None = None,
     ):
         _check(arl0, n_on, n_off)
         if int(window) < 1:
             raise ValueError(f"window: must be >= 1, got {window}")
+        memory = 50 * int(window) if memory is None else int(memory)
+        if memory < 0:
+            raise ValueError(f"memory: must be >= 0, got {memory}")
+        self.memory = memory
         self.dims = np.asarray(dims, dtype=int)
         self.m = int(self.dims.max(initial=1))
         self.window = int(window)
@@ -290,24 +319,35 @@ class GlrDetector:
 
     def init(self, batch: int, n_filters: int) -> GlrState:
         zi = np.zeros((batch, n_filters), dtype=int)
+        nw = len(self.windows)
         return GlrState(
             np.zeros((batch, n_filters, self.window, self.m)),
             zi,
             zi.copy(),
             zi.copy(),
             zi.astype(bool),
+            np.ones((batch, n_filters, nw)),
+            np.zeros((batch, n_filters, nw), dtype=int),
         )
 
-    def statistic(self, history: np.ndarray, count: np.ndarray) -> np.ndarray:
-        """(B, N) ``max_w ‖Σ_{last w} ν̄‖² / w`` over the windows the history fills."""
+    def terms(self, history: np.ndarray, count: np.ndarray) -> np.ndarray:
+        """(B, N, |windows|) ``‖Σ_{last w} ν̄‖² / w`` (0 where the history is short)."""
         # newest last: the sum of the last w rows is a suffix sum
         suffix = np.cumsum(history[..., ::-1, :], axis=-2)  # (B, N, W, m)
-        lam = np.zeros(count.shape)
-        for w in self.windows:
-            full = count >= w
-            term = (suffix[..., w - 1, :] ** 2).sum(-1) / w
-            lam = np.maximum(lam, np.where(full, term, 0.0))
-        return lam
+        out = np.zeros(count.shape + (len(self.windows),))
+        for i, w in enumerate(self.windows):
+            out[..., i] = np.where(count >= w, (suffix[..., w - 1, :] ** 2).sum(-1) / w, 0.0)
+        return out
+
+    def statistic(
+        self, history: np.ndarray, count: np.ndarray, level: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(B, N) ``max_w term_w / max(τ̂_w, 1)`` over the windows the history fills
+        (``level`` τ̂, default 1: the white test)."""
+        terms = self.terms(history, count)
+        if level is not None:
+            terms = terms / np.maximum(level, 1.0)
+        return np.asarray(terms.max(-1))
 
     def step(
         self, state: GlrState, innovations: Sequence[np.ndarray], tested: np.ndarray
@@ -318,13 +358,22 @@ class GlrDetector:
         shifted = np.concatenate([state.history[..., 1:, :], nu[..., None, :]], -2)
         hist = np.where(t4, shifted, state.history)
         count = np.where(tested, np.minimum(state.count + 1, self.window), state.count)
-        lam = self.statistic(hist, count)
+        terms = self.terms(hist, count)
+        level, seen = state.level, state.seen
+        lam = (terms / np.maximum(level, 1.0)).max(-1)
         h = self.h[None, :]
         raw = tested & (lam > h)
+        if self.memory > 0:  # the null level, learned from the tests that did not alarm
+            full = count[..., None] >= np.asarray(self.windows)
+            learn = (tested & ~raw)[..., None] & full
+            seen = np.where(learn, seen + 1, seen)
+            rate = 1.0 / np.minimum(np.maximum(seen, 1), self.memory)
+            r = terms / np.maximum(self.dims, 1)[None, :, None]
+            level = np.where(learn, level + rate * (r - level), level)
         on, off, flag = apply_hysteresis(state, raw, tested, self.n_on, self.n_off)  # type: ignore[arg-type]
         hist = np.where(raw[..., None, None], 0.0, hist)
         count = np.where(raw, 0, count)
         out = DetectorOutput(
             np.where(tested, lam, 0.0), np.broadcast_to(h, raw.shape).copy(), raw, flag
         )
-        return GlrState(hist, count, on, off, flag), out
+        return GlrState(hist, count, on, off, flag, level, seen), out

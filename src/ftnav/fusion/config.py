@@ -152,12 +152,16 @@ class Cusum(Settings):
 class Glr(Settings):
     """Windowed GLR of a mean shift in each aid's whitened innovation (spec §3.3).
 
-    Over the last ``window`` tests (geometric window lengths); threshold from ``arl0``.
+    Over the last ``window`` tests (geometric window lengths); threshold from ``arl0``;
+    ``memory`` tests over which each window's null level is learned, for innovations
+    correlated in time (real sensors: :mod:`ftnav.fdi.sequential`); default ``50 window``,
+    0 the textbook test for white innovations.
     """
 
     kind: Literal["glr"]
     arl0: ARL0 = 1e4
     window: Count = 64
+    memory: Annotated[int, Field(ge=0)] | None = None
     n_on: Count = 1
     n_off: Count = 5
     prior: Literal["local", "global", "intersection"] = "local"

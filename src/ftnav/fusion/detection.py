@@ -100,7 +100,7 @@ class Detection:
             )
         if isinstance(config, Glr):
             self.sequential = GlrDetector(
-                dims, config.arl0, config.window, config.n_on, config.n_off
+                dims, config.arl0, config.window, config.n_on, config.n_off, config.memory
             )
         if isinstance(config, ResidualChi2 | StateChi2):
             self.chi2 = ChiSquareDetector(

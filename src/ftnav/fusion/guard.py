@@ -608,11 +608,13 @@ class Guard:
         Each witness ``j`` weighs the two hypotheses by their likelihoods: its innovation
         ``ν_j`` against ``S_j`` as the estimate is, and ``ν_j + H_j c`` against
         ``S_j + H_j G H_jᵀ`` with the pull removed.  It disagrees when the first is
-        favoured by more than ``WITNESS_ODDS`` (twice the log-likelihood ratio above its
+        favoured by more than 100 to 1 (twice the log-likelihood ratio above its
         χ²₁ quantile): a witness that does not see the moved states has a ratio near 1,
         one that sees a real drag favours the removal, and one that sees a removal of
         noise (a pull merely large for its covariance, e.g. under a noise increase) is
-        moved away from its measurement and refuses it."""
+        moved away from its measurement and refuses it.  A sole source has no witness:
+        its rollback rests on its own pull (a turn the INS errs in can look like a drag
+        there: docs/integrity.md)."""
         g = self.group_of[a]
         cw, Gw = sep.windows(test.pulls[g], self.slot[a])
         idx = np.arange(cw.shape[0])

@@ -1,0 +1,128 @@
+"""Integrity on real noise: the vendored rtklibexplorer drive (MEMS IMU + RTK), issue 20.
+
+Oracle: the RTK fixes (Q = 1, cm-level) as the reference, and the plain centralized
+filter (``ckf``, no detector) on the same data as the bar a fault-tolerant method must
+not fall below once a fault or an outage has ended.  Faults are injected into the
+recorded GNSS positions (:class:`ftnav.model.scenario.Fault`), never tuned on: the
+guard's settings are the defaults of :class:`ftnav.fusion.config.GuardSettings`.
+
+* GNSS positions alone (``--aids gnss``): no other aid holds the position, so a lock-out
+  is a drift without bound (3 367 m before the guard).  Every fault-tolerant built-in
+  method must stay within 1.5 × ``ckf``'s horizontal RMS.
+* A 60 s GNSS position ramp of 0.05 and of 0.2 m/s (every aid): the filter follows
+  the slow ramp (no innovation test sees it), the fixes jump back when it ends; the
+  aid must be re-admitted within 10 s of the end and the error after it within 1.5 ×
+  ``ckf``'s over the same epochs.
+* 15 s GNSS outages every 60 s: the returning fixes re-admitted within 10 s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from recording_runs import drive_copy, process
+
+from ftnav.io.recording_file import load_recording
+from ftnav.model.scenario import Fault
+from ftnav.nav.earth import enu_metres
+
+T_FAULT = 100.0  # s after the recording's start
+LENGTH = 60.0
+SPAN = 260.0  # s of the drive processed for the ramps: the fault and 100 s after it
+
+
+def _short(tmp_path, methods):
+    def edit(doc):
+        doc["filter"]["duration_s"] = SPAN
+        doc["methods"] = [m for m in doc["methods"] if m["name"] in methods]
+
+    return drive_copy(tmp_path / "drive.toml", edit)
+
+
+def _flags(loaded, trace, aid="gnss"):
+    return trace.flag[0, :, loaded.recording.sensor_names.index(aid)]
+
+
+def _horizontal(loaded, trace):
+    """(times of the fixes, horizontal error at them) of the first run."""
+    ri = loaded.reference_index
+    e = enu_metres(trace.solution.p[0, ri], loaded.reference_p)
+    return loaded.recording.times[ri], np.hypot(e[:, 0], e[:, 1])
+
+
+def _readmitted_after(times, flags, t_end):
+    """Seconds from ``t_end`` until the flag is down (inf if never)."""
+    after = times >= t_end
+    down = ~flags[after]
+    return float(times[after][np.argmax(down)] - t_end) if down.any() else np.inf
+
+
+@pytest.fixture(scope="module")
+def drive(tmp_path_factory):
+    return drive_copy(tmp_path_factory.mktemp("drive") / "drive.toml")
+
+
+@pytest.fixture(scope="module")
+def gnss_only(drive):
+    return process(drive, methods=["ckf", "fkf-chi2", "fkf-glr"], aids=["gnss"])
+
+
+def test_gnss_alone_the_chi_square_method_stays_with_the_plain_filter(gnss_only):
+    """Was 3 367 m against 0.074 m: the χ² test isolated the only position aid for good."""
+    _, _, scores = gnss_only
+    ckf = scores["ckf"]["horizontal_rms_m"]
+    assert scores["fkf-chi2"]["horizontal_rms_m"] <= 1.5 * ckf
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "the GLR sees the innovation mean shifts the MEMS INS makes in the drive's turns "
+        "(t = 256, 268, 431 s; the fixes are RTK-fixed there) and, GNSS being the only "
+        "position aid, isolates it there with a rollback no other aid can witness: "
+        "0.54 m against ckf's 0.062 m (8.7x); with every aid 0.079 against 0.056 m "
+        "(1.41x). Measured, docs/integrity.md"
+    ),
+)
+def test_gnss_alone_the_glr_method_stays_with_the_plain_filter(gnss_only):
+    _, _, scores = gnss_only
+    ckf = scores["ckf"]["horizontal_rms_m"]
+    assert scores["fkf-glr"]["horizontal_rms_m"] <= 1.5 * ckf
+
+
+def test_gnss_alone_no_method_is_left_untrusted_by_the_chi_square_test(gnss_only):
+    """The self-watch: a fault-free drive gives no finding for ``ckf`` or ``fkf-chi2``."""
+    _, _, scores = gnss_only
+    for name in ("ckf", "fkf-chi2"):
+        assert scores[name]["integrity"]["findings"] == [], name
+
+
+@pytest.mark.parametrize("rate", [0.05, 0.2])
+def test_after_a_slow_ramp_the_gnss_is_readmitted_and_the_error_recovers(tmp_path, rate):
+    """Was: not re-admitted for 68-300 s, 3.4 and 12.4 m after the fault against ckf's
+    0.13 and 0.9 m."""
+    path = _short(tmp_path, ("ckf", "fkf-chi2"))
+    t0 = load_recording(path, methods=["ckf"]).recording.t_start
+    start, end = t0 + T_FAULT, t0 + T_FAULT + LENGTH
+    magnitude = np.array([0.0, rate * LENGTH, 0.0, 0.0, 0.0, 0.0])
+    loaded, traces, _ = process(path, faults=[Fault("gnss", "ramp", start, end, magnitude)])
+    times = loaded.recording.times
+    t_end = T_FAULT + LENGTH
+    assert _readmitted_after(times, _flags(loaded, traces["fkf-chi2"]), t_end) <= 10.0
+    t_ref, ckf = _horizontal(loaded, traces["ckf"])
+    _, chi = _horizontal(loaded, traces["fkf-chi2"])
+    after = t_ref >= t_end
+    rms = lambda e: float(np.sqrt(np.mean(e[after] ** 2)))  # noqa: E731
+    assert rms(chi) <= 1.5 * rms(ckf), (rms(chi), rms(ckf))
+
+
+def test_after_every_15_s_outage_the_gnss_is_readmitted_within_10_s(drive):
+    loaded, traces, _ = process(
+        drive, methods=["fkf-chi2"], aids=["gnss"], outage=(15.0, 60.0, 40.0)
+    )
+    times = loaded.recording.times
+    flags = _flags(loaded, traces["fkf-chi2"])
+    (schedule,) = loaded.outages
+    assert len(schedule) == 8
+    for _, end in schedule:
+        assert _readmitted_after(times, flags, end) <= 10.0, end
