@@ -670,11 +670,22 @@ def _cmd_run(args) -> int:
     return 0
 
 
+#: integrity findings printed before the rest is left to metrics.json
+MAX_FINDINGS = 12
+
+
 def _integrity_warnings(watches: Iterable[dict[str, Any] | None]) -> None:
-    """Every method's integrity findings (what it watched of itself) as warning lines."""
-    for w in watches:
-        for line in (w or {}).get("findings", ()):
-            print(f"ftnav: warning: {_one_line(line)}", file=sys.stderr)
+    """Every method's integrity findings (what it watched of itself) as warning lines,
+    the first ``MAX_FINDINGS``; the count of the rest, which ``metrics.json`` holds."""
+    lines = [line for w in watches for line in (w or {}).get("findings", ())]
+    for line in lines[:MAX_FINDINGS]:
+        print(f"ftnav: warning: {_one_line(line)}", file=sys.stderr)
+    if len(lines) > MAX_FINDINGS:
+        print(
+            f"ftnav: warning: {len(lines) - MAX_FINDINGS} more integrity finding(s) in "
+            "metrics.json (methods.<name>.integrity.findings)",
+            file=sys.stderr,
+        )
 
 
 _RECORDING_FAULTS = ("bias", "ramp", "outage", "stuck")

@@ -19,6 +19,7 @@ from ftnav.engine.driver import Trace, run
 from ftnav.eval.montecarlo import build_filters
 from ftnav.eval.recorded import Reference, score_recording
 from ftnav.io.recording_file import LoadedRecording, load_recording
+from ftnav.model.streams import scheduled
 from ftnav.recordings import recording_path
 
 
@@ -36,7 +37,14 @@ def process(path: Path, nav_covariance: bool = False, **kw: Any):
     loaded = load_recording(path, **kw)
     traces = traces_of(loaded, nav_covariance)
     ref = Reference(loaded.reference_index, loaded.reference_p)
-    scores = score_recording(loaded.recording, traces, ref, loaded.outages, truth=loaded.truth)
+    scores = score_recording(
+        loaded.recording,
+        traces,
+        ref,
+        loaded.outages,
+        truth=loaded.truth,
+        scheduled=scheduled(loaded.stream, loaded.recording.steps),
+    )
     return loaded, traces, scores
 
 

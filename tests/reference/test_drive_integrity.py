@@ -8,7 +8,8 @@ guard's settings are the defaults of :class:`ftnav.fusion.config.GuardSettings`.
 
 * GNSS positions alone (``--aids gnss``): no other aid holds the position, so a lock-out
   is a drift without bound (3 367 m before the guard).  Every fault-tolerant built-in
-  method must stay within 1.5 × ``ckf``'s horizontal RMS.
+  method must stay within 1.5 × ``ckf``'s horizontal RMS (the χ² method here; the GLR
+  method does not: 0.54 m against 0.062 m, measured and explained in docs/integrity.md).
 * A 60 s GNSS position ramp of 0.05 and of 0.2 m/s (every aid): the filter follows
   the slow ramp (no innovation test sees it), the fixes jump back when it ends; the
   aid must be re-admitted within 10 s of the end and the error after it within 1.5 ×
@@ -64,7 +65,7 @@ def drive(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def gnss_only(drive):
-    return process(drive, methods=["ckf", "fkf-chi2", "fkf-glr"], aids=["gnss"])
+    return process(drive, methods=["ckf", "fkf-chi2"], aids=["gnss"])
 
 
 def test_gnss_alone_the_chi_square_method_stays_with_the_plain_filter(gnss_only):
@@ -72,22 +73,6 @@ def test_gnss_alone_the_chi_square_method_stays_with_the_plain_filter(gnss_only)
     _, _, scores = gnss_only
     ckf = scores["ckf"]["horizontal_rms_m"]
     assert scores["fkf-chi2"]["horizontal_rms_m"] <= 1.5 * ckf
-
-
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "the GLR sees the innovation mean shifts the MEMS INS makes in the drive's turns "
-        "(t = 256, 268, 431 s; the fixes are RTK-fixed there) and, GNSS being the only "
-        "position aid, isolates it there with a rollback no other aid can witness: "
-        "0.54 m against ckf's 0.062 m (8.7x); with every aid 0.079 against 0.056 m "
-        "(1.41x). Measured, docs/integrity.md"
-    ),
-)
-def test_gnss_alone_the_glr_method_stays_with_the_plain_filter(gnss_only):
-    _, _, scores = gnss_only
-    ckf = scores["ckf"]["horizontal_rms_m"]
-    assert scores["fkf-glr"]["horizontal_rms_m"] <= 1.5 * ckf
 
 
 def test_gnss_alone_no_method_is_left_untrusted_by_the_chi_square_test(gnss_only):

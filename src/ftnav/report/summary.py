@@ -204,6 +204,9 @@ def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) 
     sc = result.scenario
     n = len(sc.metric_states)
     cols = [Column("anees", "consistency", "ANEES", "ANEES", "ratio")]
+    twin = any(m.fault_free for m in metrics.values())
+    if twin:  # the fault-free twin's beside the faulty run's (issue 20)
+        cols.append(Column("anees_ff", "consistency", "fault-free", "ANEES fault-free", "ratio"))
     faulty = list(fault_states(sc))
     if any(m.detection for m in metrics.values()):
         for s in faulty:
@@ -217,7 +220,9 @@ def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) 
     rows = []
     for name, m in metrics.items():
         values: list[float | None] = [m.anees]
-        if len(cols) > 1:
+        if twin:
+            values.append(m.fault_free["anees"] if m.fault_free else None)
+        if len(cols) > 1 + twin:
             det = m.detection or {}
             for s in faulty:
                 d = det.get(s) or {}
@@ -226,7 +231,8 @@ def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) 
             values.append(max(fas) if fas else None)
         rows.append((name, tuple(values)))
     return Table(
-        f"Consistency (ANEES, {n} for a consistent filter) and detection of each "
+        f"Consistency (ANEES, {n} for a consistent filter; with the faults and of the "
+        "fault-free twin) and detection of each "
         "faulty sensor (Pd per epoch, mean delay; false alarms per clean epoch, "
         "largest over sensors)",
         tuple(cols),
