@@ -84,11 +84,14 @@ def test_markdown_report_has_every_state_and_the_ratio_per_state():
 def test_detection_columns_per_faulty_sensor():
     result, metrics = north_ramp_run()
     det = _table(summary_tables(result, metrics), "Consistency")
-    assert [c.label for c in det.columns] == ["ANEES", "Pd", "delay [s]", "false alarms"]
-    assert det.columns[1].group == "sensor gnss"
+    labels = ["ANEES", "fault-free", "Pd", "delay [s]", "false alarms"]
+    assert [c.label for c in det.columns] == labels
+    assert det.columns[1].group == "consistency"  # the fault-free twin's ANEES (issue 20)
+    assert det.columns[2].group == "sensor gnss"
     row = dict(det.rows)
-    assert row["ckf"][1] is None  # no detector
-    assert row["fkf-oracle"][1] == pytest.approx(1.0)
+    assert row["ckf"][1] == pytest.approx(metrics["ckf"].fault_free["anees"])
+    assert row["ckf"][2] is None  # no detector
+    assert row["fkf-oracle"][2] == pytest.approx(1.0)
 
 
 def test_integrated_tables_have_every_navigation_state_with_units():
