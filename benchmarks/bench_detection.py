@@ -10,7 +10,11 @@ the guard (the built-in defaults), and the RBF network where a trained model exi
    sensor ``pos1``.
 3. The real drive (rtklibexplorer, MEMS IMU + RTK fixes; ``--drive-span`` s of it):
    the same faults injected into the recorded GNSS positions; the fault-free drive
-   gives the false alarms (one run: the recording).
+   gives the false alarms (one run: the recording).  χ² and GLR: the CUSUM is refused
+   on recordings (it alarmed 415 times an hour here, ~100 times its setting).
+
+A detection probability counts any alarm inside the fault window: where it equals the
+chance of a false alarm in a window that long (the false-alarm row), it is not a detection.
 
 Per detector and fault: the detection probability (runs with an alarm inside the fault
 window, the ramp included), the median delay from the fault's start to the first raw
@@ -48,10 +52,6 @@ FED = {"mode": "fusion-reset", "sharing": "equal"}
 
 def _glr(prior: str = "global") -> dict:
     return {"kind": "glr", "prior": prior, "arl0": 1e4, "window": 64}
-
-
-def _cusum(prior: str = "global") -> dict:
-    return {"kind": "cusum", "prior": prior, "arl0": 1e4}
 
 
 def _alarms(flag: np.ndarray, times: np.ndarray, start: float, end: float):
@@ -139,10 +139,9 @@ def drive_copy(folder: Path, span: float) -> Path:
         if "file" in a:
             a["file"] = str(src.parent / a["file"])
     doc["filter"]["duration_s"] = span
+    # the CUSUM is refused on recordings (docs/integrity.md: ~100 times its arl0 there)
     keep = {"fkf-chi2", "fkf-glr"}
     doc["methods"] = [m for m in doc["methods"] if m["name"] in keep]
-    doc["methods"].append({"name": "fkf-cusum", "architecture": "federated", **FED})
-    doc["methods"][-1]["detector"] = _cusum()
     path = folder / "drive.toml"
     path.write_text(tomli_w.dumps(doc))
     return path
@@ -180,7 +179,7 @@ def drive(span, rates, steps, start, length):
 
 # --------------------------------------------------------------------------- output
 def table(title, rows, fa):
-    print(f"\n{title}")
+    print(f"\n{title}", flush=True)
     names = list(dict.fromkeys(r["detector"] for r in rows)) or list(fa)
     faults = list(dict.fromkeys(r["fault"] for r in rows))
     w = max(len(n) for n in names) + 2
@@ -204,6 +203,7 @@ def table(title, rows, fa):
 
 def figure(path, panels):
     import matplotlib
+    import matplotlib.ticker
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -218,6 +218,7 @@ def figure(path, panels):
                 y = [r["delay_s"] if np.isfinite(r["delay_s"]) else np.nan for r in pts]
                 ax.plot(x, y, "o-", label=n)
             ax.set_xscale("log")
+            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
             ax.set_xlabel("ramp rate, m/s" if kind == "ramp" else "step, m")
             ax.set_ylabel("median delay, s (missed: no point)")
             ax.set_title(f"{title}: {kind}s", fontsize=9)

@@ -202,6 +202,7 @@ def test_the_information_sharing_rule_is_refused_on_a_recording(tmp_path, capsys
     [
         ('{ kind = "residual-chi2", window = 8 }', "methods[1].detector.window"),
         ('{ kind = "state-chi2" }', "methods[1].detector"),
+        ('{ kind = "cusum" }', "methods[1].detector"),
     ],
 )
 def test_detectors_that_cannot_run_on_real_noise_are_refused(tmp_path, capsys, detector, field):

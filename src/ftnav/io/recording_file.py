@@ -274,9 +274,10 @@ class RecordingFile(BaseModel):
     def _detectors_for_real_noise(self) -> RecordingFile:
         """The detectors that cannot hold their false-alarm rate on real noise are
         refused for recordings (issue 20; measured on the vendored drive): a windowed
-        χ² sums innovations a real receiver correlates over seconds (window 8: 47-72 %
-        of the epochs flagged, 3 084 m), and the state χ² compares local estimates whose
-        correlation the test ignores (19-77 % flagged)."""
+        χ² and the CUSUM sum innovations a real receiver correlates over seconds (window
+        8: 47-72 % of the epochs flagged, 3 084 m; CUSUM at arl0 1e4: 415 alarms/h, ~100
+        times its setting), and the state χ² compares local estimates whose correlation
+        the test ignores (19-77 % flagged)."""
         for i, m in enumerate(self.methods):
             d = getattr(m, "detector", None)
             kind = getattr(d, "kind", None)
@@ -284,6 +285,16 @@ class RecordingFile(BaseModel):
                 raise config_error(
                     "the state chi-square test cannot run on real noise: it flags 19-77 % "
                     "of a fault-free real drive's epochs (use residual-chi2, glr or cusum)",
+                    "methods",
+                    i,
+                    "detector",
+                )
+            if kind == "cusum":
+                raise config_error(
+                    "the CUSUM cannot run on real noise: it accumulates innovations a "
+                    "receiver correlates over seconds and alarms about 100 times more often "
+                    "than its arl0 on a fault-free real drive (415 alarms/h against 4.3); "
+                    "use glr, which learns that correlation",
                     "methods",
                     i,
                     "detector",
