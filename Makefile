@@ -7,7 +7,7 @@ RUNS   ?= 100
 SEED   ?= 1
 OUT    ?= results/seed000
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test test-all lint bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -23,6 +23,10 @@ test: $(VENV)/.installed
 	$(VENV)/bin/ruff check src tests benchmarks
 	$(VENV)/bin/ruff format --check src tests benchmarks
 	$(PY) -m mypy
+	$(PY) -m pytest -n 2 -m "not slow"
+
+# every test, the slow oracles included (tests/conftest.py SLOW): about 30 min on 2 cores
+test-all: $(VENV)/.installed
 	$(PY) -m pytest -n 2
 
 lint: $(VENV)/.installed

@@ -17,3 +17,35 @@ sys.path.insert(0, str(Path(__file__).parent / "reference"))
 
 if os.environ.get("PYTEST_XDIST_WORKER"):
     os.environ["FTNAV_WORKERS"] = "1"
+
+#: the slowest oracles (minutes each on a 2-core machine since every detector carries the
+#: guard of issue 20): ``make test`` leaves them out to stay within CI's 15 minutes,
+#: ``make test-all`` runs them (README).  Node-id prefixes.
+SLOW = (
+    "tests/cli/test_seed000.py::test_seed000_story",
+    "tests/equivalence/test_builtin_baseline.py::test_builtin_metrics_are_unchanged[seed002]",
+    "tests/reference/test_memory_estimate.py",
+    "tests/cli/test_paper_claims.py::test_seed002",
+    "tests/validation/test_integrated_faults.py",
+    "tests/cli/test_claims.py::test_shortened_seed002",
+    "tests/cli/test_claims.py::test_vb_claim_needs_300_s",
+    "tests/equivalence/test_workers.py::test_integrated",
+    "tests/reference/test_ins_training_slsqp.py",
+    "tests/reference/test_recorded_drive.py",
+    "tests/reference/test_recorded_navego.py",
+    "tests/statistical/test_rbf_seed000.py",
+    "tests/statistical/test_chi2.py",
+    "tests/equivalence/test_batching.py::test_fault_free_twin",
+)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "slow: minutes on 2 cores; run by `make test-all`")
+
+
+def pytest_collection_modifyitems(config, items):
+    import pytest
+
+    for item in items:
+        if item.nodeid.startswith(SLOW):
+            item.add_marker(pytest.mark.slow)
