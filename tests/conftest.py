@@ -31,6 +31,7 @@ SLOW = (
     "tests/cli/test_claims.py::test_vb_claim_needs_300_s",
     "tests/equivalence/test_workers.py::test_integrated",
     "tests/reference/test_ins_training_slsqp.py",
+    "tests/reference/test_recorded_drive.py",
     "tests/reference/test_recorded_navego.py",
     "tests/statistical/test_rbf_seed000.py",
     "tests/statistical/test_chi2.py",
