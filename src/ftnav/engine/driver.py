@@ -20,6 +20,7 @@ from typing import Any, NamedTuple, Protocol, TypeVar
 import numpy as np
 
 from ftnav.core import kalman as kf
+from ftnav.fusion.guard import GuardOutput
 from ftnav.fusion.protocol import Architecture, StepOutput
 from ftnav.model.system import Epoch, Linearization, LinearSystem
 from ftnav.nav.mechanization import InsState
@@ -277,17 +278,9 @@ def _local_copies(
     return LocalCopies(rows, est)
 
 
-class GuardTrace(NamedTuple):
-    """What the isolation guard did (:class:`~ftnav.fusion.guard.GuardOutput`), (B, K, N)
-    each: statistic, hold, alarm, rollback, undone, unobservable, relaxed."""
-
-    statistic: np.ndarray
-    hold: np.ndarray
-    alarm: np.ndarray
-    rollback: np.ndarray
-    undone: np.ndarray
-    unobservable: np.ndarray
-    relaxed: np.ndarray
+#: What the isolation guard did, its per-epoch outputs stacked over the epochs: the fields
+#: of :class:`~ftnav.fusion.guard.GuardOutput`, (B, K, N) each
+GuardTrace = GuardOutput
 
 
 #: the guard's per-epoch outputs as the recorder keys them
