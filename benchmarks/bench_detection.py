@@ -29,22 +29,22 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 import tempfile
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 
-from ftnav.engine import navigation_model
-from ftnav.engine.driver import run
-from ftnav.eval.montecarlo import build_filters, run_scenario
+# the recorded-log helpers of the tests: a drive copy by absolute paths, its traces
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "reference"))
+from recording_runs import drive_copy, traces_of  # noqa: E402
+
+from ftnav.eval.montecarlo import run_scenario
 from ftnav.fusion import registry
 from ftnav.io.recording_file import load_recording
 from ftnav.io.scenario_file import load_scenario
 from ftnav.model.scenario import Fault
-from ftnav.recordings import recording_path
 from ftnav.scenarios import builtin_path
 
 FED = {"mode": "fusion-reset", "sharing": "equal"}
@@ -131,37 +131,25 @@ def seed000_methods():
 
 
 # --------------------------------------------------------------------------- drive
-def drive_copy(folder: Path, span: float) -> Path:
-    src = recording_path("rtklib-drive")
-    doc = tomllib.loads(src.read_text())
-    doc["imu"]["file"] = str(src.parent / doc["imu"]["file"])
-    for a in doc["aids"]:
-        if "file" in a:
-            a["file"] = str(src.parent / a["file"])
-    doc["filter"]["duration_s"] = span
-    # the CUSUM is refused on recordings (docs/integrity.md: ~100 times its arl0 there)
-    keep = {"fkf-chi2", "fkf-glr"}
-    doc["methods"] = [m for m in doc["methods"] if m["name"] in keep]
-    path = folder / "drive.toml"
-    path.write_text(tomli_w.dumps(doc))
-    return path
+def _drive(folder: Path, span: float) -> Path:
+    """The built-in drive cut to ``span`` s with its χ² and GLR methods."""
+
+    def edit(doc):
+        doc["filter"]["duration_s"] = span
+        # the CUSUM is refused on recordings (docs/integrity.md: ~100 times its arl0 there)
+        doc["methods"] = [m for m in doc["methods"] if m["name"] in ("fkf-chi2", "fkf-glr")]
+
+    return drive_copy(folder / "drive.toml", edit)
 
 
 def drive(span, rates, steps, start, length):
     with tempfile.TemporaryDirectory() as d:
-        path = drive_copy(Path(d), span)
+        path = _drive(Path(d), span)
         rows, fa = [], {}
 
         def once(faults):
             loaded = load_recording(path, faults=faults, warn=False)
-            rec = loaded.recording
-            traces = run(
-                navigation_model(rec),
-                loaded.stream,
-                build_filters(rec, rec.system(), rec.methods),
-                rec.steps,
-            )
-            return rec, traces
+            return loaded.recording, traces_of(loaded)
 
         rec, traces = once([])
         a = rec.sensor_names.index("gnss")
@@ -246,30 +234,16 @@ def main():
         a.runs, a.steps, a.start, a.length, a.drive_span = 2, 40, 10.0, 20.0, 40.0
         rates, steps, drive_rates, drive_steps = [0.5], [10.0], [0.5], [5.0]
     panels = []
-    t = time.perf_counter()
-    rows, fa = simulated(
-        "seed002",
-        "gnss",
-        seed002_methods(),
-        _faults(rates, steps, a.start, a.length, "gnss", 6, 1),
-        a.runs,
-        a.steps,
-    )
-    table(
-        f"seed002, GNSS north position, {a.runs} runs ({time.perf_counter() - t:.0f} s)", rows, fa
-    )
-    panels.append(("seed002", rows))
-    t = time.perf_counter()
-    rows, fa = simulated(
-        "seed000",
-        "pos1",
-        seed000_methods(),
-        _faults(rates, steps, a.start, a.length, "pos1", 1, 0),
-        a.runs,
-        a.steps,
-    )
-    table(f"seed000, pos1, {a.runs} runs ({time.perf_counter() - t:.0f} s)", rows, fa)
-    panels.append(("seed000", rows))
+    for name, sensor, methods, dims, axis, what in (
+        ("seed002", "gnss", seed002_methods(), 6, 1, "GNSS north position"),
+        ("seed000", "pos1", seed000_methods(), 1, 0, "pos1"),
+    ):
+        t = time.perf_counter()
+        faults = _faults(rates, steps, a.start, a.length, sensor, dims, axis)
+        rows, fa = simulated(name, sensor, methods, faults, a.runs, a.steps)
+        took = time.perf_counter() - t
+        table(f"{name}, {what}, {a.runs} runs ({took:.0f} s)", rows, fa)
+        panels.append((name, rows))
     if not a.no_drive:
         t = time.perf_counter()
         start, length = (100.0, 60.0) if not a.quick else (10.0, 20.0)
