@@ -155,10 +155,7 @@ def _with_detector(method: MethodBase, detector: Any) -> MethodBase:
     """The method with ``detector`` and without the guard (issue 20): the network is
     trained on, and its report measures, the detector's own flags; the guard's
     re-admission acts on top of them in the scenario's runs."""
-    update: dict[str, Any] = {"detector": detector}
-    if "guard" in type(method).model_fields:
-        update["guard"] = None
-    return method.model_copy(update=update)
+    return method.model_copy(update={"detector": detector, "guard": None})
 
 
 def _rbf(s: DetectorTraining) -> RbfDetector:
