@@ -946,7 +946,7 @@ def test_missing_file_names_file(tmp_path) -> None:
 
 
 def test_directory_and_binary_files(tmp_path) -> None:
-    with pytest.raises(ScenarioError, match=r"is a directory"):
+    with pytest.raises(ScenarioError, match=r"is a folder, not a file"):
         load_scenario(tmp_path)
     path = tmp_path / "binary.toml"
     path.write_bytes(b'name = "\xff\xfe"\n')

@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 import re
+import stat
 import tomllib
 import types
 from collections.abc import Callable, Mapping, Sequence
@@ -31,6 +33,8 @@ __all__ = [
     "format_loc",
     "number",
     "one_line",
+    "read_input",
+    "read_text",
     "read_toml",
     "to_scenario_error",
     "unique",
@@ -316,20 +320,78 @@ def number(description: str, **bounds: float) -> Any:
 STRICT = ConfigDict(extra="forbid", strict=True)
 
 
+#: Largest input file ftnav reads (bytes): a TOML file, a model file, a log.  A
+#: bigger one is refused before it is read (``/dev/zero`` or a mistyped path to a
+#: disk image must not fill the memory).  Logs of a day at 1 kHz stay below it.
+MAX_INPUT_BYTES = 4 * 1024**3
+#: Largest TOML file (scenario, profile, recording): they are hand-written text.
+MAX_TOML_BYTES = 16 * 1024**2
+
+
+def read_input(path: Path, what: str, limit: int = MAX_INPUT_BYTES) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes, or a one-line refusal.
+
+    A FIFO, a device, a socket or a folder is refused before it is opened (reading
+    one blocks forever or never ends), and so is a file larger than ``limit``; the
+    read itself is bounded too (a file that grows while it is read).  The error is a
+    :class:`ScenarioError` whose path is the file and whose reason starts with
+    ``what`` (e.g. ``"imu"``).
+    """
+    name = str(path)
+    w = f"{w}" if what else ""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise ScenarioError(name, f"{w}file not found", name) from None
+    except OSError as exc:
+        raise ScenarioError(name, f"{w}cannot read ({exc.strerror or exc})", name) from None
+    if stat.S_ISDIR(st.st_mode):
+        raise ScenarioError(name, f"{w}is a folder, not a file", name)
+    if not stat.S_ISREG(st.st_mode):
+        kind = (
+            "a FIFO (named pipe)"
+            if stat.S_ISFIFO(st.st_mode)
+            else "a device"
+            if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode)
+            else "a socket"
+            if stat.S_ISSOCK(st.st_mode)
+            else "not a regular file"
+        )
+        raise ScenarioError(name, f"{w}is {kind}, not a regular file", name)
+    if st.st_size > limit:
+        raise ScenarioError(
+            name, f"{w}{st.st_size} bytes, more than the {limit} ftnav reads", name
+        )
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(limit + 1)
+    except OSError as exc:
+        raise ScenarioError(name, f"{w}cannot read ({exc.strerror or exc})", name) from None
+    if len(raw) > limit:
+        raise ScenarioError(name, f"{w}more than the {limit} bytes ftnav reads", name)
+    return raw
+
+
+def read_text(path: Path, what: str, limit: int = MAX_INPUT_BYTES) -> str:
+    """:func:`read_input` decoded as UTF-8; a byte-order mark (Excel's "CSV UTF-8")
+    is dropped; a file that is not UTF-8 is refused with the offending line."""
+    raw = read_input(path, what, limit)
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise ScenarioError(
+            f"{path}:{line}", f"{what}: not UTF-8 text (byte {exc.start})", str(path)
+        ) from None
+
+
 def read_toml(source: str | Path) -> dict[str, Any]:
     """Read a TOML file; every problem is a one-line :class:`ScenarioError` naming the file."""
     path = Path(source)
     name = str(source)
+    raw = read_input(path, "", MAX_TOML_BYTES)
     try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise ScenarioError(name, "file not found", name) from None
-    except IsADirectoryError:
-        raise ScenarioError(name, "is a directory, not a TOML file", name) from None
-    except OSError as exc:
-        raise ScenarioError(name, f"cannot read file ({exc.strerror or exc})", name) from None
-    try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise ScenarioError(name, f"not valid UTF-8 text (byte {exc.start})", name) from None
     try:
