@@ -35,11 +35,9 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import re
-import secrets
-import shutil
 import sys
+import threading
 import time
 import tomllib
 import traceback
@@ -71,6 +69,7 @@ from ftnav.eval.resources import (
 from ftnav.io.common import ScenarioError
 from ftnav.io.learned import save_neuron_model, save_rbf_model
 from ftnav.io.model_file import ModelFileError
+from ftnav.io.output_folder import MANIFEST, Output, OutputRefused
 from ftnav.io.profile_file import resolve_profile
 from ftnav.io.recording_file import load_recording, recording_aids, recording_json_schema
 from ftnav.io.results import write_estimates, write_metrics
@@ -105,9 +104,6 @@ from ftnav.training.fusion import FusionTraining, check_training, fusion_table, 
 from ftnav.training.ins_fusion import ins_configurations, train_ins_fusion
 
 __all__ = ["MANIFEST", "main"]
-
-#: File in an output folder that lists the files ftnav wrote there (JSON).
-MANIFEST = ".ftnav-outputs.json"
 
 #: Said on standard error before a run that compiles the numba kernels, with the
 #: seconds it took on the 2-core reference machine per kind of run (cold cache).
@@ -427,119 +423,17 @@ def _compile_note(kind: str, quiet: bool) -> None:
 # ------------------------------------------------------------------------ output files
 
 
-def _nearest_existing(path: Path) -> Path:
-    while not path.exists() and path != path.parent:
-        path = path.parent
-    return path
+#: targets claimed by the command now running; released when it ends
+_claimed: list[Output] = []
 
 
-def _check_writable(folder: Path, out: Path) -> None:
-    """``folder`` (to be created if missing) can be created and written into."""
-    base = _nearest_existing(folder)
-    if not base.is_dir():
-        raise UsageError(f"--out: cannot create {str(out)!r}: {str(base)!r} is not a folder")
-    if not os.access(base, os.W_OK | os.X_OK):
-        raise UsageError(f"--out: cannot write to {str(base)!r} (permission denied)")
-
-
-def _check_out_folder(out: Path) -> None:
-    """Refuse an ``--out`` folder that cannot be written, before anything is computed."""
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out: {str(out)!r} is a file, not a folder")
-    _check_writable(Path(os.path.abspath(out)), out)
-
-
-def _check_out_file(out: Path) -> None:
-    """Refuse an ``--out`` file that cannot be written, before anything is computed."""
-    if out.is_dir():
-        raise UsageError(f"--out: {str(out)!r} is a folder; give a file name")
-    _check_writable(Path(os.path.abspath(out)).parent, out)
-
-
-def _make_folders(folder: Path) -> list[Path]:
-    """Create ``folder`` and its missing parents; the ones created, deepest first."""
-    missing = []
-    while not folder.exists():
-        missing.append(folder)
-        folder = folder.parent
-    for f in reversed(missing):
-        f.mkdir()
-    return missing
-
-
-def _remove_folders(created: list[Path]) -> None:
-    for f in created:  # deepest first; stops at one that is no longer empty
-        try:
-            f.rmdir()
-        except OSError:
-            break
-
-
-def _owned(folder: Path) -> list[str]:
-    """Files that an earlier run listed in ``folder``'s manifest and that still exist."""
-    try:
-        names = json.loads((folder / MANIFEST).read_text())["files"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return []
-    if not isinstance(names, list):
-        return []
-    return [
-        n
-        for n in names
-        if isinstance(n, str)
-        and n not in ("", ".", "..", MANIFEST)
-        and "/" not in n
-        and "\\" not in n
-        and (folder / n).is_file()
-        and not (folder / n).is_symlink()
-    ]
-
-
-@contextmanager
-def _staged(out: Path, *, folder: bool) -> Iterator[Path]:
-    """A staging folder whose files are moved into place when the block succeeds.
-
-    ``folder=True``: ``out`` is an output folder; the files of the earlier run listed
-    in its :data:`MANIFEST` are deleted first and a new manifest is written.
-    ``folder=False``: ``out`` is a file; each staged file replaces its namesake in
-    ``out``'s folder.  On any exception the staging folder, and every folder created
-    for it, is removed, and the target is left as it was.
-    """
-    target = Path(os.path.abspath(out))
-    home = target if folder and target.is_dir() else target.parent
-    created: list[Path] = []
-    try:
-        created = _make_folders(home)
-        # mkdir, not mkdtemp: the folder gets the umask's mode, as it will be the output
-        stage = home / f".{target.name}.ftnav-partial-{secrets.token_hex(6)}"
-        stage.mkdir()
-    except OSError as e:
-        _remove_folders(created)
-        raise UsageError(f"--out: cannot create {str(out)!r}: {e.strerror or e}") from None
-    try:
-        yield stage
-        names = sorted(p.name for p in stage.iterdir())
-        if not folder:
-            for name in names:
-                os.replace(stage / name, home / name)
-            stage.rmdir()
-            return
-        (stage / MANIFEST).write_text(
-            json.dumps({"written_by": f"ftnav {__version__}", "files": names}, indent=1) + "\n"
-        )
-        if not target.exists():
-            os.rename(stage, target)
-            return
-        for name in _owned(target):
-            if name not in names:
-                (target / name).unlink()
-        for name in [*names, MANIFEST]:
-            os.replace(stage / name, target / name)
-        stage.rmdir()
-    except BaseException:
-        shutil.rmtree(stage, ignore_errors=True)
-        _remove_folders(created)
-        raise
+def _claim(out: Path, *, folder: bool, names: Iterable[str] = ()) -> Output:
+    """Check, lock and recover ``--out`` before anything is computed
+    (:mod:`ftnav.io.output_folder`); ``names``: files the command will write."""
+    output = Output(out, folder=folder)
+    output.claim(names)
+    _claimed.append(output)
+    return output
 
 
 # ------------------------------------------------------------------------------ commands
@@ -572,14 +466,14 @@ def _cmd_list(args) -> int:
 
 
 def _cmd_schema(args) -> int:
-    if args.out is not None:
-        _check_out_file(args.out)
+    output = _claim(args.out, folder=False, names=[args.out.name]) if args.out else None
     schema = recording_json_schema() if args.recording else scenario_json_schema()
     text = json.dumps(schema, indent=2)
     if args.out is None:
         print(text)
         return 0
-    with _staged(args.out, folder=False) as stage:
+    assert output is not None
+    with output.staged() as stage:
         (stage / args.out.name).write_text(text + "\n")
     return 0
 
@@ -588,7 +482,7 @@ def _cmd_run(args) -> int:
     with _checking():
         sc = _resolve(args.scenario)
         out = args.out if args.out is not None else Path("results") / sc.name
-        _check_out_folder(out)
+        output = _claim(out, folder=True, names=["metrics.json", "report.md"])
         workers = default_workers() if args.workers is None else args.workers
         _check_memory(sc, args.runs, save_estimates=args.save_estimates, workers=workers)
         _build_filters(sc)
@@ -628,7 +522,7 @@ def _cmd_run(args) -> int:
     mark_kernels_compiled(kind)
     metrics = evaluate(result)
     claims = check_claims(result, metrics, second)
-    with _staged(out, folder=True) as stage:
+    with output.staged() as stage:
         figures = []
         if not args.no_figures:
             if integrated:
@@ -747,7 +641,13 @@ def _cmd_process(args) -> int:
         )
         rec = loaded.recording
         out = args.out if args.out is not None else Path("results") / rec.name
-        _check_out_folder(out)
+        solutions = (
+            ["solution.csv"]
+            if len(rec.methods) == 1
+            else [f"solution-{m.name}.csv" for m in rec.methods]
+        )
+        fixed = ["metrics.json", "trace.nc", "track.geojson", "track.kml"]
+        output = _claim(out, folder=True, names=[*solutions, *fixed])
         for f in rec.faults:
             if f.start < 0 or f.end > rec.times[-1]:
                 raise UsageError(
@@ -783,7 +683,7 @@ def _cmd_process(args) -> int:
         scheduled=scheduled(loaded.stream, rec.steps),
     )
     times = rec.t_start + rec.times
-    with _staged(out, folder=True) as stage:
+    with output.staged() as stage:
         tables = {nm: solution_table(tr, times) for nm, tr in traces.items()}
         written = []
         for nm, tab in tables.items():
@@ -821,7 +721,7 @@ def _cmd_trajectory(args) -> int:
         if args.imu is not None:
             errors = imu_preset(args.imu)
         out = Path(args.out)
-        _check_out_folder(out)
+        output = _claim(out, folder=True, names=["truth.csv", "imu.csv"])
         need = trajectory_memory_bytes(profile, errors is not None)
         available = resources.available_memory_bytes()
         if available is not None and need > available:
@@ -836,7 +736,7 @@ def _cmd_trajectory(args) -> int:
     if errors is not None:
         dtheta, dv, _ = simulate_imu_errors(dtheta, dv, traj.dt, errors, seed=args.seed)
     mark_kernels_compiled("trajectory")
-    with _staged(out, folder=True) as stage:
+    with output.staged() as stage:
         written = [
             write_truth_csv(traj, stage / "truth.csv").name,
             write_imu_csv(traj.t[1:], dtheta, dv, stage / "imu.csv").name,
@@ -874,7 +774,7 @@ def _cmd_train_detector(args) -> int:
     with _checking():
         sc = _resolve(args.scenario, models=False)
         out = args.out
-        _check_out_file(out)
+        output = _claim(out, folder=False, names=[out.name, out.with_suffix(".png").name])
         if _integrated(sc):
             raise UsageError(
                 f"scenario: {sc.name} is an integrated scenario; the RBF "
@@ -904,7 +804,7 @@ def _cmd_train_detector(args) -> int:
         model, report = train_detector(sc, settings, method, progress=bar.update)
     mark_kernels_compiled("train-linear")
     written = [str(out)]
-    with _staged(out, folder=False) as stage:
+    with output.staged() as stage:
         save_rbf_model(model, stage / out.name)
         if not args.no_figure:
             from ftnav.plot.learning import detector_figure
@@ -927,7 +827,7 @@ def _cmd_train_fusion(args) -> int:
     with _checking():
         sc = _resolve(args.scenario, models=False)
         out = args.out
-        _check_out_file(out)
+        output = _claim(out, folder=False, names=[out.name, out.with_suffix(".png").name])
         if not _integrated(sc):
             settings = FusionTraining(
                 runs=args.runs,
@@ -939,7 +839,7 @@ def _cmd_train_fusion(args) -> int:
             n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
             check_training(sc, settings)
     if _integrated(sc):
-        return _train_ins_fusion(sc, out, args)
+        return _train_ins_fusion(sc, output, args)
     _compile_note("train-linear", args.quiet)
     total = sc.steps * n_var * (args.runs + 4 * args.holdout)
     t0 = time.perf_counter()
@@ -947,7 +847,7 @@ def _cmd_train_fusion(args) -> int:
         model, report = train_fusion(sc, settings, progress=bar.update)
     mark_kernels_compiled("train-linear")
     written = [str(out)]
-    with _staged(out, folder=False) as stage:
+    with output.staged() as stage:
         save_neuron_model(model, stage / out.name)
         if not args.no_figure:
             from ftnav.plot.learning import fusion_figure
@@ -964,8 +864,9 @@ def _cmd_train_fusion(args) -> int:
     return 0
 
 
-def _train_ins_fusion(sc, out: Path, args) -> int:
+def _train_ins_fusion(sc, output: Output, args) -> int:
     """``train-fusion`` on an integrated scenario (paper 001's five configurations)."""
+    out = output.out
     _compile_note("train-integrated", args.quiet)
     t0 = time.perf_counter()
     total = sc.steps * len(ins_configurations(sc))
@@ -984,7 +885,7 @@ def _train_ins_fusion(sc, out: Path, args) -> int:
             sc, runs=args.runs, seed=args.seed, progress=bar.update, correction=correction
         )
     mark_kernels_compiled("train-integrated")
-    with _staged(out, folder=False) as stage:
+    with output.staged() as stage:
         save_neuron_model(model, stage / out.name)
     print(
         f"{sc.name}: neuron fusion centre ({correction} correction), configurations "
@@ -1015,6 +916,36 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"ftnav: warning: {_one_line(message)}", file=sys.stderr)
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP: unwinds like Ctrl-C (workers ended, staging folder removed)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise _Terminated(signum)
+
+
+@contextmanager
+def _signals_unwind() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise :class:`_Terminated` while the command runs (main
+    thread only), so that ``finally`` blocks run: worker processes are ended and a
+    half-written output is removed (:mod:`ftnav.io.output_folder`)."""
+    import signal
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {s: signal.signal(s, _terminate) for s in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``ftnav`` command; returns the exit status (module docstring)."""
     debug = False
@@ -1025,16 +956,19 @@ def main(argv: list[str] | None = None) -> int:
         if args.command is None:
             parser.print_help(sys.stderr)
             return 2
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), _signals_unwind():
             warnings.showwarning = _show_warning
             return _COMMANDS[args.command](args)
     except _Exit as e:
         return e.status
-    except (UsageError, ScenarioError, ModelFileError) as e:
+    except (UsageError, ScenarioError, ModelFileError, OutputRefused) as e:
         if debug:
             traceback.print_exception(e)
         print(f"ftnav: error: {_one_line(e)}", file=sys.stderr)
         return 2
+    except _Terminated as e:
+        print(f"ftnav: terminated (signal {e.signum})", file=sys.stderr)
+        return 128 + e.signum
     except KeyboardInterrupt:
         print("ftnav: interrupted", file=sys.stderr)
         return 130
@@ -1047,6 +981,9 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 1
+    finally:
+        while _claimed:
+            _claimed.pop().release()
 
 
 if __name__ == "__main__":

@@ -23,16 +23,19 @@ standard library only, so every layer may import it.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import queue
+import signal
+import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, TypeVar
 
-__all__ = ["available_cpus", "default_workers", "run_tasks", "split_even"]
+__all__ = ["available_cpus", "default_workers", "run_tasks", "signals_held", "split_even"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -79,10 +82,59 @@ def split_even(items: Sequence[T], parts: int) -> list[list[T]]:
 _progress_queue: Any = None
 
 
+#: seconds between two checks of a worker that its parent is alive
+_WATCH_S = 0.5
+
+
+#: environment variable that tells a starting worker its parent's process id
+PARENT_PID = "FTNAV_PARENT_PID"
+_watching = False
+
+
+def end_with_parent() -> None:
+    """End this worker process at once when its parent dies (SIGKILL included).
+
+    Called as soon as a worker starts (by ``import ftnav``, when :data:`PARENT_PID` is
+    set; the spawned interpreter imports ftnav first thing), so a parent killed while
+    its workers are still importing leaves none behind.  Linux: the kernel sends
+    SIGKILL to this process when its parent dies (``PR_SET_PDEATHSIG``), whatever it
+    is computing.  Everywhere, a daemon thread also checks every :data:`_WATCH_S` s
+    that the parent is still the one that started it (an orphan is re-parented) and
+    ends the process if not.  Nothing is done outside a worker.
+    """
+    global _watching
+    text = os.environ.pop(PARENT_PID, "")
+    if _watching or not text.isdigit():
+        return
+    parent = int(text)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):  # pragma: no cover - no prctl
+            pass
+    if os.getppid() != parent:  # died before the line above
+        os._exit(1)
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(_WATCH_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="ftnav-parent-watch").start()
+    _watching = True
+
+
 def _init_worker(q) -> None:
     global _progress_queue
     _progress_queue = q
     os.environ["FTNAV_WORKERS"] = "1"
+    # Ctrl-C reaches the whole process group: the parent alone decides, and ends the
+    # workers itself (run_tasks)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    end_with_parent()  # done already by `import ftnav`; here in case it was not
 
 
 class _Reporter:
@@ -116,6 +168,22 @@ def _call(fn: Callable[..., R], task) -> R:
 
 
 # ----------------------------------------------------------------------- parent side
+def _end_workers(pool: ProcessPoolExecutor) -> None:
+    """Cancel the queued tasks and kill the worker processes of ``pool``.
+
+    ``ProcessPoolExecutor`` has no public way to stop a running task before Python
+    3.14 (``terminate_workers``); its process table ``_processes`` is used instead.
+    """
+    processes = list((getattr(pool, "_processes", None) or {}).values())  # shutdown drops it
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        with contextlib.suppress(OSError, ValueError):
+            p.kill()
+    for p in processes:
+        with contextlib.suppress(OSError, ValueError, AssertionError):
+            p.join(timeout=5)
+
+
 def run_tasks(
     fn: Callable[[T, Callable[[int], None] | None], R],
     tasks: Sequence[T],
@@ -154,17 +222,62 @@ def run_tasks(
     if q is not None:
         reader = threading.Thread(target=drain, daemon=True)
         reader.start()
+    failed = False
     try:
-        with ProcessPoolExecutor(
-            min(workers, len(tasks)), mp_context=ctx, initializer=_init_worker, initargs=(q,)
-        ) as pool:
+        # the workers are started with SIGINT/SIGTERM held back: a signal arriving while
+        # a worker is being spawned would leave it outside the pool's table, alive
+        with signals_held(), _environment(PARENT_PID, str(os.getpid())):
+            pool = ProcessPoolExecutor(
+                min(workers, len(tasks)),
+                mp_context=ctx,
+                initializer=_init_worker,
+                initargs=(q,),
+            )
             futures = [pool.submit(_call, fn, t) for t in tasks]
+        with pool:
             try:
                 return [f.result() for f in futures]
             except BaseException:
-                pool.shutdown(wait=False, cancel_futures=True)
+                # an error, Ctrl-C or SIGTERM: the other tasks' work is lost anyway,
+                # so the workers are ended now rather than waited for
+                failed = True
+                _end_workers(pool)
                 raise
     finally:
         stop.set()
-        if reader is not None:
-            reader.join()
+        if reader is not None:  # a killed worker may have left half a message: no wait
+            reader.join(timeout=1.0 if failed else None)
+
+
+@contextlib.contextmanager
+def _environment(name: str, value: str) -> Iterator[None]:
+    """``os.environ[name] = value`` during the block (the spawned workers inherit it)."""
+    old = os.environ.get(name)
+    os.environ[name] = value
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = old
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """SIGINT, SIGTERM and SIGHUP held back during the block, delivered after it.
+
+    Only in the main thread (where Python runs signal handlers) and where the OS has
+    ``pthread_sigmask``; elsewhere the block runs as it is.
+    """
+    if threading.current_thread() is not threading.main_thread() or not hasattr(
+        signal, "pthread_sigmask"
+    ):
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)

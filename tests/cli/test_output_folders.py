@@ -238,3 +238,46 @@ def test_out_that_is_a_file_is_refused_before_running(inputs, tmp_path, capsys):
     assert main(["trajectory", str(inputs["profile"]), "--out", str(below)]) == 2
     assert "is not a folder" in capsys.readouterr().err
     assert out.read_text() == "a file"
+
+
+@pytest.mark.parametrize("mine", ["metrics.json", "report.md", "sharing.png"])
+def test_a_users_file_with_an_outputs_name_is_never_replaced(mine, inputs, tmp_path, capsys):
+    """No manifest lists the user's file: the run refuses, naming it, and writes nothing
+    (``metrics.json`` is refused before computing; a figure's name when it is known)."""
+    out = tmp_path / "results"
+    out.mkdir()
+    (out / mine).write_text("the user's own")
+    (out / "log.csv").write_text("1,2,3")
+    before = _snapshot(out)
+    argv = ["run", str(inputs["scenario"]), "--runs", "2", "--out", str(out), "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("ftnav: error: --out: "), err
+    assert f"{str(out / mine)!r} exists and no ftnav manifest lists it" in err
+    assert _snapshot(out) == before
+    assert [p.name for p in out.iterdir() if p.name.startswith(".")] == []
+
+
+def test_a_model_files_figure_of_the_users_is_never_replaced(inputs, tmp_path, capsys):
+    out = tmp_path / "det.npz"
+    (tmp_path / "det.png").write_bytes(b"the user's picture")
+    argv = ["train-detector", str(inputs["scenario"]), "--out", str(out), "--quiet"]
+    assert main([*argv, "--runs", "2", "--holdout", "1"]) == 2
+    assert "det.png' exists and no ftnav manifest lists it" in capsys.readouterr().err
+    assert not out.exists()
+    assert (tmp_path / "det.png").read_bytes() == b"the user's picture"
+
+
+def test_single_files_are_kept_by_a_folder_run_into_the_same_folder(inputs, tmp_path, capsys):
+    """A schema written into a folder is listed as ``kept``: a later folder run there
+    neither deletes it nor refuses; writing the schema again replaces it."""
+    out = tmp_path / "results"
+    assert main(["schema", "--out", str(out / "schema.json")]) == 0
+    assert main(["schema", "--out", str(out / "schema.json")]) == 0
+    argv = ["run", str(inputs["scenario"]), "--runs", "2", "--out", str(out), "--quiet"]
+    assert main([*argv, "--no-figures"]) == 0
+    assert main([*argv, "--no-figures"]) == 0
+    manifest = json.loads((out / MANIFEST).read_text())
+    assert manifest["kept"] == ["schema.json"]
+    assert (out / "schema.json").is_file()
+    capsys.readouterr()
