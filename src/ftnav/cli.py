@@ -20,14 +20,21 @@ change the exit status.
 kind before the line.
 
 Outputs.  A command writes nothing before its input is validated and its
-computation has succeeded: the files are written into a hidden staging folder next
-to the target (``.<name>.ftnav-partial-*``) and then moved into place, so a refused
-or crashed command leaves no folder (nor the parents it would have created) and
-an earlier run's results stay complete.  A folder written by ``ftnav run`` or
-``ftnav trajectory`` holds :data:`MANIFEST`, the list of the files ftnav wrote there;
-the next run into the same folder deletes those files (and only those) before it
-moves its own in, so no figure or ``estimates.nc`` of an earlier run is left behind
-and the user's own files are never touched.
+computation has succeeded, and never replaces a file that is not its own
+(:mod:`ftnav.io.output_folder`): the ``--out`` target is claimed first (locked: a
+second command on it refuses at once; a file of an output's name that no ftnav
+manifest lists is refused, naming it; what a killed command left is rolled back),
+the files are written into a hidden staging folder next to the target
+(``.<name>.ftnav-partial-*``) and then moved in as a whole, so a refused, crashed or
+interrupted command leaves no folder (nor the parents it would have created) and an
+earlier run's results stay complete.  A folder written by ``ftnav run``,
+``process`` or ``trajectory`` holds :data:`MANIFEST`, the list of the files ftnav
+wrote there; the next run into the same folder replaces those files (and only
+those), so no figure or ``estimates.nc`` of an earlier run is left behind.
+
+Signals.  SIGINT (exit 130), SIGTERM and SIGHUP (exit 128 + the signal) unwind the
+command: its worker processes are killed and its staging folder removed.  Workers
+also end by themselves when ``ftnav`` dies (:func:`ftnav.parallel.end_with_parent`).
 """
 
 from __future__ import annotations

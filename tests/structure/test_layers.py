@@ -22,7 +22,8 @@ PACKAGE = SRC / "ftnav"
 #: Lowest first.  A part imports only parts of lower layers (same-layer parts are
 #: independent of each other).
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("__init__", "types", "parallel", "scenarios", "recordings"),
+    ("parallel",),  # standard library only; ``import ftnav`` uses it in a starting worker
+    ("__init__", "types", "scenarios", "recordings"),
     ("core",),
     ("nav",),
     ("model",),
