@@ -16,17 +16,23 @@ import re
 import stat
 import tomllib
 import types
+import unicodedata
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal, Union, get_args, get_origin
 
+import numpy as np
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, Tag, ValidationError
+from pydantic.types import AllowInfNan
 from pydantic_core import PydanticCustomError
 
 __all__ = [
     "ScenarioError",
     "STRICT",
+    "FileName",
     "Matrix",
+    "covariance_problem",
+    "file_name_problem",
     "Name",
     "Vector",
     "fail",
@@ -307,9 +313,96 @@ def _name(text: str) -> str:
     return text
 
 
-Vector = Annotated[list[float], AfterValidator(_finite_vector)]
-Matrix = Annotated[list[list[float]], AfterValidator(_finite_matrix)]
+#: Longest name that becomes part of a file name (UTF-8 bytes): a method's and an aid's
+#: names together make ``vb_noise_<method>_<aid>.png``, within the 255 bytes of a name.
+MAX_FILE_NAME_BYTES = 100
+
+
+def file_name_problem(text: str) -> str | None:
+    """Why ``text`` cannot be (part of) a file name on every system, or None.
+
+    Refused: an empty or blank name, ``/`` and ``\\`` (folder separators), NUL and other
+    control characters, a leading ``.`` (hidden, or ``.``/``..``: a name of only dots),
+    leading or trailing spaces, more than :data:`MAX_FILE_NAME_BYTES` bytes.
+    """
+    if not text.strip():
+        return "must be a non-empty name"
+    bad = sorted(
+        {c for c in text if c in "/\\" or unicodedata.category(c) in ("Cc", "Cf", "Zl", "Zp")}
+    )
+    if bad:
+        shown = ", ".join(repr(c) for c in bad)
+        return f"must be usable as a file name (it contains {shown})"
+    if text.startswith("."):
+        return "must be usable as a file name (it starts with '.')"
+    if text != text.strip():
+        return "must be usable as a file name (leading or trailing spaces)"
+    if len(text.encode("utf-8")) > MAX_FILE_NAME_BYTES:
+        return f"must be usable as a file name (at most {MAX_FILE_NAME_BYTES} bytes)"
+    return None
+
+
+def _file_name(text: str) -> str:
+    problem = file_name_problem(text)
+    if problem is not None:
+        raise fail(problem)
+    return text
+
+
+_Float = Annotated[float, AllowInfNan(True)]  # NaN/inf refused for the whole field, below
+Vector = Annotated[list[_Float], AfterValidator(_finite_vector)]
+Matrix = Annotated[list[list[_Float]], AfterValidator(_finite_matrix)]
 Name = Annotated[str, AfterValidator(_name)]
+#: a name that becomes part of a file name: scenarios, methods, aids (:func:`file_name_problem`)
+FileName = Annotated[str, AfterValidator(_file_name)]
+
+
+# ---------------------------------------------------------------- plausibility bounds
+
+#: Largest variance of a covariance matrix of a linear scenario (state units²): σ up to
+#: 1e10 state units.  Squares of it, and of the states it drives, stay far from overflow.
+MAX_VARIANCE = 1e20
+#: Smallest nonzero variance (state units²), σ down to 1e-10 state units: below it the
+#: Kalman update loses the covariance to rounding (``P − K H P`` cancels).
+MIN_VARIANCE = 1e-20
+#: Largest condition number (largest / smallest eigenvalue) of a positive definite
+#: covariance: its Cholesky factor keeps 4 significant digits in float64.
+MAX_CONDITION = 1e12
+#: Largest size of a fault offset of a linear scenario (state units), as for σ.
+MAX_OFFSET = 1e10
+#: Largest noise-scale factor of a fault: the variance grows by its square (1e12).
+MAX_NOISE_FACTOR = 1e6
+
+
+def covariance_problem(a: np.ndarray, definite: bool) -> str | None:
+    """Why the symmetric matrix ``a`` is not a plausible covariance, or None.
+
+    Every diagonal entry (variance) is at most :data:`MAX_VARIANCE`, and a nonzero one at
+    least :data:`MIN_VARIANCE`; a positive definite one (``definite``) has a condition
+    number of at most :data:`MAX_CONDITION`.
+    """
+    d = np.diagonal(a)
+    if d.size and float(d.max()) > MAX_VARIANCE:
+        i = int(np.argmax(d))
+        return (
+            f"variance [{i}][{i}] = {d[i]:.3g} is implausibly large "
+            f"(at most {MAX_VARIANCE:g}: σ up to {MAX_VARIANCE**0.5:g} state units)"
+        )
+    small = (d > 0) & (d < MIN_VARIANCE)
+    if small.any():
+        i = int(np.argmax(small))
+        return (
+            f"variance [{i}][{i}] = {d[i]:.3g} is implausibly small "
+            f"(at least {MIN_VARIANCE:g}, or 0 where allowed: the filters lose it to rounding)"
+        )
+    if definite and a.size:
+        eig = np.linalg.eigvalsh(a)
+        if eig[0] * MAX_CONDITION < eig[-1]:
+            return (
+                f"ill-conditioned (eigenvalues {eig[0]:.3g} to {eig[-1]:.3g}, condition "
+                f"number above {MAX_CONDITION:g}: the filters lose it to rounding)"
+            )
+    return None
 
 
 def number(description: str, **bounds: float) -> Any:
@@ -317,7 +410,8 @@ def number(description: str, **bounds: float) -> Any:
     return Field(description=description, allow_inf_nan=False, **bounds)
 
 
-STRICT = ConfigDict(extra="forbid", strict=True)
+#: strict types, no unknown key, no NaN or inf in any float field
+STRICT = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False)
 
 
 #: Largest input file ftnav reads (bytes): a TOML file, a model file, a log.  A
@@ -338,7 +432,7 @@ def read_input(path: Path, what: str, limit: int = MAX_INPUT_BYTES) -> bytes:
     ``what`` (e.g. ``"imu"``).
     """
     name = str(path)
-    w = f"{w}" if what else ""
+    w = f"{what}: " if what else ""
     try:
         st = os.stat(path)
     except FileNotFoundError:
@@ -359,9 +453,7 @@ def read_input(path: Path, what: str, limit: int = MAX_INPUT_BYTES) -> bytes:
         )
         raise ScenarioError(name, f"{w}is {kind}, not a regular file", name)
     if st.st_size > limit:
-        raise ScenarioError(
-            name, f"{w}{st.st_size} bytes, more than the {limit} ftnav reads", name
-        )
+        raise ScenarioError(name, f"{w}{st.st_size} bytes, more than the {limit} ftnav reads", name)
     try:
         with open(path, "rb") as fh:
             raw = fh.read(limit + 1)
@@ -395,7 +487,9 @@ def read_toml(source: str | Path) -> dict[str, Any]:
     except UnicodeDecodeError as exc:
         raise ScenarioError(name, f"not valid UTF-8 text (byte {exc.start})", name) from None
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
+    except RecursionError:
+        raise ScenarioError(name, _TOO_DEEP, name) from None
     except tomllib.TOMLDecodeError as exc:
         msg = one_line(str(exc))
         where = re.fullmatch(r"(.*?)\s*\(at line (\d+), column (\d+)\)", msg)
@@ -404,6 +498,31 @@ def read_toml(source: str | Path) -> dict[str, Any]:
         else:
             reason = f"TOML syntax error: {msg}"
         raise ScenarioError(name, reason, name) from None
+    if _depth(data) > MAX_TOML_DEPTH:
+        raise ScenarioError(name, _TOO_DEEP, name)
+    return data
+
+
+#: Deepest nesting of arrays and tables in a TOML file ftnav reads: its formats need 5
+#: (``methods[i].detector`` of a table, a matrix in a table of an array).
+MAX_TOML_DEPTH = 32
+_TOO_DEEP = f"nested more than {MAX_TOML_DEPTH} levels (arrays and tables): not an ftnav file"
+
+
+def _depth(value: Any) -> int:
+    """Nesting depth of arrays and tables, without recursion."""
+    deepest, stack = 0, [(value, 0)]
+    while stack:
+        item, level = stack.pop()
+        if isinstance(item, dict):
+            item = list(item.values())
+        elif not isinstance(item, list):
+            continue
+        deepest = max(deepest, level + 1)
+        if deepest > MAX_TOML_DEPTH:
+            return deepest
+        stack.extend((v, level + 1) for v in item)
+    return deepest
 
 
 def unique(names: Sequence[str], what: str, *path: str | int) -> None:

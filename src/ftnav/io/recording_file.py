@@ -23,6 +23,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from ftnav.eval.resources import available_memory_bytes, format_bytes
 from ftnav.fusion.config import config_error
 from ftnav.io.common import STRICT, ScenarioError, read_toml, to_scenario_error
 from ftnav.io.ins_scenario_file import (
@@ -35,6 +36,7 @@ from ftnav.io.ins_scenario_file import (
 )
 from ftnav.io.recording_readers import (
     NavegoImu,
+    check_position,
     read_csv,
     read_navego_gnss,
     read_navego_imu,
@@ -50,6 +52,7 @@ from ftnav.io.sections import (
 from ftnav.model.imu import ImuErrors
 from ftnav.model.scenario import AidSpec, Fault, Recording
 from ftnav.nav.attitude import euler_to_dcm
+from ftnav.nav.earth import gravity
 from ftnav.nav.units import parse_quantity
 from ftnav.recorded.imu import (
     ImuCleaning,
@@ -58,6 +61,14 @@ from ftnav.recorded.imu import (
     clean,
     noise_density,
     stationary,
+)
+from ftnav.recorded.plausibility import (
+    Verdict,
+    course_rate_gain,
+    gyro_gain_verdict,
+    holds,
+    specific_force_verdict,
+    static_rate_verdict,
 )
 from ftnav.recorded.stream import (
     Alignment,
@@ -271,6 +282,24 @@ class RecordingFile(BaseModel):
     methods: list[MethodConfig] = Field(min_length=1)
 
     @model_validator(mode="after")
+    def _unique_aid_names(self) -> RecordingFile:
+        """Aids are told apart by name (``--aids``, ``--fault``, the outputs); an aid
+        without ``name`` is named by its type."""
+        seen: dict[str, int] = {}
+        for i, a in enumerate(self.aids):
+            name = a.name or a.type
+            if name in seen:
+                raise config_error(
+                    f"duplicate aid name {name!r} (aids[{seen[name]}] has it; an aid without "
+                    "a name is named by its type)",
+                    "aids",
+                    i,
+                    "name",
+                )
+            seen[name] = i
+        return self
+
+    @model_validator(mode="after")
     def _detectors_for_real_noise(self) -> RecordingFile:
         """The detectors that cannot hold their false-alarm rate on real noise are
         refused for recordings (issue 20; measured on the vendored drive): a windowed
@@ -411,6 +440,32 @@ def _mounting(f: ImuFile, origin: str) -> np.ndarray:
     return euler_to_dcm(np.radians(f.misalignment_deg)) @ M
 
 
+#: the largest rate (rad/s, 5 730 °/s) and specific force (m/s², 102 g) a recording may
+#: hold, per axis: beyond the range of navigation IMUs (MEMS ±2 000 °/s and ±16 g,
+#: tactical ±50 g), so a larger value is a corrupt field or a unit slip
+GYRO_MAX_RAD_S, ACCEL_MAX_M_S2 = 100.0, 1000.0
+
+
+def _imu_range(gyro: np.ndarray, accel: np.ndarray, where: Any, origin: str) -> None:
+    """Refuse the first sample beyond :data:`GYRO_MAX_RAD_S` or :data:`ACCEL_MAX_M_S2`;
+    ``where(row, kind)`` is ``(path, what)`` of that sample."""
+    for kind, a, bound, unit in (
+        ("gyro", gyro, GYRO_MAX_RAD_S, "rad/s"),
+        ("accel", accel, ACCEL_MAX_M_S2, "m/s²"),
+    ):
+        big = np.abs(a).max(1)  # NaN: an increment over no time, dropped by the cleaning
+        bad = np.flatnonzero(big > bound)
+        if bad.size:
+            r = int(bad[0])
+            path, what = where(r, kind)
+            raise ScenarioError(
+                path,
+                f"{what}: {big[r]:.3g} {unit} after the unit, beyond the ±{bound:g} {unit} of "
+                "any navigation IMU (a corrupt value or a unit slip?)",
+                origin,
+            )
+
+
 def _cleaned(
     t: np.ndarray, gyro: np.ndarray, accel: np.ndarray, where: Any, origin: str
 ) -> tuple[ImuLog, ImuCleaning]:
@@ -432,6 +487,13 @@ def _read_navego_imu(
             raise ScenarioError(f"imu.{key}", "a setting of format 'csv', not 'navego-mat'", origin)
     path = _data_path(f.file, base, "imu.file", origin)
     nav = read_navego_imu(path, "imu.file")
+    field = {"gyro": "wb", "accel": "fb"}
+    _imu_range(
+        nav.gyro,
+        nav.accel,
+        lambda row, kind: (str(path), f"field {field[kind]}: sample {row + 1}"),
+        origin,
+    )
     M = _mounting(f, origin)
     log, info = _cleaned(
         nav.t + f.time_offset_s,
@@ -479,6 +541,16 @@ def _read_imu(
         dt = np.where(dt > 0, dt, np.nan)
         gyro = gyro / dt[:, None] if g_fam == "angle" else gyro
         accel = accel / dt[:, None] if a_fam == "velocity" else accel
+    names = {"gyro": f.gyro.columns, "accel": f.accel.columns}
+    _imu_range(
+        gyro,
+        accel,
+        lambda row, kind: (
+            f"{path}:{table.lines[row]}",
+            f"columns {', '.join(str(c) for c in names[kind])}",
+        ),
+        origin,
+    )
     log, info = _cleaned(
         t,
         gyro,
@@ -517,11 +589,13 @@ def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog
     lon, lon_fac = columns("lon", 1, ("angle",))
     h, h_fac = columns("height", 1, ("length",))
     p = np.concatenate([lat * lat_fac, lon * lon_fac, h * h_fac], 1)
-    if np.any(np.abs(p[:, 0]) > math.pi / 2):
-        r = int(np.flatnonzero(np.abs(p[:, 0]) > math.pi / 2)[0])
-        raise ScenarioError(
-            f"{path}:{table.lines[r]}", f"column {a.lat.columns[0]}: latitude beyond ±90 deg"
-        )
+    column = {k: getattr(a, k).columns[0] for k in ("lat", "lon", "height")}
+    check_position(
+        np.degrees(p[:, 0]),
+        np.degrees(p[:, 1]),
+        p[:, 2],
+        lambda r, k: (f"{path}:{table.lines[r]}", f"column {column[k]}"),
+    )
     v = np.full((t.shape[0], 3), np.nan)
     if a.velocity is not None:
         raw, fac = columns("velocity", 3, ("velocity",))
@@ -623,12 +697,111 @@ def _gnss_log(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLog
 
 _ZUPT_ONLY = ("window_s", "accel_std_mps2", "gyro_std_dps")
 
+#: an antenna farther from the IMU than this is warned about (m: a car, a truck's cab)
+LEVER_ARM_WARN_M = 10.0
+#: and refused beyond this (m: longer than any vehicle; a lever arm in mm?)
+LEVER_ARM_MAX_M = 100.0
+#: a GNSS σ (m, m/s) beyond these aids nothing (a unit slip or a placeholder)
+POS_SIGMA_MAX_M, VEL_SIGMA_MAX_M_S = 1e4, 100.0
+#: a .pos whose median σ exceeds the assumed default by this factor is warned about
+SIGMA_DEFAULT_WARN = 4.0
+
+
+def _gnss_checks(
+    a: AidTable,
+    sensor: Any,
+    params: dict[str, Any],
+    from_file: dict[str, Any],
+    sel: GnssLog,
+    field: str,
+    origin: str,
+) -> list[str]:
+    """The GNSS aid's lever arm and σ: refused when impossible, a one-line warning each
+    when suspicious.  A CSV or NaveGo file without its σ needs them in the recording:
+    no receiver's σ can be assumed (an RTK fix is 1 cm, a single point 5 m)."""
+    notes = []
+    arm = float(np.linalg.norm(sensor.lever_arm_m))
+    if arm > LEVER_ARM_MAX_M:
+        raise ScenarioError(
+            f"{field}.lever_arm_m",
+            f"the antenna {arm:.3g} m from the IMU: more than the {LEVER_ARM_MAX_M:g} m of "
+            "any vehicle (metres, body frame right, forward, up)",
+            origin,
+        )
+    if arm > LEVER_ARM_WARN_M:
+        notes.append(
+            f"{origin}: {field}.lever_arm_m: the antenna is {arm:.3g} m from the IMU, more "
+            f"than {LEVER_ARM_WARN_M:g} m (metres, body frame right, forward, up)"
+        )
+    given = set(params)
+    for kind, rows, bound, unit in (
+        ("pos", slice(0, 3), POS_SIGMA_MAX_M, "m"),
+        ("vel", slice(3, 6), VEL_SIGMA_MAX_M_S, "m/s"),
+    ):
+        white = "pos_white_sigma_m" if kind == "pos" else "vel_white_sigma_m_s"
+        override = "pos_sigma_m" if kind == "pos" else "vel_sigma_m_s"
+        names = [c for c in sensor.components if c.startswith(kind)]
+        if not names:
+            continue
+        key = override if override in given else white
+        var = np.diag(sensor.R)[[sensor.components.index(c) for c in names]]
+        if np.any(var <= 0):
+            raise ScenarioError(
+                f"{field}.{key}",
+                f"σ 0 ({', '.join(n for n, v in zip(names, var, strict=True) if v <= 0)}) "
+                "makes the filter take the fixes as exact: give the receiver's σ (> 0)",
+                origin,
+            )
+        if np.sqrt(var.max()) > bound:
+            raise ScenarioError(
+                f"{field}.{key}",
+                f"σ {np.sqrt(var.max()):.3g} {unit}: beyond {bound:g} {unit} a fix aids "
+                "nothing (is the unit right?)",
+                origin,
+            )
+        explicit = given & {white, override, white.replace("white", "markov")}
+        if explicit or white in from_file:
+            continue
+        if a.format != "rtklib-pos":
+            if kind == "vel" and not np.isfinite(sel.v).any():
+                continue  # no velocity in the file: the rows count as missing
+            source = "sigma columns" if a.format == "csv" else ("std" if kind == "pos" else "stdv")
+            raise ScenarioError(
+                f"{field}.{white}",
+                f"missing: the file has no {kind}ition σ ({source}) and no receiver's σ can "
+                f"be assumed (an RTK fix: 0.01-0.05 m, a single point: 5 m); set {white}"
+                if kind == "pos"
+                else f"missing: the file has no velocity σ ({source}) and no receiver's σ "
+                f"can be assumed; set {white}",
+                origin,
+            )
+        sig = sel.sigma[:, rows] if sel.sigma is not None else np.full((0, 3), np.nan)
+        sig = sig[np.isfinite(sig) & (sig > 0)]
+        default = _GNSS_DEFAULTS[white]
+        if sig.size and float(np.median(sig)) > SIGMA_DEFAULT_WARN * default:
+            notes.append(
+                f"{origin}: {field}.{white}: not set, the filter assumes {default:g} {unit} "
+                f"(an RTK fix) while the file's σ are {float(np.median(sig)):.3g} {unit} "
+                f"(median): set {white}"
+            )
+    return notes
+
+
+#: ``filter.imu_rate_hz`` at most this many times the log's own rate
+IMU_RATE_MAX_FACTOR = 10.0
+#: bytes per IMU increment of the stream while it is built (the grid, the cumulative
+#: integrals interpolated onto it and their differences, the stream's Δθ and Δv)
+_BYTES_PER_INCREMENT = 256
+
 
 def _grid(
-    gnss: GnssLog, imu: ImuLog, start: float, f: RecordingFile
+    gnss: GnssLog, imu: ImuLog, start: float, f: RecordingFile, origin: str = ""
 ) -> tuple[float, int, int, int]:
     """Filter period (the GNSS period split into ``sub`` epochs to reach ``rate_hz``),
-    epochs, IMU increments per epoch (even, for the two-sample algorithm), ``sub``."""
+    epochs, IMU increments per epoch (even, for the two-sample algorithm), ``sub``.
+
+    Refused: an ``imu_rate_hz`` above :data:`IMU_RATE_MAX_FACTOR` times the log's, and
+    increments that would not fit in the memory available."""
     period = float(np.round(np.median(np.diff(np.sort(gnss.t))), 3))
     sub = max(1, math.ceil(period * f.filter.rate_hz - 1e-9))
     dt = period / sub
@@ -638,9 +811,49 @@ def _grid(
     steps = int(math.floor((t_end - start) / dt + 1e-9))
     if steps < 2:
         raise ScenarioError("filter.duration_s", f"{steps} filter epoch(s) after the alignment")
-    rate = f.filter.imu_rate_hz or 1.0 / float(np.median(np.diff(imu.t)))
+    own = 1.0 / float(np.median(np.diff(imu.t)))
+    rate = f.filter.imu_rate_hz or own
+    if rate > IMU_RATE_MAX_FACTOR * own:
+        raise ScenarioError(
+            "filter.imu_rate_hz",
+            f"{rate:g} Hz is more than {IMU_RATE_MAX_FACTOR:g} times the log's {own:.4g} Hz: "
+            "integration steps finer than the samples add nothing",
+            origin,
+        )
     spe = int(math.ceil(dt * rate - 1e-6))
-    return dt, steps, spe + (spe % 2), sub
+    spe += spe % 2
+    need = steps * spe * _BYTES_PER_INCREMENT
+    avail = available_memory_bytes()
+    if avail is not None and need > avail:
+        raise ScenarioError(
+            "filter.imu_rate_hz",
+            f"{steps * spe} IMU increments need about {format_bytes(need)}, more than the "
+            f"{format_bytes(avail)} available (a lower imu_rate_hz or filter.duration_s)",
+            origin,
+        )
+    return dt, steps, spe, sub
+
+
+def _outages(
+    outage: tuple[float, float, float], start: float, last: float
+) -> list[tuple[float, float]]:
+    """The outage schedule (:func:`ftnav.recorded.stream.outage_schedule`, s after the
+    first GNSS epoch) without the outages that end before the filter starts at ``start``;
+    refused when none is left."""
+    length, every, first = outage
+    try:
+        sched = outage_schedule(length, every, first, last=last)
+    except ValueError as exc:
+        raise ScenarioError("--outage-length", str(exc).partition(": ")[2] or str(exc)) from None
+    sched = [(s, e) for s, e in sched if e > start]
+    if not sched:
+        raise ScenarioError(
+            "--outage-start",
+            f"no outage of {length:g} s every {every:g} s from {first:g} s fits in the "
+            f"processed span [{start:.1f}, {last:.1f}] s (s after the first GNSS epoch; "
+            "every outage ends 30 s before the span's end)",
+        )
+    return sched
 
 
 def _initial_sigma(
@@ -780,12 +993,15 @@ def _aids(
     log: ImuLog,
     grid: tuple[float, float, int, int],
     faults: Sequence[Fault],
-) -> tuple[list[AidSpec], list[tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, Any]]:
+) -> tuple[
+    list[AidSpec], list[tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, Any], list[str]
+]:
     """Every aid's sensor model and its epochs on the filter grid (outages are cut from the
-    stream afterwards, :func:`ftnav.recorded.stream.with_outages`)."""
+    stream afterwards, :func:`ftnav.recorded.stream.with_outages`), and the warnings about
+    them (:func:`_gnss_checks`)."""
     t0, dt, steps, sub = grid
     times = t0 + dt * np.arange(1, steps + 1)
-    specs, streams, counts = [], [], {}
+    specs, streams, counts, notes = [], [], {}, []
     for i, a in enumerate(f.aids):
         name, field = a.name or a.type, f"aids[{i}]"
         params = {k: v for k, v in (a.model_extra or {}).items() if k not in _NOT_SENSOR}
@@ -799,6 +1015,7 @@ def _aids(
                 origin,
                 dt=dt,
             )
+            notes += _gnss_checks(a, sensor, params, from_file, sel, field, origin)
             raw, labels = gnss_raw(sel, faults, name)
             if sensor.per_epoch_sigma:  # the file's σ after the values (sensors.gnss)
                 # a missing σ is 0: the row keeps the sensor's R (NaN would mean "no epoch")
@@ -834,7 +1051,7 @@ def _aids(
                 counts[name] = {"stationary_epochs": int(index.size)}
             streams.append((index, np.zeros((index.size, sensor.dim)), np.zeros(index.size, bool)))
         specs.append(AidSpec(sensor))
-    return specs, streams, counts
+    return specs, streams, counts, notes
 
 
 def _validated(source: str | Path) -> RecordingFile:
@@ -865,6 +1082,130 @@ def _keep_aids(f: RecordingFile, aids: Sequence[str] | None) -> RecordingFile:
     return f.model_copy(update={"aids": [a for a in f.aids if (a.name or a.type) in aids]})
 
 
+#: the largest datasheet value of each IMU error (SI: rad/s, rad/√s, m/s², m/s/√s, ratio,
+#: rad), ten to a hundred times the worst navigation MEMS: a larger one is a unit slip
+#: or a placeholder, and makes the filter's covariance meaningless
+IMU_ERROR_MAX = {
+    "gyro_bias": (1.0, "rad/s", "57 deg/s"),
+    "gyro_bias_sd": (1.0, "rad/s", "57 deg/s"),
+    "gyro_markov_sd": (1.0, "rad/s", "57 deg/s"),
+    "gyro_arw": (0.1, "rad/sqrt(s)", "5.7 deg/s/sqrt(Hz)"),
+    "gyro_scale_sd": (0.5, "", "50 %"),
+    "gyro_misalignment_sd": (0.5, "rad", "29 deg"),
+    "accel_bias": (10.0, "m/s^2", "1 g"),
+    "accel_bias_sd": (10.0, "m/s^2", "1 g"),
+    "accel_markov_sd": (10.0, "m/s^2", "1 g"),
+    "accel_vrw": (1.0, "m/s/sqrt(s)", "100 mg/sqrt(Hz)"),
+    "accel_scale_sd": (0.5, "", "50 %"),
+    "accel_misalignment_sd": (0.5, "rad", "29 deg"),
+}
+
+
+def _check_imu_errors(err: ImuErrors, origin: str) -> None:
+    """Refuse a datasheet value beyond :data:`IMU_ERROR_MAX` naming its key."""
+    for key, (bound, unit, text) in IMU_ERROR_MAX.items():
+        value = float(np.max(np.abs(np.asarray(getattr(err, key), float))))
+        if value > bound:
+            raise ScenarioError(
+                f"imu.errors.{key}",
+                f"{value:.3g} {unit}, beyond the {bound:g} {unit} ({text}) that no navigation "
+                "IMU reaches (a unit slip?)".replace(" ,", ","),
+                origin,
+            )
+
+
+def _check_gnss_epochs(gnss: GnssLog, log: ImuLog, first: int, origin: str) -> None:
+    """The primary GNSS has a period (the filter's, :func:`_grid`: two epochs at distinct
+    times at least, and most epochs not repeating a stamp), and its log overlaps the
+    IMU's."""
+    distinct = np.unique(gnss.t)
+    if distinct.size < 2:
+        raise ScenarioError(
+            f"aids[{first}].file",
+            f"{distinct.size} distinct epoch time(s): the primary GNSS's period is the "
+            "filter's, which needs two epochs at least",
+            origin,
+        )
+    if not np.round(np.median(np.diff(np.sort(gnss.t))), 3) > 0:
+        raise ScenarioError(
+            f"aids[{first}].file",
+            "the median time between GNSS epochs rounds to 0 ms (most epochs repeat a "
+            "time stamp): the filter's period cannot come from it",
+            origin,
+        )
+    a, b, c, d = float(log.t[0]), float(log.t[-1]), float(distinct[0]), float(distinct[-1])
+    if min(b, d) <= max(a, c):
+        raise ScenarioError(
+            "imu/gnss",
+            f"the logs do not overlap: IMU [{a:.3f}, {b:.3f}] s, GNSS [{c:.3f}, {d:.3f}] s "
+            "(one time base? imu.time_offset_s and the aid's time_offset_s shift them)",
+            origin,
+        )
+
+
+def _unit_factors(f: ImuFile, origin: str) -> tuple[float, float]:
+    """The declared gyro unit in rad/s and accelerometer unit in m/s², 0 for increments
+    (NaveGo: SI by format)."""
+    if f.format == "navego-mat" or f.gyro is None or f.accel is None:
+        return 1.0, 1.0
+    g_fac, g_fam = _factor(f.gyro.unit, ("angular_rate", "angle"), "imu.gyro.unit", origin)
+    a_fac, a_fam = _factor(f.accel.unit, ("acceleration", "velocity"), "imu.accel.unit", origin)
+    return (g_fac if g_fam == "angular_rate" else 0.0), (a_fac if a_fam == "acceleration" else 0.0)
+
+
+def _plausible_imu(
+    f: RecordingFile, log: ImuLog, gnss: GnssLog, imu_err: ImuErrors, origin: str
+) -> list[str]:
+    """The IMU's units against gravity and the GNSS course (:mod:`ftnav.recorded.
+    plausibility`): a refusal raised, the warnings returned (one line each)."""
+    g_fac, a_fac = _unit_factors(f.imu, origin)
+    csv = f.imu.format == "csv"
+    a = f.alignment
+    g = float(gravity(float(gnss.p[0, 0]), float(gnss.p[0, 2])))
+    accel_sd = float(
+        np.max(np.hypot(np.asarray(imu_err.accel_bias_sd), np.asarray(imu_err.accel_markov_sd)))
+    )
+    static = a.mode == "static"
+    w = log.t < log.t[0] + a.static_s if static else np.ones(log.t.size, bool)
+    checks: list[tuple[str, Verdict]] = []
+    if static and w.sum() >= 10:
+        f_norm = float(np.linalg.norm(log.accel[w].mean(0)))
+        where = f"over the static {a.static_s:g} s"
+    else:
+        f_norm = float(np.median(np.linalg.norm(log.accel, axis=1)))
+        where = "(median over the log)"
+    path = "imu.accel.unit" if csv else "imu.file"
+    checks.append((path, specific_force_verdict(f_norm, g, a_fac, accel_sd, where)))
+    path = "imu.gyro.unit" if csv else "imu.file"
+    fit = course_rate_gain(log, gnss.t, gnss.v, a.min_speed_mps)
+    course = gyro_gain_verdict(fit, g_fac)
+    if static and w.sum() >= 10:
+        bias = np.hypot(np.asarray(imu_err.gyro_bias_sd), np.asarray(imu_err.gyro_markov_sd))
+        w_norm = float(np.linalg.norm(log.gyro[w].mean(0)))
+        bias3 = float(np.linalg.norm(np.broadcast_to(bias, (3,))))
+        v = static_rate_verdict(w_norm, g_fac, bias3, a.static_s)
+        if v.level == "refusal" and fit is not None and holds(fit) and 0.5 <= fit.k <= 2.0:
+            # the GNSS course confirms the unit: the window is not still
+            path, v = (
+                "alignment.static_s",
+                Verdict(
+                    "refusal",
+                    f"the IMU turns over the static {a.static_s:g} s (mean rate {w_norm:.3g} "
+                    "rad/s, the unit confirmed by the GNSS course): the window must be still",
+                ),
+            )
+        checks.append((path, v))
+        path = "imu.gyro.unit" if csv else "imu.file"
+    checks.append((path, course))
+    notes = []
+    for field, v in checks:
+        if v.level == "refusal":
+            raise ScenarioError(field, v.reason, origin)
+        if v.level == "warning":
+            notes.append(f"{origin}: {field}: {v.reason}")
+    return notes
+
+
 def load_recording(
     source: str | Path,
     *,
@@ -892,23 +1233,27 @@ def load_recording(
     origin, base = str(source), Path(source).parent
     f = _keep_aids(_validated(source), aids)
     imu_err = imu_errors(f.imu.errors, "imu.errors", origin)
+    _check_imu_errors(imu_err, origin)
     log, cleaning, partial, nav = _read_imu(f.imu, base, origin)
     first = next((i for i, a in enumerate(f.aids) if a.type == "gnss"), None)
     if first is None:
         raise ScenarioError("aids", "a recording needs a gnss aid (its epochs are the filter's)")
     gnss_all, gnss_defaults = _gnss_log(f.aids[first], base, f"aids[{first}]", origin)
+    _check_gnss_epochs(gnss_all, log, first, origin)
     gnss = _select(gnss_all, np.isin(gnss_all.quality, f.aids[first].quality))
+    imu_notes = _plausible_imu(f, log, gnss_all, imu_err, origin)
     al, attitude_sigma = _start(f, log, gnss, nav, origin, imu_err)
     imu_err, noise_note, noise_warning = _static_noise(f, log, imu_err, origin)
     raw_log = log
     log = log._replace(gyro=log.gyro - al.gyro_bias)
-    dt, steps, spe, sub = _grid(gnss_all, log, al.t, f)
+    dt, steps, spe, sub = _grid(gnss_all, log, al.t, f, origin)
     t_origin = float(gnss_all.t.min())
     sched: list[tuple[float, float]] = []
     if outage is not None:
         # the last GNSS epoch processed (filter.duration_s may end the run before the log)
         last = min(float(gnss_all.t.max()), al.t + steps * dt) - t_origin
-        sched = [(s + t_origin, e + t_origin) for s, e in outage_schedule(*outage, last=last)]
+        sched = _outages(outage, al.t - t_origin, last)
+        sched = [(s + t_origin, e + t_origin) for s, e in sched]
     chosen = list(f.methods)
     if methods is not None:
         known = [m.name for m in chosen]
@@ -916,7 +1261,7 @@ def load_recording(
             if nm not in known:
                 raise ScenarioError("--methods", f"no method {nm!r} (known: {', '.join(known)})")
         chosen = [m for m in chosen if m.name in methods]
-    specs, streams, counts = _aids(
+    specs, streams, counts, aid_notes = _aids(
         f, base, origin, (first, gnss_all, gnss_defaults), log, (al.t, dt, steps, sub), faults
     )
     fm = filter_model(imu_err, f.filter.states)
@@ -988,7 +1333,8 @@ def load_recording(
     if noise_note is not None:
         counts["imu"]["static_noise"] = noise_note
     outages_rel = tuple(tuple(g) for g in runs)
-    notes = () if noise_warning is None else (noise_warning,)
+    notes = tuple(imu_notes) + tuple(aid_notes)
+    notes += () if noise_warning is None else (noise_warning,)
     if warn:  # once everything is valid: a refusal comes alone
         for note in notes:
             warnings.warn(note, ScenarioWarning, stacklevel=2)

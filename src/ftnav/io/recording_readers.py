@@ -6,14 +6,22 @@ and counted:
 
 * a first or last line with fewer fields than the others (a log cut mid-line) is
   dropped and counted; such a line anywhere else is refused;
-* a field that is not a number is refused with its line and column name;
+* a field that is not a number (Python's ``float`` would take ``1_0`` as 10: an
+  underscore is refused), NaN or infinite is refused with its line and column name;
+* a ``.pos`` file is held to the CSV reader's rules: σ ≥ 0, ``Q`` an integer flag 1-6,
+  ``ns`` an integer ≥ 0; latitude within ±90°, longitude within ±180° and height
+  within [:data:`HEIGHT_MIN_M`, :data:`HEIGHT_MAX_M`] in every GNSS reader
+  (:func:`check_position`);
+* a FIFO, a device, a folder or a file above the input limit is refused before it is
+  read (:func:`ftnav.io.common.read_input`); a UTF-8 byte-order mark is dropped;
 * IMU time stamps that go backwards are refused; repeated stamps and stale rows are
   dropped later and counted (:func:`ftnav.recorded.imu.clean`);
 * ``.pos`` epochs out of order or duplicated are sorted or dropped and counted
   (:func:`ftnav.recorded.stream.on_grid`);
 * a NaveGo ``.mat`` struct (:func:`read_navego_imu`, :func:`read_navego_gnss`,
   :func:`read_navego_truth`) missing a field, with a field of the wrong shape or with
-  a non-finite value is refused with one line ``<file>: field <name>: <what>``.
+  a non-finite value is refused with one line ``<file>: field <name>: <what>``; a
+  MATLAB v7.3 (HDF5) file is refused (``scipy`` reads v5: save with ``-v7``).
 
 NaveGo's frames (R. Gonzalez et al., "NaveGo", JCEAI 17(2), 2015): body x forward,
 y right, z down; navigation NED; attitude roll, pitch, yaw (ZYX).  ftnav's
@@ -27,6 +35,8 @@ values and ψ = −yaw (checked against the reference's DCM in
 
 from __future__ import annotations
 
+import io
+import math
 from collections.abc import Sequence
 from datetime import UTC, datetime
 from pathlib import Path
@@ -36,7 +46,7 @@ import numpy as np
 from scipy.io import loadmat
 from scipy.io.matlab import MatReadError
 
-from ftnav.io.common import ScenarioError
+from ftnav.io.common import ScenarioError, read_input, read_text
 from ftnav.nav.attitude import euler_to_dcm
 from ftnav.nav.earth import radii
 
@@ -47,6 +57,7 @@ __all__ = [
     "NavegoTruth",
     "PosFile",
     "Table",
+    "check_position",
     "read_csv",
     "read_navego_gnss",
     "read_navego_imu",
@@ -71,23 +82,56 @@ class Table(NamedTuple):
     dropped_partial: int
 
 
+#: Lowest and highest ellipsoidal height (m) of a GNSS fix: the Dead Sea shore (−430 m)
+#: plus the lowest geoid undulation (−106 m) with a margin; the edge of space (100 km)
+HEIGHT_MIN_M, HEIGHT_MAX_M = -1000.0, 100e3
+
+
 def _lines(path: Path, what: str) -> list[str]:
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ScenarioError(str(path), f"{what}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ScenarioError(str(path), f"{what}: cannot read ({exc})") from None
-    return text.splitlines()
+    return read_text(path, what).splitlines()
 
 
 def _number(text: str, path: Path, line: int, column: str) -> float:
+    """A finite number as written (``float`` also takes ``1_0``, ``nan``, ``inf``)."""
     try:
-        return float(text)
+        if "_" in text:
+            raise ValueError
+        value = float(text)
     except ValueError:
         raise ScenarioError(
             f"{path}:{line}", f"column {column}: not a number ({text.strip()[:30]!r})"
         ) from None
+    if not math.isfinite(value):
+        raise ScenarioError(f"{path}:{line}", f"column {column}: not finite ({text.strip()!r})")
+    return value
+
+
+def check_position(
+    lat_deg: np.ndarray, lon_deg: np.ndarray, height_m: np.ndarray, where: Any
+) -> None:
+    """Refuse the first fix off the Earth: ``|lat| > 90°``, ``|lon| > 180°`` or a height
+    outside [:data:`HEIGHT_MIN_M`, :data:`HEIGHT_MAX_M`]; ``where(row, column)`` names the
+    place (``(path, reason prefix)``)."""
+    for name, a, lo, hi, unit in (
+        ("lat", lat_deg, -90.0, 90.0, "deg"),
+        ("lon", lon_deg, -180.0, 180.0, "deg"),
+        ("height", height_m, HEIGHT_MIN_M, HEIGHT_MAX_M, "m"),
+    ):
+        bad = np.flatnonzero(~((a >= lo) & (a <= hi)))
+        if bad.size:
+            r = int(bad[0])
+            path, column = where(r, name)
+            what = {"lat": "latitude", "lon": "longitude", "height": "height"}[name]
+            raise ScenarioError(
+                path, f"{column}: {what} {a[r]:.6g} {unit} is outside [{lo:g}, {hi:g}] {unit}"
+            )
+
+
+def _first_bad(split: list[tuple[int, list[str]]], names: Sequence[str], path: Path) -> None:
+    """Refuse the first field of ``split`` that is not a number as written."""
+    for n, fields in split:
+        for name, text in zip(names, fields, strict=True):
+            _number(text, path, n, name)
 
 
 def read_csv(path: Path, header: bool, delimiter: str, what: str) -> Table:
@@ -115,12 +159,12 @@ def read_csv(path: Path, header: bool, delimiter: str, what: str) -> Table:
     for n, fields in split:
         if len(fields) != width:
             raise ScenarioError(f"{path}:{n}", f"expected {width} fields, got {len(fields)}")
+    if any("_" in ln for _, ln in rows):  # float() reads 1_0 as 10
+        _first_bad(split, names, path)
     try:
         values = np.array([f for _, f in split], dtype=float)
     except ValueError:  # find the culprit for the message
-        for n, fields in split:
-            for name, text in zip(names, fields, strict=True):
-                _number(text, path, n, name)
+        _first_bad(split, names, path)
         raise
     bad = ~np.isfinite(values)
     if bad.any():
@@ -197,11 +241,46 @@ def read_rtklib_pos(path: Path, what: str = "gnss") -> PosFile:
         if len(fields) < width:
             raise ScenarioError(f"{path}:{n}", f"expected {width} fields, got {len(fields)}")
         t[r] = _pos_time(fields[0], fields[1], path, n)
-        for j, name in enumerate(header[1:]):
-            out[r, j] = _number(fields[j + 2], path, n, name)
+        try:
+            if any("_" in f for f in fields):  # float() reads 1_0 as 10
+                raise ValueError
+            out[r] = [float(f) for f in fields[2:width]]
+        except ValueError:  # find the culprit for the message
+            for j, name in enumerate(header[1:]):
+                _number(fields[j + 2], path, n, name)
+            raise
+    bad = ~np.isfinite(out)
+    if bad.any():
+        r, j = np.argwhere(bad)[0]
+        raise ScenarioError(f"{path}:{data[r][0]}", f"column {header[1 + j]}: not finite")
 
     def c(name: str) -> np.ndarray:
         return out[:, col[name] - 1]
+
+    lines = np.array([n for n, _ in data])
+
+    def refuse(rows: np.ndarray, column: str, reason: str) -> None:
+        if rows.any():
+            r = int(np.flatnonzero(rows)[0])
+            raise ScenarioError(
+                f"{path}:{lines[r]}", f"column {column}: {reason} ({c(column)[r]:g})"
+            )
+
+    for name in (*_POS_REQUIRED[4:], *_POS_VELOCITY_SIGMA):
+        if name in col:
+            refuse(c(name) < 0, name, "a σ must be >= 0")
+    q = c("Q")
+    refuse((q != np.round(q)) | (q < 1) | (q > 6), "Q", "not an RTKLIB solution flag 1-6")
+    if "ns" in col:
+        ns = c("ns")
+        refuse((ns != np.round(ns)) | (ns < 0), "ns", "not a satellite count")
+    names = {"lat": "latitude(deg)", "lon": "longitude(deg)", "height": "height(m)"}
+    check_position(
+        c("latitude(deg)"),
+        c("longitude(deg)"),
+        c("height(m)"),
+        lambda r, name: (f"{path}:{lines[r]}", f"column {names[name]}"),
+    )
 
     v = (
         np.stack([c(n) for n in _POS_VELOCITY], -1)
@@ -221,7 +300,7 @@ def read_rtklib_pos(path: Path, what: str = "gnss") -> PosFile:
         c("Q").astype(int),
         np.stack([c("sdn(m)"), c("sde(m)"), c("sdu(m)")], -1),
         v,
-        np.array([n for n, _ in data]),
+        lines,
         sv,
     )
 
@@ -234,11 +313,14 @@ FRD_TO_RFU = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
 def _mat_struct(path: Path, what: str) -> tuple[Any, str]:
     """The one struct of a MATLAB v5 file (``scipy.io.loadmat``) and its variable name."""
+    raw = read_input(path, what)
+    if raw.startswith(b"MATLAB 7.3") or raw[512:520] == b"\x89HDF\r\n\x1a\n":
+        raise ScenarioError(
+            str(path), f"{what}: MATLAB v7.3 (HDF5) files are not supported: save with -v7"
+        )
     try:
-        data = loadmat(path, squeeze_me=True, struct_as_record=False)
-    except FileNotFoundError:
-        raise ScenarioError(str(path), f"{what}: file not found") from None
-    except (OSError, ValueError, MatReadError) as exc:
+        data = loadmat(io.BytesIO(raw), squeeze_me=True, struct_as_record=False)
+    except (OSError, ValueError, TypeError, EOFError, MatReadError) as exc:
         reason = " ".join(str(exc).split())[:120]
         raise ScenarioError(str(path), f"{what}: not a MATLAB .mat file ({reason})") from None
     names = [k for k in data if not k.startswith("__")]
@@ -368,6 +450,13 @@ def read_navego_gnss(path: Path, what: str = "gnss") -> NavegoGnss:
     cols = {k: _mat_field(s, path, k, (None,)) for k in ("lat", "lon", "h")}
     _same_length(path, t.size, **cols)  # type: ignore[arg-type]
     p = np.stack([cols["lat"], cols["lon"], cols["h"]], -1)
+    field = {"lat": "lat", "lon": "lon", "height": "h"}
+    check_position(
+        np.degrees(p[:, 0]),
+        np.degrees(p[:, 1]),
+        p[:, 2],
+        lambda r, name: (str(path), f"field {field[name]}: sample {r + 1}"),
+    )
     vel = _mat_field(s, path, "vel", (None, 3), required=False)
     if vel is None:
         v = np.full((t.size, 3), np.nan)

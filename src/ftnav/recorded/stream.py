@@ -137,7 +137,9 @@ def align(
     Raises
     ------
     ValueError : ``"alignment.static_s: ..."`` when the window holds fewer than 10 IMU
-        samples; ``"alignment.min_speed_mps: ..."`` when no fix after it moves that fast.
+        samples; ``"alignment.min_speed_mps: ..."`` when no fix after it moves that fast;
+        ``"alignment.heading: ..."`` when the GNSS has no velocity to start from (the
+        start fix's, or any for the course).
     """
     w = imu.t < imu.t[0] + static_s
     if w.sum() < 10:
@@ -149,6 +151,12 @@ def align(
         if after.size == 0:
             raise ValueError("alignment.static_s: no GNSS fix after the static window")
         k = int(after[0])
+        if not np.isfinite(gnss.v[k]).all():
+            raise ValueError(
+                f"alignment.heading: the start fix after the static window (t = "
+                f"{gnss.t[k]:.3f} s) has no velocity: the initial velocity is unknown (give "
+                "the GNSS file's velocity columns)"
+            )
         w_mean = imu.gyro[w].mean(0)
         theta, gamma, psi = gyrocompass(f_mean, w_mean)
         C_bn = euler_to_dcm(np.array([theta, gamma, psi]))
@@ -162,6 +170,11 @@ def align(
             (int(w.sum()), float(np.linalg.norm(f_mean))),
             "gyrocompass",
             float(gyrocompass_sigma_rad),
+        )
+    if not np.isfinite(gnss.v).all(1).any():
+        raise ValueError(
+            "alignment.heading: the GNSS has no velocity: the heading from the GNSS course "
+            "and the initial velocity need it (give the file's velocity columns)"
         )
     speed = np.hypot(gnss.v[:, 0], gnss.v[:, 1])
     moving = np.flatnonzero((gnss.t >= imu.t[0] + static_s) & (speed >= min_speed))
