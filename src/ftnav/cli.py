@@ -46,7 +46,6 @@ import re
 import sys
 import threading
 import time
-import tomllib
 import traceback
 import warnings
 from collections.abc import Iterable, Iterator
@@ -73,7 +72,7 @@ from ftnav.eval.resources import (
     run_memory_bytes,
     trajectory_memory_bytes,
 )
-from ftnav.io.common import ScenarioError
+from ftnav.io.common import ScenarioError, read_toml
 from ftnav.io.learned import save_neuron_model, save_rbf_model
 from ftnav.io.model_file import ModelFileError
 from ftnav.io.output_folder import MANIFEST, Output, OutputRefused
@@ -162,6 +161,28 @@ class _Parser(argparse.ArgumentParser):
         raise _Exit(status)
 
 
+def _out_path(text: str) -> Path:
+    """``--out``: a non-empty path (``Path("")`` would silently be the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must be a path, got an empty string")
+    if "\0" in text:
+        raise argparse.ArgumentTypeError("must not contain a NUL character")
+    return Path(text)
+
+
+def _name_list(text: str | None, option: str) -> list[str] | None:
+    """A comma-separated ``--methods``/``--aids`` list: no empty name, no repeat."""
+    if text is None:
+        return None
+    names = [n.strip() for n in text.split(",")]
+    if not text.strip() or "" in names:
+        raise UsageError(f"{option}: expected comma-separated names, got {text!r}")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise UsageError(f"{option}: {', '.join(map(repr, repeated))} given twice")
+    return names
+
+
 def _at_least(low: int):
     """argparse type: an integer >= ``low`` (argparse names the option in the message)."""
 
@@ -240,7 +261,10 @@ def _parser() -> _Parser:
     r.add_argument("--runs", type=_positive, default=100, help="Monte Carlo runs (default 100)")
     r.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
     r.add_argument(
-        "--out", type=Path, default=None, help="output folder (default results/<scenario name>)"
+        "--out",
+        type=_out_path,
+        default=None,
+        help="output folder (default results/<scenario name>)",
     )
     r.add_argument(
         "--save-estimates",
@@ -258,7 +282,7 @@ def _parser() -> _Parser:
     )
     t = command("trajectory", help="generate a flight's truth and IMU increments")
     t.add_argument("profile", help="built-in profile (seed001, seed002) or a profile TOML path")
-    t.add_argument("--out", type=Path, required=True, help="output folder")
+    t.add_argument("--out", type=_out_path, required=True, help="output folder")
     t.add_argument(
         "--imu", default=None, help="IMU error preset (ideal increments if omitted), e.g. seed001"
     )
@@ -268,7 +292,7 @@ def _parser() -> _Parser:
         "train-detector", help="train the RBF fault detector (paper 000) on a scenario's system"
     )
     d.add_argument("scenario", help="built-in scenario name or a TOML path")
-    d.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
+    d.add_argument("--out", type=_out_path, required=True, help="model file to write (.npz)")
     d.add_argument(
         "--runs", type=_positive, default=8, help="training runs per typical fault (default 8)"
     )
@@ -289,7 +313,7 @@ def _parser() -> _Parser:
         "train-fusion", help="train the neuron fusion centre (paper 001) on a scenario's system"
     )
     f.add_argument("scenario", help="built-in scenario name or a TOML path")
-    f.add_argument("--out", type=Path, required=True, help="model file to write (.npz)")
+    f.add_argument("--out", type=_out_path, required=True, help="model file to write (.npz)")
     f.add_argument(
         "--runs", type=_positive, default=4, help="training runs per typical fault (default 4)"
     )
@@ -322,7 +346,9 @@ def _parser() -> _Parser:
         "recording",
         help=f"a built-in recording ({', '.join(recording_names())}) or a recording file",
     )
-    r.add_argument("--out", type=Path, default=None, help="output folder (default results/NAME)")
+    r.add_argument(
+        "--out", type=_out_path, default=None, help="output folder (default results/NAME)"
+    )
     r.add_argument("--methods", default=None, help="comma-separated method names (default all)")
     r.add_argument("--aids", default=None, help="comma-separated aid names (default all)")
     r.add_argument(
@@ -351,7 +377,7 @@ def _parser() -> _Parser:
     )
     command("list", help="list built-in scenarios and their methods")
     s = command("schema", help="print the JSON schema of scenario files (linear and integrated)")
-    s.add_argument("--out", type=Path, default=None, help="write to a file instead")
+    s.add_argument("--out", type=_out_path, default=None, help="write to a file instead")
     s.add_argument("--recording", action="store_true", help="the schema of recording files instead")
     return p
 
@@ -378,9 +404,8 @@ def _resolve(spec: str, models: bool = True):
 def _is_recording(path: Path) -> bool:
     """Whether ``path`` is a readable TOML file with ``kind = "recording"``."""
     try:
-        with path.open("rb") as fh:
-            return tomllib.load(fh).get("kind") == "recording"
-    except (OSError, ValueError):
+        return read_toml(path).get("kind") == "recording"
+    except ValueError:  # unreadable, special or not TOML: the loader says why
         return False
 
 
@@ -590,6 +615,9 @@ def _integrity_warnings(watches: Iterable[dict[str, Any] | None]) -> None:
 
 
 _RECORDING_FAULTS = ("bias", "ramp", "outage", "stuck")
+#: largest ``--fault`` magnitude (m): a position offset of a GNSS fix beyond it is not a
+#: fault of a receiver on Earth, and squared it overflows the filter's arithmetic
+MAX_FAULT_M = 1e5
 
 
 def _parse_fault(text: str, aids: dict[str, str]) -> Fault:
@@ -618,6 +646,10 @@ def _parse_fault(text: str, aids: dict[str, str]) -> Fault:
         raise UsageError(f"--fault: END must be after START, both finite ({text!r})")
     if kind in ("bias", "ramp") and len(parts) != 5:
         raise UsageError(f"--fault: a {kind} needs a MAGNITUDE in metres ({text!r})")
+    if abs(mag) > MAX_FAULT_M:
+        raise UsageError(
+            f"--fault: MAGNITUDE {mag:g} m is beyond ±{MAX_FAULT_M:g} m, off the Earth ({text!r})"
+        )
     return Fault(sensor, kind, start, end, np.array([0.0, mag, 0.0, 0.0, 0.0, 0.0]))
 
 
@@ -638,10 +670,16 @@ def _cmd_process(args) -> int:
         path = _resolve_recording(args.recording)
         aids = recording_aids(path)
         faults = [_parse_fault(f, aids) for f in args.fault]
-        names = args.methods.split(",") if args.methods else None
-        keep = args.aids.split(",") if args.aids else None
+        names = _name_list(args.methods, "--methods")
+        keep = _name_list(args.aids, "--aids")
         outage = None
         if args.outage_length is not None:
+            if args.outage_length >= args.outage_every:
+                raise UsageError(
+                    f"--outage-length: {args.outage_length:g} s outages every "
+                    f"{args.outage_every:g} s leave no GNSS fix: the length must be shorter "
+                    "than --outage-every"
+                )
             outage = (args.outage_length, args.outage_every, args.outage_start)
         loaded = load_recording(
             path, outage=outage, faults=faults, methods=names, aids=keep, warn=False

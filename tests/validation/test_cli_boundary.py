@@ -1,0 +1,63 @@
+"""Command-line options at the boundary: each bad value is exit 2 and one line naming it.
+
+Oracle: the exit status, the one line on stderr (``ftnav: error: <option>: ...``) and
+an ``--out`` left unwritten.  Each case was once a silent wrong answer or a hang:
+``--out ""`` wrote into the current folder, ``--methods ""`` ran every method,
+``--methods ckf,ckf`` ran one twice, 10 s outages every 5 s never ended, a fault of
+1e300 m overflowed the filter into an internal error, ``/dev/zero`` as a scenario
+was read until the memory ran out.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from ftnav.cli import main
+
+CASES = {
+    "empty out": (["run", "seed000", "--runs", "1", "--out", ""], "--out: must be a path"),
+    "device scenario": (["run", "/dev/zero", "--out", "{out}"], "/dev/zero: is a device"),
+    "empty methods": (
+        ["process", "rtklib-drive", "--methods", "", "--out", "{out}"],
+        "--methods: expected comma-separated names",
+    ),
+    "methods with a hole": (
+        ["process", "rtklib-drive", "--methods", "ckf,,fkf-glr", "--out", "{out}"],
+        "--methods: expected comma-separated names",
+    ),
+    "repeated method": (
+        ["process", "rtklib-drive", "--methods", "ckf,ckf", "--out", "{out}"],
+        "--methods: 'ckf' given twice",
+    ),
+    "empty aids": (
+        ["process", "rtklib-drive", "--aids", "", "--out", "{out}"],
+        "--aids: expected comma-separated names",
+    ),
+    "outages longer than their spacing": (
+        ["process", "rtklib-drive", "--outage-length", "10", "--outage-every", "5"],
+        "--outage-length: 10 s outages every 5 s leave no GNSS fix",
+    ),
+    "huge bias": (
+        ["process", "rtklib-drive", "--fault", "gnss:bias:1752003400:1752003460:1e300"],
+        "--fault: MAGNITUDE 1e+300 m is beyond",
+    ),
+    "huge ramp": (
+        ["process", "rtklib-drive", "--fault", "gnss:ramp:1752003400:1752003460:-1e30"],
+        "--fault: MAGNITUDE -1e+30 m is beyond",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_bad_option_is_one_line_and_exit_2(case, tmp_path, capsys) -> None:
+    argv, message = CASES[case]
+    out = tmp_path / "out"
+    argv = [a.replace("{out}", str(out)) for a in argv]
+    if "--out" not in argv:
+        argv += ["--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("ftnav: error: "), err
+    assert message in err, err
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []
