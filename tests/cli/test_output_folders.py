@@ -281,3 +281,36 @@ def test_single_files_are_kept_by_a_folder_run_into_the_same_folder(inputs, tmp_
     assert manifest["kept"] == ["schema.json"]
     assert (out / "schema.json").is_file()
     capsys.readouterr()
+
+
+def test_a_full_disk_is_a_one_line_refusal_and_the_earlier_result_stays(
+    inputs, tmp_path, monkeypatch, capsys
+):
+    import errno
+
+    import ftnav.cli as cli
+
+    out = tmp_path / "results"
+    argv = ["run", str(inputs["scenario"]), "--runs", "2", "--out", str(out), "--quiet"]
+    assert main(argv) == 0
+    before = _snapshot(out)
+    capsys.readouterr()
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(cli, "write_metrics", full)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err == f"ftnav: error: --out: cannot write {str(out)!r}: No space left on device\n"
+    assert _snapshot(out) == before
+    assert [p.name for p in out.iterdir() if ".ftnav-partial-" in p.name] == []
+
+
+def test_a_broken_link_as_out_is_refused(inputs, tmp_path, capsys):
+    out = tmp_path / "link"
+    out.symlink_to(tmp_path / "nowhere")
+    argv = ["run", str(inputs["scenario"]), "--runs", "2", "--out", str(out), "--quiet"]
+    assert main(argv) == 2
+    assert "is a broken symbolic link" in capsys.readouterr().err
+    assert out.is_symlink() and not (tmp_path / "nowhere").exists()

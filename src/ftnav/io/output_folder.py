@@ -35,6 +35,7 @@ protected).
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import os
@@ -61,6 +62,16 @@ MANIFEST = ".ftnav-outputs.json"
 #: Infix of a staging folder's name: ``.<target name>.ftnav-partial-<token>``.
 PARTIAL = ".ftnav-partial-"
 _PREVIOUS = ".previous"
+#: errors of the file system that stop a write (full, read-only, denied, too big, I/O)
+_FULL_OR_DENIED = {
+    errno.ENOSPC,
+    errno.EDQUOT,
+    errno.EROFS,
+    errno.EACCES,
+    errno.EPERM,
+    errno.EFBIG,
+    errno.EIO,
+}
 
 
 class OutputRefused(ValueError):
@@ -180,6 +191,8 @@ class Output:
 
     def _check_writable(self) -> None:
         out, target = self.out, self.target
+        if target.is_symlink() and not target.exists():
+            raise OutputRefused(f"{str(out)!r} is a broken symbolic link")
         if self.folder and target.exists() and not target.is_dir():
             raise OutputRefused(f"{str(out)!r} is a file, not a folder")
         if not self.folder and target.is_dir():
@@ -280,6 +293,12 @@ class Output:
             self.check_names(names)
             with signals_held():
                 self._commit(stage, names, home)
+        except OSError as e:
+            shutil.rmtree(stage, ignore_errors=True)
+            _remove_folders(created)
+            if e.errno in _FULL_OR_DENIED:  # the disk's, not ftnav's, problem: exit 2
+                raise OutputRefused(f"cannot write {str(self.out)!r}: {e.strerror}") from e
+            raise
         except BaseException:
             shutil.rmtree(stage, ignore_errors=True)
             _remove_folders(created)
