@@ -491,3 +491,31 @@ def test_the_builtin_recordings_load_without_a_warning():
 def _navego_data(path: Path, raw: str) -> bool:
     folder = os.environ.get("FTNAV_NAVEGO_DIR") or raw.split(":-", 1)[1].split("}", 1)[0]
     return (path.parent / folder / "imu2.mat").is_file()
+
+
+def test_a_gap_in_the_imu_log_is_a_warning_with_its_length_and_time(tmp_path):
+    """The strapdown holds the sample after a gap over all of it: said, with where."""
+    lines = _imu_lines()
+    t = [float(ln.split(",")[0]) for ln in lines[1:]]
+    cut = [ln for ln, ti in zip(lines[1:], t, strict=True) if not (t[0] + 40 < ti < t[0] + 43)]
+    loaded = load_recording(_write(tmp_path, imu=[lines[0], *cut]), warn=False)
+    said = [w for w in loaded.warnings if "imu.file: 1 gap(s)" in w]
+    assert len(said) == 1, loaded.warnings
+    assert re.search(r"the longest 3\.0 s from 17520033\d\d\.\d{3} s", said[0]), said[0]
+
+
+def test_the_base_has_no_gap_warning(tmp_path):
+    loaded = load_recording(_write(tmp_path), warn=False)
+    assert not any("gap(s)" in w for w in loaded.warnings), loaded.warnings
+
+
+@pytest.mark.parametrize("sigma", ["[0.0, 1.0, 10.0]", "[1.0, -1.0, 10.0]", "[1.0, 1.0, 400.0]"])
+def test_an_attitude_sigma_out_of_bounds_is_refused(tmp_path, sigma):
+    path = _write(tmp_path)
+    text = path.read_text()
+    text = re.sub(r"attitude_sigma_deg = \[[^\]]*\]", f"attitude_sigma_deg = {sigma}", text)
+    if "attitude_sigma_deg" not in text:
+        assert "[alignment]" not in text
+        text += f"\n[alignment]\nattitude_sigma_deg = {sigma}\n"
+    path.write_text(text)
+    assert _error(path).startswith("alignment.attitude_sigma_deg[")

@@ -18,7 +18,7 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, Literal, NamedTuple
+from typing import Annotated, Any, Literal, NamedTuple
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -241,7 +241,7 @@ class AlignmentFile(BaseModel):
         max_length=3,
         description="given: [pitch, roll, yaw] deg (default: the IMU file's ini_align)",
     )
-    attitude_sigma_deg: list[float] = Field(
+    attitude_sigma_deg: list[Annotated[float, Field(gt=0, le=180, allow_inf_nan=False)]] = Field(
         default=[1.0, 1.0, 10.0],
         min_length=3,
         max_length=3,
@@ -1330,15 +1330,37 @@ def load_recording(
         "samples_per_epoch": spe,
     }
     counts["model_notes"] = list(fm.notes)
+    gap_note = _imu_gaps(raw_log, dt, origin, f.imu.file)
     if noise_note is not None:
         counts["imu"]["static_noise"] = noise_note
     outages_rel = tuple(tuple(g) for g in runs)
-    notes = tuple(imu_notes) + tuple(aid_notes)
+    notes = tuple(imu_notes) + tuple(aid_notes) + (() if gap_note is None else (gap_note,))
     notes += () if noise_warning is None else (noise_warning,)
     if warn:  # once everything is valid: a refusal comes alone
         for note in notes:
             warnings.warn(note, ScenarioWarning, stacklevel=2)
     return LoadedRecording(rec, stream, ref_index, ref_p, al, counts, outages_rel, truth, notes)
+
+
+#: an IMU gap longer than this many filter epochs (and than 0.1 s) is said: the
+#: strapdown holds the sample after a gap over all of it
+GAP_EPOCHS = 2.0
+
+
+def _imu_gaps(log: ImuLog, dt: float, origin: str, file: str) -> str | None:
+    """A warning for the gaps of the IMU log longer than :data:`GAP_EPOCHS` epochs."""
+    d = np.diff(log.t)
+    limit = max(GAP_EPOCHS * dt, 0.1)
+    big = np.flatnonzero(d > limit)
+    if big.size == 0:
+        return None
+    worst = int(big[np.argmax(d[big])])
+    return (
+        f"{origin}: imu.file: {big.size} gap(s) of more than {limit:.3g} s in {file} "
+        f"({d[big].sum():.1f} s in all; the longest {d[worst]:.1f} s from "
+        f"{log.t[worst]:.3f} s): the strapdown holds the sample after a gap over all of "
+        "it, so the solution drifts there"
+    )
 
 
 def _truth(
