@@ -519,3 +519,20 @@ def test_an_attitude_sigma_out_of_bounds_is_refused(tmp_path, sigma):
         text += f"\n[alignment]\nattitude_sigma_deg = {sigma}\n"
     path.write_text(text)
     assert _error(path).startswith("alignment.attitude_sigma_deg[")
+
+
+def test_a_quality_filter_that_keeps_no_epoch_is_refused_with_the_files_flags(tmp_path):
+    path = _write(tmp_path)
+    _edit(path, "lever_arm_m", "quality = [5]\nlever_arm_m")
+    assert re.search(
+        r"^aids\[0\]\.quality: no epoch of the GNSS file has quality \[5\] \(its epochs: 1: \d+",
+        _error(path),
+    )
+
+
+def test_a_static_window_longer_than_the_log_is_refused(tmp_path):
+    path = _write(tmp_path)
+    path.write_text(path.read_text() + "\n[alignment]\nstatic_s = 1e6\n")
+    assert re.search(
+        r"^alignment\.static_s: 1e\+06 s of standing still, but the IMU log is", _error(path)
+    )

@@ -658,6 +658,17 @@ def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLo
     return log, {}
 
 
+def _some_quality(log: GnssLog, quality: Sequence[int], field: str, origin: str) -> None:
+    """Refuse a quality filter that keeps no epoch of the file (it names the file's)."""
+    if not np.isin(log.quality, quality).any():
+        found = ", ".join(f"{q:g}: {int((log.quality == q).sum())}" for q in np.unique(log.quality))
+        raise ScenarioError(
+            field,
+            f"no epoch of the GNSS file has quality {list(quality)} (its epochs: {found})",
+            origin,
+        )
+
+
 def _select(log: GnssLog, keep: np.ndarray) -> GnssLog:
     """The epochs ``keep`` of every per-epoch field."""
     n = log.t.shape[0]
@@ -938,6 +949,13 @@ def _start(
 ) -> tuple[Alignment, np.ndarray]:
     """The initial solution and the σ of its attitude (rad) (``[alignment]``)."""
     a = f.alignment
+    span = float(log.t[-1] - log.t[0])
+    if a.mode == "static" and a.static_s >= span:
+        raise ScenarioError(
+            "alignment.static_s",
+            f"{a.static_s:g} s of standing still, but the IMU log is {span:.1f} s long",
+            origin,
+        )
     if a.mode == "static":
         if a.attitude_deg is not None:
             raise ScenarioError(
@@ -1007,6 +1025,7 @@ def _aids(
         params = {k: v for k, v in (a.model_extra or {}).items() if k not in _NOT_SENSOR}
         if a.type == "gnss":
             g, from_file = primary[1:] if i == primary[0] else _gnss_log(a, base, field, origin)
+            _some_quality(g, a.quality, f"{field}.quality", origin)
             sel = _select(g, np.isin(g.quality, a.quality))
             sensor = sensor_from_table(
                 "gnss",
@@ -1240,6 +1259,7 @@ def load_recording(
         raise ScenarioError("aids", "a recording needs a gnss aid (its epochs are the filter's)")
     gnss_all, gnss_defaults = _gnss_log(f.aids[first], base, f"aids[{first}]", origin)
     _check_gnss_epochs(gnss_all, log, first, origin)
+    _some_quality(gnss_all, f.aids[first].quality, f"aids[{first}].quality", origin)
     gnss = _select(gnss_all, np.isin(gnss_all.quality, f.aids[first].quality))
     imu_notes = _plausible_imu(f, log, gnss_all, imu_err, origin)
     al, attitude_sigma = _start(f, log, gnss, nav, origin, imu_err)
@@ -1309,6 +1329,7 @@ def load_recording(
                 raise ScenarioError(
                     f"reference.{key}", "a setting of source 'truth', not 'gnss'", origin
                 )
+        _some_quality(gnss_all, f.reference.quality, "reference.quality", origin)
         ref = _select(gnss_all, np.isin(gnss_all.quality, f.reference.quality))
         place = on_grid(ref.t, al.t, dt, steps)
         ref_index, ref_p = place.index, ref.p[place.kept]
