@@ -8,6 +8,10 @@ Exit status, and what goes to standard error:
   impossible option, a model file that does not fit the scenario, a run that needs
   more memory than the machine has available).  A bare ``ftnav`` (no command) prints
   the help and exits 2 as well: argparse's status for a usage error.
+* 3: a method diverged (its estimate became NaN or inf, or its covariance stopped
+  being symmetric positive definite; checked at every epoch of every run): one line
+  ``ftnav: error: methods[NAME]: diverged at epoch K (t = T s): <reason>; nothing
+  written``.  A model that cannot be computed is not a result.
 * 1: anything else, which is a bug: one line ``ftnav: internal error, please report:
   <ExceptionType>: <message> (run again with --debug for the traceback)``.
 * 130: interrupted.
@@ -59,7 +63,7 @@ from tqdm import tqdm
 
 from ftnav import __version__
 from ftnav.engine import navigation_model
-from ftnav.engine.driver import run
+from ftnav.engine.driver import Diverged, run
 from ftnav.eval import resources
 from ftnav.eval.evaluate import evaluate, metrics_to_json
 from ftnav.eval.montecarlo import build_filters, run_scenario
@@ -247,6 +251,7 @@ def _parser() -> _Parser:
         prog="ftnav",
         description="Fault-tolerant multi-sensor navigation fusion.",
         epilog="exit status: 0 done, 2 bad input (one line naming the field), "
+        "3 a method diverged (nothing written), 130 interrupted, 143 terminated, "
         "1 internal error (a bug: please report it)",
     )
     p.add_argument("--version", action="version", version=f"ftnav {__version__}")
@@ -716,6 +721,7 @@ def _cmd_process(args) -> int:
             rec.steps,
             lambda n: bar.update(n * runs),
             nav_covariance=loaded.truth is not None,  # NEES against a full truth
+            times=rec.t_start + rec.times,
         )
     elapsed = time.perf_counter() - t0
     ref = Reference(loaded.reference_index, loaded.reference_p)
@@ -729,7 +735,7 @@ def _cmd_process(args) -> int:
     )
     times = rec.t_start + rec.times
     with output.staged() as stage:
-        tables = {nm: solution_table(tr, times) for nm, tr in traces.items()}
+        tables = {nm: solution_table(tr, times, method=nm) for nm, tr in traces.items()}
         written = []
         for nm, tab in tables.items():
             name = "solution.csv" if len(tables) == 1 else f"solution-{nm}.csv"
@@ -1001,7 +1007,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command is None:
             parser.print_help(sys.stderr)
             return 2
-        with warnings.catch_warnings(), _signals_unwind():
+        # floating-point overflow is caught where it matters (a diverged method: exit 3),
+        # not as NumPy's RuntimeWarning lines
+        with warnings.catch_warnings(), _signals_unwind(), np.errstate(all="ignore"):
             warnings.showwarning = _show_warning
             return _COMMANDS[args.command](args)
     except _Exit as e:
@@ -1011,6 +1019,11 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exception(e)
         print(f"ftnav: error: {_one_line(e)}", file=sys.stderr)
         return 2
+    except Diverged as e:
+        if debug:
+            traceback.print_exception(e)
+        print(f"ftnav: error: {_one_line(e)}; nothing written", file=sys.stderr)
+        return 3
     except _Terminated as e:
         print(f"ftnav: terminated (signal {e.signum})", file=sys.stderr)
         return 128 + e.signum

@@ -18,7 +18,8 @@ The number of workers is the ``workers`` argument, else the environment variable
 ``FTNAV_WORKERS``, else the CPUs this process may run on.  Inside a worker
 ``FTNAV_WORKERS`` is 1, so nothing nests a second level of parallelism (the thread
 pool of :func:`ftnav.sim.imu.simulate_imu_errors` included).  This module uses the
-standard library only, so every layer may import it.
+standard library only (a worker sets NumPy's error state when it starts), so every
+layer may import it.
 """
 
 from __future__ import annotations
@@ -134,6 +135,11 @@ def _init_worker(q) -> None:
     # Ctrl-C reaches the whole process group: the parent alone decides, and ends the
     # workers itself (run_tasks)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # as in the ftnav command: a diverged method is reported by the engine, not as
+    # NumPy's overflow warnings (NumPy is loaded by the tasks anyway)
+    import numpy
+
+    numpy.seterr(all="ignore")
     end_with_parent()  # done already by `import ftnav`; here in case it was not
 
 

@@ -10,6 +10,7 @@ byte for byte.  A re-run into a folder replaces exactly the files ftnav listed t
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -314,3 +315,24 @@ def test_a_broken_link_as_out_is_refused(inputs, tmp_path, capsys):
     assert main(argv) == 2
     assert "is a broken symbolic link" in capsys.readouterr().err
     assert out.is_symlink() and not (tmp_path / "nowhere").exists()
+
+
+def test_a_diverged_run_is_exit_3_one_line_and_writes_nothing(inputs, tmp_path, capsys):
+    """F = 1e10 in a scenario: the variance overflows within some epochs; the run says
+    which method diverged where, and no result is written (an earlier one stays)."""
+    out = tmp_path / "results"
+    argv = ["run", str(inputs["scenario"]), "--runs", "2", "--out", str(out), "--quiet"]
+    assert main([*argv, "--no-figures"]) == 0
+    before = _snapshot(out)
+    capsys.readouterr()
+    wild = tmp_path / "wild.toml"
+    wild.write_text(SMALL.replace("F  = [[1.0, 0.05, 0.00125]", "F  = [[1e10, 0.05, 0.00125]", 1))
+    assert main(["run", str(wild), "--runs", "2", "--out", str(out), "--quiet"]) == 3
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert re.match(
+        r"ftnav: error: methods\[\w+\]: diverged at epoch \d+ \(t = [\d.]+ s\): .*; "
+        r"nothing written\n$",
+        err,
+    ), err
+    assert _snapshot(out) == before

@@ -14,7 +14,7 @@ integrated navigation, over methods: every method's SINS is one batch).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any, NamedTuple, Protocol, TypeVar
 
 import numpy as np
@@ -30,12 +30,14 @@ from ftnav.nav.mechanization import InsState
 N_NAV = 9
 
 __all__ = [
+    "Diverged",
     "EpochRecord",
     "GuardTrace",
     "LocalCopies",
     "NavigationModel",
     "Stream",
     "Trace",
+    "check_output",
     "covariance_ok",
     "guard_trace",
     "iterate",
@@ -154,10 +156,50 @@ def _part(epoch: Epoch, rows: slice) -> Epoch:
     )
 
 
+#: Relative tolerance of the symmetry test of :func:`covariance_ok`.
+SYMMETRY_RTOL = 1e-9
+
+
+class Diverged(FloatingPointError):
+    """A method's estimate stopped being a Gaussian: NaN or inf, or a covariance that is
+    not positive definite (rounding that the model's Q, R and P0 amplify).
+
+    The message is one line, ``methods[NAME]: diverged at epoch K (t = T s): REASON``.
+
+    Attributes
+    ----------
+    method : the method's name.
+    epoch : the epoch (1-based), or None when unknown.
+    time_s : the epoch's time (s), or None when unknown.
+    reason : what is wrong, e.g. ``covariance not positive definite (check Q, R, P0)``.
+    """
+
+    def __init__(self, method: str, epoch: int | None, time_s: float | None, reason: str):
+        self.method, self.epoch, self.time_s, self.reason = method, epoch, time_s, reason
+        where = "" if epoch is None else f" at epoch {epoch}"
+        when = "" if time_s is None else f" (t = {time_s:g} s)"
+        super().__init__(f"methods[{method}]: diverged{where}{when}: {reason}")
+
+    def __reduce__(self) -> tuple[Any, ...]:  # picklable (worker processes): custom signature
+        return (type(self), (self.method, self.epoch, self.time_s, self.reason))
+
+
+#: the reasons of :class:`Diverged` the engine gives
+NOT_FINITE = "estimate or covariance is NaN or inf (check Q, R, P0)"
+NOT_SPD = "covariance not positive definite (check Q, R, P0)"
+
+
 def covariance_ok(P: np.ndarray) -> bool:
-    """Symmetric and positive definite (Cholesky succeeds) for every run."""
+    """Symmetric (``max|P − Pᵀ| <= 1e-9 max|P|``), positive diagonal and positive
+    definite (Cholesky succeeds) for every run; (..., n, n).
+
+    About 30 µs for 4 runs of 18 states (0.9 % of ``ftnav run seed002 --runs 2``): cheap
+    enough for every epoch of every method.
+    """
+    scale = float(np.abs(P).max(initial=0.0))
     if (
-        not np.allclose(P, kf.mT(P), rtol=0, atol=1e-12 * np.abs(P).max())
+        not scale > 0
+        or float(np.abs(P - kf.mT(P)).max(initial=0.0)) > SYMMETRY_RTOL * scale
         or not (np.diagonal(P, axis1=-2, axis2=-1) > 0).all()
     ):
         return False
@@ -168,13 +210,49 @@ def covariance_ok(P: np.ndarray) -> bool:
     return True
 
 
-def _checked(name: str, k: int, out: StepOutput, check_spd: bool) -> None:
-    if not (np.isfinite(out.x).all() and np.isfinite(out.P).all()):
-        raise FloatingPointError(f"methods[{name}]: NaN or inf at epoch {k}")
-    if check_spd and not covariance_ok(out.P):
-        raise FloatingPointError(
-            f"methods[{name}]: covariance not symmetric positive definite at epoch {k}"
-        )
+def _checked(
+    name: str, k: int, out: StepOutput, check_spd: bool, times: Sequence[float] | None
+) -> None:
+    if np.isfinite(out.x).all() and np.isfinite(out.P).all():
+        if not check_spd or covariance_ok(out.P):
+            return
+        reason = NOT_SPD
+    else:
+        reason = NOT_FINITE
+    raise Diverged(name, k, None if times is None else float(times[k - 1]), reason)
+
+
+def check_output(
+    method: str,
+    values: Sequence[np.ndarray | None] = (),
+    variances: Sequence[np.ndarray | None] = (),
+    times: Sequence[float] | None = None,
+) -> None:
+    """Refuse to report a diverged method: raise :class:`Diverged` at the first epoch
+    where one of ``values`` is NaN or inf or one of ``variances`` is NaN, inf or negative.
+
+    Every array is (B, K, ...), epochs on axis 1 (None: skipped).  The last guard
+    before results are scored or written: what is written is a number, never a null.
+    """
+    first: tuple[int, str] | None = None
+    for arrays, variance in ((values, False), (variances, True)):
+        for a in arrays:
+            if a is None or a.size == 0:
+                continue
+            bad = ~np.isfinite(a)
+            if variance:
+                bad |= np.isfinite(a) & (a < 0)
+            per_epoch = bad.reshape(a.shape[0], a.shape[1], -1).any(axis=(0, 2))
+            if per_epoch.any():
+                k = int(np.argmax(per_epoch))
+                reason = NOT_FINITE
+                if variance and np.isfinite(a[:, k]).all():
+                    reason = "negative variance (check Q, R, P0)"
+                if first is None or k < first[0]:
+                    first = (k, reason)
+    if first is not None:
+        k, reason = first
+        raise Diverged(method, k + 1, None if times is None else float(times[k]), reason)
 
 
 def iterate(
@@ -183,7 +261,8 @@ def iterate(
     filters: Mapping[str, Architecture[Any]],
     steps: int,
     progress: Callable[[int], None] | None = None,
-    check_spd: bool = False,
+    check_spd: bool = True,
+    times: Sequence[float] | None = None,
 ) -> Iterator[EpochRecord]:
     """Step every method over ``steps`` epochs of ``stream``; yield each epoch's record.
 
@@ -192,9 +271,10 @@ def iterate(
     feeds back (``model.feedback``), takes the fused estimates back (``correct``); each
     method's filter is then shifted by its own fused estimate of the first
     ``model.n_fed`` states.  ``model.n_local`` states of the local estimates are kept
-    (None: the common states).  A NaN or inf output
-    raises ``FloatingPointError``; ``check_spd`` also requires every fused covariance
-    to be symmetric positive definite at every epoch.
+    (None: the common states).  A NaN or inf output raises :class:`Diverged`, and so
+    does a fused covariance that is not symmetric positive definite (``check_spd``, on
+    by default: :func:`covariance_ok` costs 0.9 % of ``ftnav run seed002``).  ``times`` (steps,)
+    are the epochs' times (s) the error names.
     """
     names = list(filters)
     M = len(names)
@@ -221,7 +301,7 @@ def iterate(
         for j, nm in enumerate(names):
             e_j = _part(epoch, parts[j]) if model.per_method_rows else epoch
             states[j], out = filters[nm].step(states[j], e_j)
-            _checked(nm, k, out, check_spd)
+            _checked(nm, k, out, check_spd, times)
             outputs.append(out)
             local.append(filters[nm].local_estimates(states[j], n_local))
             if progress is not None:
@@ -425,16 +505,20 @@ def run(
     steps: int,
     progress: Callable[[int], None] | None = None,
     nav_covariance: bool = False,
+    check_spd: bool = True,
+    times: Sequence[float] | None = None,
 ) -> dict[str, Trace]:
     """Run every method over the stream; one :class:`Trace` per method (module docstring).
 
     ``nav_covariance`` also records each method's 9 × 9 navigation covariance
-    (:attr:`Trace.P_nav`; B·K·81 floats per method, so off by default).
+    (:attr:`Trace.P_nav`; B·K·81 floats per method, so off by default).  ``check_spd``
+    and ``times`` as for :func:`iterate` (a method that diverges raises
+    :class:`Diverged`).
     """
     names = list(filters)
     B = stream.batch
     rec = {nm: Recorder(B, steps, nav_covariance) for nm in names}
-    for r in iterate(model, stream, filters, steps, progress):
+    for r in iterate(model, stream, filters, steps, progress, check_spd, times):
         for j, nm in enumerate(names):
             sol = None
             if r.solution is not None:

@@ -26,6 +26,7 @@ from ftnav.engine.driver import (
     EpochRecord,
     GuardTrace,
     Recorder,
+    check_output,
     guard_trace,
     iterate,
     method_feedback,
@@ -294,7 +295,7 @@ def run_scenario(
     fault_free: bool = True,
     progress: Callable[[int], None] | None = None,
     workers: int = 1,
-    check_spd: bool = False,
+    check_spd: bool = True,
     chunk: int | None = None,
 ) -> ScenarioResult:
     """Simulate ``runs`` runs from ``seed`` and run every method (module docstring).
@@ -303,7 +304,10 @@ def run_scenario(
     bounds the memory of the simulated IMU data).  ``workers > 1`` runs the batches (or
     groups of methods: every group of a linear scenario above :data:`PARALLEL_MIN_WORK`
     method-epochs, an integrated one when there are fewer batches than workers) in that
-    many processes (:mod:`ftnav.parallel`); the results are the same.
+    many processes (:mod:`ftnav.parallel`); the results are the same.  Every fused
+    covariance is checked at every epoch (``check_spd``) and every error and variance
+    before it is scored: a method that diverges raises
+    :class:`~ftnav.engine.driver.Diverged`, naming it, the epoch and its time.
     """
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
@@ -347,8 +351,10 @@ def _task(task: tuple, progress: Callable[[int], None] | None = None) -> Scenari
         stream = concat_streams(stream, simulate_runs(sc.without_faults(), rr, seed).stream)
     names = [m.name for m in methods]
     truth = sim.truth if not twin else _twin_truth(sim.truth)
-    records = iterate(model, stream, filters, sc.steps, progress, check_spd)
+    records = iterate(model, stream, filters, sc.steps, progress, check_spd, sc.times)
     scored = score(sc, records, truth, names, stream, model, filters)
+    for name, res in scored.items():  # a NaN error or a negative variance is no result
+        check_output(name, (res.error, res.estimate), (res.P_diag,), sc.times)
     results, ff = {}, {}
     for name, res in scored.items():
         if twin:

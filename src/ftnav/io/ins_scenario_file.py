@@ -21,7 +21,14 @@ from typing import Annotated, Any, Literal, NamedTuple
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, WithJsonSchema, create_model
 
-from ftnav.io.common import ScenarioError, format_loc, to_scenario_error
+from ftnav.io.common import (
+    MAX_NOISE_FACTOR,
+    STRICT,
+    FileName,
+    ScenarioError,
+    format_loc,
+    to_scenario_error,
+)
 from ftnav.io.profile_file import resolve_profile
 from ftnav.io.sections import (
     EvaluationFile,
@@ -31,7 +38,7 @@ from ftnav.io.sections import (
     explain_method_key,
     resolve_methods,
 )
-from ftnav.model.imu import DATASHEET_KEYS, IMU_PRESETS, ImuErrors, imu_preset
+from ftnav.model.imu import DATASHEET_KEYS, IMU_PRESETS, RANGES, ImuErrors, imu_preset
 from ftnav.model.scenario import (
     METRIC_STATES,
     POSITION_NORMS,
@@ -51,6 +58,7 @@ from ftnav.sensors.terrain import AnalyticTerrain, GridDem
 __all__ = [
     "parse_ins_scenario",
     "AID_TYPES",
+    "check_aid",
     "sensor_from_table",
     "filter_model",
     "FilterModel",
@@ -59,7 +67,6 @@ __all__ = [
     "initial_sigma",
 ]
 
-STRICT = ConfigDict(extra="forbid", strict=True)
 _DEG = np.pi / 180.0
 _ARCSEC = _DEG / 3600.0
 _DEG_H = _DEG / 3600.0
@@ -94,9 +101,9 @@ class TerrainFile(BaseModel):
 class AidFile(BaseModel):
     """``[[aids]]``: type, schedule and the sensor's own parameters."""
 
-    model_config = ConfigDict(extra="allow", strict=True)
+    model_config = ConfigDict(extra="allow", strict=True, allow_inf_nan=False)
     type: Literal[AID_TYPES]  # type: ignore[valid-type]
-    name: str | None = None
+    name: FileName | None = None
     every: int = Field(default=1, ge=1)
     offset: int = Field(default=0, ge=0)
 
@@ -119,7 +126,7 @@ _Quantity = str | float | int | list[str | float | int]
 #: keys of :meth:`ImuErrors.from_datasheet`, each ``"<number> <unit>"`` or three of them
 ImuTableFile = create_model(
     "ImuTableFile",
-    __config__=ConfigDict(extra="forbid", strict=True),
+    __config__=STRICT,
     base=(
         Literal[tuple(IMU_PRESETS)] | None,
         Field(default=None, description="preset whose values the keys not given take"),
@@ -157,23 +164,42 @@ def imu_errors(spec: str | Mapping[str, Any], field: str, origin: str) -> ImuErr
         raise _err(f"{field}.{inner.path}", inner.reason, origin) from None
     base = table.pop("base", None)
     try:
-        return ImuErrors.from_datasheet(
+        imu = ImuErrors.from_datasheet(
             table, base=None if base is None else imu_preset(base), field=field
         )
     except ValueError as exc:
         msg = " ".join(str(exc).split())
         path, _, reason = msg.partition(": ")
         raise _err(path, reason, origin) from None
+    for key, why in imu.unusual():
+        if key in table:
+            warnings.warn(f"{origin}: {field}.{key}: {why}", ScenarioWarning, stacklevel=3)
+    return imu
+
+
+def _sigma(high: float) -> Any:
+    """A σ of the initial errors: ``0 <= σ <= high``."""
+    return Annotated[float, Field(ge=0.0, le=high)]
 
 
 class InitialFile(BaseModel):
-    """``[filter.initial]``: σ of the initial INS errors (S1 Table 1 defaults)."""
+    """``[filter.initial]``: σ of the initial INS errors (S1 Table 1 defaults).
+
+    Bounded where the error model stops being one: attitude and horizontal position
+    36 000 arcsec (10°, the small-angle model), velocity 1 000 m/s, height 10 km.
+    """
 
     model_config = STRICT
-    attitude_arcsec: list[float] = Field(default=[300.0, 300.0, 600.0], min_length=3, max_length=3)
-    velocity_m_s: list[float] = Field(default=[0.6, 0.6, 0.6], min_length=3, max_length=3)
-    latlon_arcsec: list[float] = Field(default=[30.0, 30.0], min_length=2, max_length=2)
-    height_m: float = Field(default=5.0, ge=0.0)
+    attitude_arcsec: list[_sigma(36000.0)] = Field(  # type: ignore[valid-type]
+        default=[300.0, 300.0, 600.0], min_length=3, max_length=3
+    )
+    velocity_m_s: list[_sigma(1000.0)] = Field(  # type: ignore[valid-type]
+        default=[0.6, 0.6, 0.6], min_length=3, max_length=3
+    )
+    latlon_arcsec: list[_sigma(36000.0)] = Field(  # type: ignore[valid-type]
+        default=[30.0, 30.0], min_length=2, max_length=2
+    )
+    height_m: float = Field(default=5.0, ge=0.0, le=1e4)
 
 
 class FilterFile(BaseModel):
@@ -194,9 +220,11 @@ class FilterFile(BaseModel):
 
 
 class InsScenarioFile(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True, title="ftnav integrated scenario")
+    model_config = ConfigDict(
+        extra="forbid", strict=True, allow_inf_nan=False, title="ftnav integrated scenario"
+    )
     kind: Literal["integrated"]
-    name: str
+    name: FileName
     description: str = ""
     profile: str
     test_profile: str | None = None
@@ -363,6 +391,87 @@ def _terrain(t: TerrainFile, origin_lat: float, origin_lon: float, base: Path, o
     )
 
 
+class _AidRange(NamedTuple):
+    """Plausibility of an aid parameter of one unit (by its name's suffix): |x| at most
+    ``high``; a σ also either 0 or at least ``sigma_low``, and warned above ``usual``."""
+
+    unit: str
+    high: float
+    sigma_low: float
+    usual: float
+
+
+#: unit suffix of an aid parameter's name -> plausible range; docs/scenario-format.md
+AID_RANGES: dict[str, _AidRange] = {
+    "_m_s": _AidRange("m/s", 1e4, 1e-5, 100.0),  # faster than orbit: no aid
+    "_m": _AidRange("m", 1e7, 1e-4, 1e4),  # the size of the Earth
+    "_arcsec": _AidRange("arcsec", 1.296e6, 1e-3, 3600.0),  # a full turn
+    "_s": _AidRange("s", 1e9, 0.0, np.inf),  # correlation times: 30 years
+    "": _AidRange("", 1.0, 0.0, 0.1),  # dimensionless σ (a scale factor): 100 %
+}
+
+
+def _aid_range(key: str) -> _AidRange | None:
+    """The range of a numeric aid parameter, None for one that is not a quantity."""
+    if key == "min_slope":
+        return AID_RANGES[""]._replace(usual=np.inf)
+    for suffix in ("_m_s", "_m", "_arcsec", "_s"):
+        if key.endswith(suffix):
+            return AID_RANGES[suffix]
+    return AID_RANGES[""] if "sigma" in key else None
+
+
+def check_aid(sensor: Any, given: Mapping[str, Any], path: str, origin: str) -> None:
+    """Refuse implausible parameters (:data:`AID_RANGES`), warn of unusual σ, and refuse
+    an aid whose assumed measurement noise R is not positive definite (a σ of 0)."""
+    for key in given:
+        r = _aid_range(key)
+        value = getattr(sensor, key, None)
+        if r is None or value is None or isinstance(value, bool | str):
+            continue
+        a = np.abs(np.asarray(value, dtype=float))
+        unit = f" {r.unit}" if r.unit else ""
+        if a.max() > r.high:
+            raise _err(
+                f"{path}.{key}",
+                f"implausibly large ({a.max():.3g}{unit}; at most {r.high:.3g}{unit})",
+                origin,
+            )
+        if "sigma" not in key and key.endswith("_tau_s") and a.min() < 1e-3:
+            raise _err(
+                f"{path}.{key}", f"implausibly small ({a.min():.3g} s; at least 0.001 s)", origin
+            )
+        if "sigma" in key:
+            tiny = (a > 0) & (a < r.sigma_low)
+            if tiny.any():
+                raise _err(
+                    f"{path}.{key}",
+                    f"implausibly small σ ({a[tiny].min():.3g}{unit}; 0 or at least "
+                    f"{r.sigma_low:g}{unit}: the filters lose it to rounding)",
+                    origin,
+                )
+            if a.max() > r.usual:
+                warnings.warn(
+                    f"{origin}: {path}.{key}: σ {a.max():.3g}{unit} is beyond any real "
+                    f"aid (above {r.usual:g}{unit}): a unit mistake?",
+                    ScenarioWarning,
+                    stacklevel=3,
+                )
+    R = np.asarray(sensor.R, dtype=float)
+    sd = np.sqrt(np.clip(np.diagonal(R), 0.0, None))
+    try:
+        np.linalg.cholesky(R)
+    except np.linalg.LinAlgError:
+        rows = [c for c, v in zip(sensor.components, sd, strict=True) if not v > 0]
+        raise _err(
+            path,
+            f"the measurement noise the filters assume is not positive definite (σ of "
+            f"{', '.join(rows) or 'a combination of rows'} is 0): give the white-noise "
+            "σ (or the assumed σ) a value > 0",
+            origin,
+        ) from None
+
+
 def sensor_from_table(
     kind: str, params: Mapping[str, Any], path: str, origin: str, terrain=None, dt: float = 1.0
 ):
@@ -385,13 +494,24 @@ def sensor_from_table(
         kw["terrain"] = terrain
     kw.setdefault("dt", dt)
     try:
-        return cls(**kw)
+        sensor = cls(**kw)
     except (TypeError, ValueError) as exc:
         msg = " ".join(str(exc).split())
         m = re.match(r"^[\w.]*?(\w+): (.*)$", msg)
         if m and m.group(1) in fields:
             raise _err(f"{path}.{m.group(1)}", m.group(2), origin) from None
         raise _err(path, msg, origin) from None
+    return sensor
+
+
+def _offset_range(component: str) -> tuple[str, float]:
+    """Unit and largest |offset| of a fault on a measurement row (by the row's name):
+    velocities 1e4 m/s, angles π rad (star tracker), lengths 1e7 m (the Earth's size)."""
+    if component.startswith("vel"):
+        return "m/s", 1e4
+    if component.startswith("phi") or component in ("pitch", "roll", "yaw"):
+        return "rad", float(np.pi)
+    return "m", 1e7
 
 
 def parse_ins_scenario(
@@ -451,6 +571,7 @@ def parse_ins_scenario(
         # errors are simulated and private states propagated at every filter epoch; the
         # schedule (every, offset) only masks the epochs without output
         s = sensor_from_table(a.type, {"name": name, **extra}, f"aids[{i}]", origin, terrain, fl.dt)
+        check_aid(s, extra, f"aids[{i}]", origin)
         try:
             aids.append(AidSpec(s, a.every, a.offset))
         except ValueError as exc:
@@ -502,6 +623,25 @@ def parse_ins_scenario(
                 mag = np.zeros(0)
         if not np.all(np.isfinite(mag)):
             raise _err(f"{p}.magnitude", "must be finite", origin)
+        if x.kind == "gyro-bias" and np.abs(mag).max() > RANGES["angular_rate"].high:
+            raise _err(
+                f"{p}.magnitude_deg_h",
+                f"implausibly large (at most {RANGES['angular_rate'].high / _DEG_H:g} deg/h)",
+                origin,
+            )
+        if x.kind in ("noise-scale", "noise-ramp") and mag[0] > MAX_NOISE_FACTOR:
+            raise _err(f"{p}.magnitude", f"must be at most {MAX_NOISE_FACTOR:g}", origin)
+        if x.kind in ("bias", "ramp"):
+            components = aids[names.index(x.sensor)].sensor.components
+            for j, (c, v) in enumerate(zip(components, mag, strict=True)):
+                unit, high = _offset_range(c)
+                if abs(v) > high:
+                    raise _err(
+                        f"{p}.magnitude[{j}]",
+                        f"implausibly large offset of {c} ({v:.3g} {unit}; at most "
+                        f"{high:.3g} {unit})",
+                        origin,
+                    )
         faults.append(Fault(x.sensor, x.kind, float(x.start), float(x.end), mag))
     methods = list(f.methods)
     ev = f.evaluation

@@ -16,11 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from ftnav.fdi.features import feature_names
 from ftnav.fdi.rbf import MODEL_KIND as RBF_KIND
 from ftnav.fdi.rbf import RBFModel, RBFNetwork
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, RbfDetector
+from ftnav.fusion.neural_model import FREE_INPUT, NeuronModel
 from ftnav.fusion.neural_model import MODEL_KIND as NEURON_KIND
-from ftnav.fusion.neural_model import NeuronModel
 from ftnav.io.model_file import ModelFileError, load_model, save_model, system_hash
 from ftnav.model.system import LinearSystem
 
@@ -162,13 +163,60 @@ def _named(e: ModelFileError, field: str, method: str) -> ModelFileError:
     )
 
 
+def _rbf_fits(model: RBFModel, system: LinearSystem) -> str | None:
+    """Why an RBF detector cannot serve ``system`` (outputs, features), or None."""
+    net = model.network
+    N = system.n_sensors
+    if net.n_outputs_ != N:
+        return f"has {net.n_outputs_} outputs (one per local filter), this scenario has {N} sensors"
+    if model.prior not in ("local", "global"):
+        return f"has an unknown prior {model.prior!r} (expected 'local' or 'global')"
+    try:
+        names = feature_names(
+            model.features,
+            system.model.states,
+            [s.name for s in system.sensors],
+            [s.dim for s in system.sensors],
+        )
+    except ValueError as e:
+        return f"has unknown features ({e})"
+    if net.n_features_in_ != len(names):
+        return (
+            f"takes {net.n_features_in_} features, its feature kinds "
+            f"{list(model.features)} give {len(names)} on this scenario"
+        )
+    return None
+
+
+def _neurons_fit(model: NeuronModel, system: LinearSystem) -> str | None:
+    """Why a neuron fusion model cannot serve ``system`` (inputs, states), or None."""
+    sensors = tuple(s.name for s in system.sensors)
+    inputs = tuple(i for i in model.inputs if i != FREE_INPUT)
+    if inputs != sensors or model.inputs[: len(sensors)] != sensors:
+        return f"has the inputs {list(model.inputs)}, this scenario's sensors are {list(sensors)}"
+    if model.patterns.shape[1] != len(sensors):
+        return (
+            f"has flag patterns of {model.patterns.shape[1]} sensors, this scenario has "
+            f"{len(sensors)}"
+        )
+    if model.states != tuple(system.model.states):
+        return f"was trained for states {list(model.states)}"
+    if model.rmse.shape != model.weights.shape[:2]:
+        return (
+            f"has rmse of shape {list(model.rmse.shape)}, {list(model.weights.shape[:2])} expected"
+        )
+    return None
+
+
 def learned_for(
     method: MethodBase, index: int, system: LinearSystem, base: Path | None = None
 ) -> Learned:
     """Load the trained models ``methods[index]`` names, checked against ``system``.
 
-    A relative path is relative to ``base`` (the scenario file's folder).  A bad or
-    foreign file raises :class:`~ftnav.io.model_file.ModelFileError` whose field is the
+    A relative path is relative to ``base`` (the scenario file's folder).  The model must
+    fit the system before anything runs: an RBF detector's outputs (one per sensor) and
+    features, a neuron bank's inputs, flag patterns and states.  A bad or foreign file
+    raises :class:`~ftnav.io.model_file.ModelFileError` whose field is the
     method's setting, e.g. ``methods[2].detector.model``.
     """
 
@@ -179,10 +227,15 @@ def learned_for(
     compat = compatibility(system)
     if isinstance(method.detector, RbfDetector):
         field = f"methods[{index}].detector.model"
+        file = path(method.detector.model)
         try:
-            return Learned(detector=load_rbf_model(path(method.detector.model), compat))
+            rbf = load_rbf_model(file, compat)
+            problem = _rbf_fits(rbf, system)
+            if problem is not None:
+                raise ModelFileError(file, problem)
         except ModelFileError as e:
             raise _named(e, field, method.name) from None
+        return Learned(detector=rbf)
     if method.architecture == "neural":  # type: ignore[attr-defined]
         field = f"methods[{index}].model"
         if method.model is None:  # type: ignore[attr-defined]
@@ -191,8 +244,13 @@ def learned_for(
                 "architecture 'neural' needs a trained model file (ftnav train-fusion)",
                 field=field,
             )
+        file = path(method.model)  # type: ignore[attr-defined]
         try:
-            return Learned(fusion=load_neuron_model(path(method.model), compat))  # type: ignore[attr-defined]
+            neurons = load_neuron_model(file, compat)
+            problem = _neurons_fit(neurons, system)
+            if problem is not None:
+                raise ModelFileError(file, problem)
         except ModelFileError as e:
             raise _named(e, field, method.name) from None
+        return Learned(fusion=neurons)
     return NOTHING_LEARNED

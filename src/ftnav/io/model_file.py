@@ -57,6 +57,7 @@ import numpy as np
 from numpy.lib import format as npy_format
 
 import ftnav
+from ftnav.io.common import ScenarioError, read_input
 
 __all__ = [
     "FORMAT",
@@ -79,7 +80,13 @@ _NPY = ".npy"
 _NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")
 _ALLOWED_KINDS = "biufc"  # bool, signed/unsigned integer, floating, complex
-_MAX_METADATA_BYTES = 64 * 2**20
+#: Bounds on what a model file may hold, checked before anything is inflated (a small
+#: ZIP can declare gigabytes).  ftnav's own files are kilobytes: an RBF detector of
+#: 10 000 centres of 800 features, far above the defaults (60 centres), is 64 MB.
+_MAX_FILE_BYTES = 128 * 2**20
+_MAX_METADATA_BYTES = 16 * 2**20
+_MAX_ARRAY_BYTES = 64 * 2**20
+_MAX_TOTAL_BYTES = 128 * 2**20
 _MAX_NPY_HEADER = 65536
 _REQUIRED = {
     "kind": str,
@@ -518,25 +525,59 @@ def _check_metadata(metadata: dict[str, Any], kind: str | None, fail) -> None:
             raise fail(f"metadata arrays.{name}.sha256 is not a sha256 hex digest")
 
 
-def _read_array(name: str, raw: bytes, entry: dict[str, Any], fail) -> np.ndarray:
-    """Parse one ``.npy`` member (never unpickling) and check it against its entry."""
-    fp = io.BytesIO(raw)
+def _check_header(
+    zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, entry: dict[str, Any], fail
+) -> None:
+    """Check one ``.npy`` member's header (dtype, shape, size) against its metadata entry
+    and the bounds, inflating only the header: a member that would inflate to more than
+    :data:`_MAX_ARRAY_BYTES` (or to another size than its header says) is never read."""
+    if info.file_size > _MAX_ARRAY_BYTES + _MAX_NPY_HEADER:
+        raise fail(
+            f"array {name!r} declares {info.file_size} bytes, more than the "
+            f"{_MAX_ARRAY_BYTES} a model array may hold"
+        )
+    try:
+        with zf.open(info) as fh:
+            shape, dtype, header = _npy_header(name, fh, fail)
+    except ModelFileError:
+        raise
+    except _ZIP_READ_ERRORS as exc:
+        raise fail(f"file is corrupted (member {info.filename!r}: {_one_line(exc)})") from None
+    _check_npy(name, shape, dtype, entry, fail)
+    size = dtype.itemsize * math.prod(shape)
+    if size > _MAX_ARRAY_BYTES:
+        raise fail(
+            f"array {name!r} of shape {list(shape)} holds {size} bytes, more than the "
+            f"{_MAX_ARRAY_BYTES} a model array may hold"
+        )
+    if header + size != info.file_size:
+        raise fail(
+            f"array {name!r} holds {info.file_size} bytes, {header + size} expected "
+            "(truncated or padded)"
+        )
+
+
+def _npy_header(name: str, fp: Any, fail) -> tuple[tuple[int, ...], np.dtype, int]:
+    """Shape, dtype and header length of the ``.npy`` data read from ``fp``."""
     try:
         version = npy_format.read_magic(fp)
         if version == (1, 0):
-            shape, fortran, dtype = npy_format.read_array_header_1_0(
-                fp, max_header_size=_MAX_NPY_HEADER
-            )
+            shape, _, dtype = npy_format.read_array_header_1_0(fp, max_header_size=_MAX_NPY_HEADER)
         elif version == (2, 0):
-            shape, fortran, dtype = npy_format.read_array_header_2_0(
-                fp, max_header_size=_MAX_NPY_HEADER
-            )
+            shape, _, dtype = npy_format.read_array_header_2_0(fp, max_header_size=_MAX_NPY_HEADER)
         else:
             raise fail(f"array {name!r} has an unsupported .npy version {version}")
     except ModelFileError:
         raise
     except (ValueError, TypeError, SyntaxError, EOFError, OverflowError) as exc:
         raise fail(f"array {name!r} is not a valid .npy member ({_one_line(exc)})") from None
+    return shape, dtype, fp.tell()
+
+
+def _check_npy(
+    name: str, shape: tuple[int, ...], dtype: np.dtype, entry: dict[str, Any], fail
+) -> None:
+    """A ``.npy`` header's dtype (numeric, never objects) and shape against its entry."""
     if dtype.hasobject or dtype.kind not in _ALLOWED_KINDS or dtype.fields is not None:
         raise fail(
             f"array {name!r} has dtype {_short(str(dtype))}, refused "
@@ -546,7 +587,14 @@ def _read_array(name: str, raw: bytes, entry: dict[str, Any], fail) -> np.ndarra
         raise fail(f"array {name!r} has dtype {dtype.str!r}, the metadata says {entry['dtype']!r}")
     if list(shape) != entry["shape"]:
         raise fail(f"array {name!r} has shape {list(shape)}, the metadata says {entry['shape']}")
-    expected_size = fp.tell() + dtype.itemsize * math.prod(shape)
+
+
+def _read_array(name: str, raw: bytes, entry: dict[str, Any], fail) -> np.ndarray:
+    """Parse one ``.npy`` member (never unpickling) and check it against its entry."""
+    fp = io.BytesIO(raw)
+    shape, dtype, header = _npy_header(name, fp, fail)
+    _check_npy(name, shape, dtype, entry, fail)
+    expected_size = header + dtype.itemsize * math.prod(shape)
     if len(raw) != expected_size:
         raise fail(
             f"array {name!r} holds {len(raw)} bytes, {expected_size} expected (truncated or padded)"
@@ -627,14 +675,10 @@ def load_model(
         return ModelFileError(where, reason)
 
     path = Path(path)
-    if not path.exists():
-        raise fail("file not found")
-    if path.is_dir():
-        raise fail("is a folder, not a file")
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise fail(f"cannot be read ({exc.strerror or type(exc).__name__})") from None
+    try:  # a regular file of bounded size (never a FIFO or a device)
+        data = read_input(path, "", _MAX_FILE_BYTES)
+    except ScenarioError as exc:
+        raise fail(exc.reason) from None
 
     try:
         zf = zipfile.ZipFile(io.BytesIO(data))
@@ -647,6 +691,12 @@ def load_model(
             dup = next(n for n in names if names.count(n) > 1)
             raise fail(f"file is corrupted (member {dup!r} appears twice)")
         by_name = dict(zip(names, infos, strict=True))
+        total = sum(info.file_size for info in infos)
+        if total > _MAX_TOTAL_BYTES:
+            raise fail(
+                f"declares {total} bytes uncompressed, more than the {_MAX_TOTAL_BYTES} a "
+                "model file may hold (refused before inflating it)"
+            )
         if _METADATA not in by_name:
             raise fail("has no metadata.json (not an ftnav model file)")
         if by_name[_METADATA].file_size > _MAX_METADATA_BYTES:
@@ -677,6 +727,7 @@ def load_model(
                 ) from None
             if info.file_size > itemsize * math.prod(entry["shape"]) + _MAX_NPY_HEADER:
                 raise fail(f"array {name!r} is larger than its metadata says")
+            _check_header(zf, info, name, entry, fail)
             arrays[name] = _read_array(name, _read_member(zf, info, fail), entry, fail)
 
     if compatibility is not None:

@@ -1101,38 +1101,6 @@ def _keep_aids(f: RecordingFile, aids: Sequence[str] | None) -> RecordingFile:
     return f.model_copy(update={"aids": [a for a in f.aids if (a.name or a.type) in aids]})
 
 
-#: the largest datasheet value of each IMU error (SI: rad/s, rad/√s, m/s², m/s/√s, ratio,
-#: rad), ten to a hundred times the worst navigation MEMS: a larger one is a unit slip
-#: or a placeholder, and makes the filter's covariance meaningless
-IMU_ERROR_MAX = {
-    "gyro_bias": (1.0, "rad/s", "57 deg/s"),
-    "gyro_bias_sd": (1.0, "rad/s", "57 deg/s"),
-    "gyro_markov_sd": (1.0, "rad/s", "57 deg/s"),
-    "gyro_arw": (0.1, "rad/sqrt(s)", "5.7 deg/s/sqrt(Hz)"),
-    "gyro_scale_sd": (0.5, "", "50 %"),
-    "gyro_misalignment_sd": (0.5, "rad", "29 deg"),
-    "accel_bias": (10.0, "m/s^2", "1 g"),
-    "accel_bias_sd": (10.0, "m/s^2", "1 g"),
-    "accel_markov_sd": (10.0, "m/s^2", "1 g"),
-    "accel_vrw": (1.0, "m/s/sqrt(s)", "100 mg/sqrt(Hz)"),
-    "accel_scale_sd": (0.5, "", "50 %"),
-    "accel_misalignment_sd": (0.5, "rad", "29 deg"),
-}
-
-
-def _check_imu_errors(err: ImuErrors, origin: str) -> None:
-    """Refuse a datasheet value beyond :data:`IMU_ERROR_MAX` naming its key."""
-    for key, (bound, unit, text) in IMU_ERROR_MAX.items():
-        value = float(np.max(np.abs(np.asarray(getattr(err, key), float))))
-        if value > bound:
-            raise ScenarioError(
-                f"imu.errors.{key}",
-                f"{value:.3g} {unit}, beyond the {bound:g} {unit} ({text}) that no navigation "
-                "IMU reaches (a unit slip?)".replace(" ,", ","),
-                origin,
-            )
-
-
 def _check_gnss_epochs(gnss: GnssLog, log: ImuLog, first: int, origin: str) -> None:
     """The primary GNSS has a period (the filter's, :func:`_grid`: two epochs at distinct
     times at least, and most epochs not repeating a stamp), and its log overlaps the
@@ -1252,7 +1220,6 @@ def load_recording(
     origin, base = str(source), Path(source).parent
     f = _keep_aids(_validated(source), aids)
     imu_err = imu_errors(f.imu.errors, "imu.errors", origin)
-    _check_imu_errors(imu_err, origin)
     log, cleaning, partial, nav = _read_imu(f.imu, base, origin)
     first = next((i for i, a in enumerate(f.aids) if a.type == "gnss"), None)
     if first is None:

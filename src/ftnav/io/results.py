@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ftnav.engine.driver import Diverged, check_output
 from ftnav.eval.evaluate import split_unit
 from ftnav.eval.montecarlo import ScenarioResult
 
@@ -21,21 +22,26 @@ __all__ = [
 ]
 
 
-def _clean(obj):
-    """JSON-safe copy: tuples to lists, NaN/inf to null, numpy scalars to Python."""
+def _clean(obj, path: tuple[str, ...] = ()):
+    """JSON-safe copy: tuples to lists, NaN (not applicable) to null, numpy scalars to
+    Python; an infinite number of a method is its divergence (:class:`Diverged`)."""
     if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
+        return {str(k): _clean(v, (*path, str(k))) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [_clean(v) for v in obj]
+        return [_clean(v, (*path, str(i))) for i, v in enumerate(obj)]
     if isinstance(obj, np.generic):
         obj = obj.item()
+    if isinstance(obj, float) and math.isinf(obj) and path[:1] == ("methods",):
+        method = path[1] if len(path) > 1 else "?"
+        raise Diverged(method, None, None, f"{'.'.join(path[2:])} is {obj} (not written)")
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
 
 
 def write_metrics(doc: dict, path: Path) -> Path:
-    """Write the metrics document as strict JSON (no NaN literals)."""
+    """Write the metrics document as strict JSON (no NaN literals: null, "not
+    applicable"); an infinite metric of a method raises :class:`Diverged` instead."""
     path = Path(path)
     path.write_text(json.dumps(_clean(doc), indent=2, allow_nan=False) + "\n")
     return path
@@ -74,6 +80,8 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
     estimate) and ``truth`` (run, time, state); ``fault_flag`` (method_name, run, time,
     sensor) as int8 for methods with a detector (``-1`` for methods without one);
     ``beta`` (method_name, run, time, sensor) for federated methods (NaN otherwise).
+    A NaN or inf estimate or error, or a negative variance, raises
+    :class:`~ftnav.engine.driver.Diverged` (it is never written).
     Every variable and coordinate has ``units`` and ``long_name`` attributes; the
     coordinate ``state_units`` (along ``state``) gives each state's unit.  Select a
     method with ``ds.error.sel(method_name="ckf")``.
@@ -83,6 +91,8 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
     sc = result.scenario
     res = result.fault_free if fault_free else result.results
     names = list(res)
+    for name in names:  # no NaN estimate, no negative variance is ever written
+        check_output(name, (res[name].error, res[name].estimate), (res[name].P_diag,), sc.times)
     first = res[names[0]]
     B, K, n = first.error.shape
     N = len(sc.sensor_names)

@@ -32,13 +32,17 @@ from pydantic import (
 
 from ftnav.core.discretize import van_loan
 from ftnav.io.common import (
+    MAX_NOISE_FACTOR,
+    MAX_OFFSET,
     PSD_RTOL,
     STRICT,
     SYM_RTOL,
+    FileName,
     Matrix,
     Name,
     ScenarioError,
     Vector,
+    covariance_problem,
     fail,
     number,
     read_toml,
@@ -152,9 +156,11 @@ class FaultFile(BaseModel):
 class ScenarioFile(BaseModel):
     """A ftnav scenario file (TOML)."""
 
-    model_config = ConfigDict(extra="forbid", strict=True, title="ftnav scenario")
+    model_config = ConfigDict(
+        extra="forbid", strict=True, allow_inf_nan=False, title="ftnav scenario"
+    )
 
-    name: Name = Field(description="scenario name")
+    name: FileName = Field(description="scenario name (the default output folder's name)")
     description: str = Field(default="", description="free text")
     dt: float = number("seconds per step", gt=0)
     steps: int = Field(ge=1, description="number of steps k = 1..steps, t_k = k*dt")
@@ -218,7 +224,20 @@ def _matrix(
             eig = np.linalg.eigvalsh(a)
             if eig.size and eig[0] < -PSD_RTOL * max(float(np.max(np.abs(eig))), 1e-300):
                 raise fail(f"not positive semi-definite (eigenvalue {eig[0]:.3g})", *path)
+        problem = covariance_problem(a, definite=spd)
+        if problem is not None:
+            raise fail(problem, *path)
     return _frozen(a)
+
+
+def _mean(x0: np.ndarray, *path: str | int) -> np.ndarray:
+    """An initial mean within ±MAX_OFFSET state units (its square must not overflow)."""
+    if x0.size and float(np.abs(x0).max()) > MAX_OFFSET:
+        raise fail(
+            f"implausibly large value {np.abs(x0).max():.3g} (at most {MAX_OFFSET:g} state units)",
+            *path,
+        )
+    return x0
 
 
 def _model_form(m: ModelFile) -> bool:
@@ -295,7 +314,7 @@ def _build_model(m: ModelFile, dt: float) -> LinearModel:
     else:
         F = _matrix(m.F, (n, n), src, "model", "F")
         Q = _matrix(m.Q, (n, n), src, "model", "Q", spd=True)
-    x0 = _vector(m.x0, n, src, "model", "x0")
+    x0 = _mean(_vector(m.x0, n, src, "model", "x0"), "model", "x0")
     P0 = _matrix(m.P0, (n, n), src, "model", "P0", spd=True)
     if m.Q_c_true is not None:
         Q_c_true = _matrix(m.Q_c_true, (n, n), src, "model", "Q_c_true", psd=True)
@@ -317,7 +336,7 @@ def _build_private(p: PrivateFile, model_states: Sequence[str], m: int, i: int) 
     src = f"sensors[{i}].private.states"
     F = _matrix(p.F, (k, k), src, *at, "F")
     Q = _matrix(p.Q, (k, k), src, *at, "Q", psd=True)
-    x0 = _vector(p.x0, k, src, *at, "x0")
+    x0 = _mean(_vector(p.x0, k, src, *at, "x0"), *at, "x0")
     P0 = _matrix(p.P0, (k, k), src, *at, "P0", spd=True)
     H = _matrix(p.H, (m, k), f"sensors[{i}].H rows and {src}", *at, "H")
     return PrivateStates(tuple(p.states), F, Q, x0, P0, H)
@@ -367,6 +386,21 @@ def _build_fault(f: FaultFile, sensors: Sequence[Sensor], i: int, duration: floa
         magnitude = _vector(f.magnitude, m, f"sensors[{j}].H rows", "faults", i, "magnitude")
     if f.kind == "noise-scale" and not np.all(magnitude > 0):
         raise fail("noise-scale factors must all be > 0", "faults", i, "magnitude")
+    if f.kind == "noise-scale" and np.any(magnitude > MAX_NOISE_FACTOR):
+        raise fail(
+            f"noise-scale factors must be at most {MAX_NOISE_FACTOR:g}, got {magnitude.max():g}",
+            "faults",
+            i,
+            "magnitude",
+        )
+    if np.any(np.abs(magnitude) > MAX_OFFSET):
+        raise fail(
+            f"implausibly large offset {np.abs(magnitude).max():.3g} (at most "
+            f"{MAX_OFFSET:g} state units, like a σ)",
+            "faults",
+            i,
+            "magnitude",
+        )
     return Fault(f.sensor, f.kind, float(f.start), float(f.end), magnitude)
 
 

@@ -24,7 +24,16 @@ from ftnav.fusion.config import (
 )
 from ftnav.fusion.registry import ARCHITECTURES, MethodConfig
 from ftnav.fusion.registry import check as check_method
-from ftnav.io.common import STRICT, Name, ScenarioError, fail, format_loc, number, unique
+from ftnav.io.common import (
+    STRICT,
+    Name,
+    ScenarioError,
+    fail,
+    file_name_problem,
+    format_loc,
+    number,
+    unique,
+)
 from ftnav.io.learned import learned_for
 from ftnav.io.model_file import ModelFileError
 from ftnav.model.scenario import (
@@ -168,15 +177,20 @@ def resolve_methods(
 ) -> tuple[tuple[str, Learned], ...]:
     """Check every method against the system and load its trained models (once).
 
-    Method names must be unique; a check that needs the system (sensor names, sizes,
-    private states) or a trained model (its file, its states) fails with one line
-    ``methods[i].<setting>: <reason>``.  ``models=False`` loads no model file (the
-    training commands, whose scenario may name the file they are about to write).
+    Method names must be unique and usable as file names (the outputs are named after
+    them: :func:`~ftnav.io.common.file_name_problem`); a check that needs the system
+    (sensor names, sizes, private states) or a trained model (its file, its states)
+    fails with one line ``methods[i].<setting>: <reason>``.  ``models=False`` loads no
+    model file (the training commands, whose scenario may name the file they are about
+    to write).
     ``indices``: the methods' positions in the file, when ``methods`` is a selection.
     """
     learned, seen = [], set()
     where = range(len(methods)) if indices is None else indices
     for i, me in zip(where, methods, strict=True):
+        problem = file_name_problem(me.name)  # outputs are named after methods
+        if problem is not None:
+            raise ScenarioError(f"methods[{i}].name", problem, origin)
         if me.name in seen:
             raise ScenarioError(f"methods[{i}].name", f"duplicate method name {me.name!r}", origin)
         seen.add(me.name)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ftnav.engine.driver import Trace
+from ftnav.engine.driver import Trace, check_output
 from ftnav.io.recording_file import LoadedRecording
 from ftnav.io.results import METHOD_DIM, flag_attrs
 from ftnav.nav import attitude
@@ -53,15 +53,19 @@ SOLUTION_COLUMNS = (
 )
 
 
-def solution_table(trace: Trace, times: np.ndarray, run: int = 0) -> np.ndarray:
-    """(K, 13) rows of :data:`SOLUTION_COLUMNS` of one run of a trace."""
+def solution_table(trace: Trace, times: np.ndarray, run: int = 0, method: str = "?") -> np.ndarray:
+    """(K, 13) rows of :data:`SOLUTION_COLUMNS` of one run of a trace.
+
+    A NaN or inf solution, or a negative variance, raises
+    :class:`~ftnav.engine.driver.Diverged` naming ``method``: it is never written.
+    """
     sol = trace.solution
     assert sol is not None
+    check_output(method, (sol.p, sol.v, sol.q, trace.x), (trace.P_diag,), times)
     p, v = sol.p[run], sol.v[run]
     euler = np.degrees(attitude.quat_to_euler(sol.q[run]))
     RM, RN = radii(p[:, 0], p[:, 2])
-    var = trace.P_diag[run]
-    sig = np.sqrt(np.maximum(var[:, 6:9], 0.0))
+    sig = np.sqrt(trace.P_diag[run][:, 6:9])
     return np.column_stack(
         [
             times,
@@ -249,7 +253,7 @@ def trace_dataset(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> Any:
     if len(states) != n:
         states += [f"x{j}" for j in range(len(states), n)]
     sol = np.stack(
-        [np.stack([solution_table(traces[m], times, b) for b in range(B)]) for m in names]
+        [np.stack([solution_table(traces[m], times, b, m) for b in range(B)]) for m in names]
     )
     stat = np.full((len(names), B, K, N), np.nan)
     thr = np.full((len(names), B, K, N), np.nan)

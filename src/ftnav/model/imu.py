@@ -9,8 +9,10 @@ derived from the same description (:func:`ftnav.io.ins_scenario_file.filter_mode
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -50,13 +52,59 @@ _SPEC: dict[str, tuple[str, str]] = {
 DATASHEET_KEYS: tuple[str, ...] = tuple(_SPEC)
 
 
+class _Range(NamedTuple):
+    """Plausibility of one unit family, in SI: refused outside [low, high] (|x|; a σ or a
+    bias may be 0), which no navigation IMU reaches (``text``: the bound in datasheet
+    terms); warned outside [usual_low, usual_high], the span of real IMU grades from
+    consumer MEMS to strategic (the low end: a nonzero value only), shown in ``unit``."""
+
+    si_unit: str
+    low: float
+    high: float
+    text: str
+    unit: str
+    per_si: float  # the display unit per SI unit
+    usual_low: float
+    usual_high: float
+
+
+_DEG = np.pi / 180.0
+_G0 = 9.80665
+#: unit family -> plausible range (SI); docs/scenario-format.md, "What is checked"
+RANGES: dict[str, _Range] = {
+    # consumer MEMS gyros drift ~0.1-1 °/s; a drift of the rates flown is no gyro
+    "angular_rate": _Range(
+        "rad/s", 0.0, 1.0, "57 deg/s", "deg/h", 3600 / _DEG, 1e-5 * _DEG / 3600, _DEG
+    ),
+    "time": _Range("s", 1e-3, 1e9, "30 years", "s", 1.0, 0.0, np.inf),
+    "angle_random_walk": _Range(
+        "rad/sqrt(s)",
+        0.0,
+        0.1,
+        "5.7 deg/s/sqrt(Hz)",
+        "deg/sqrt(h)",
+        60 / _DEG,
+        1e-5 * _DEG / 60,
+        10 * _DEG / 60,
+    ),
+    # consumer MEMS accelerometers: biases ~10-60 mg
+    "acceleration": _Range("m/s^2", 0.0, 10.0, "1 g", "mg", 1e3 / _G0, 1e-7 * _G0, 0.1 * _G0),
+    "velocity_random_walk": _Range(
+        "m/s/sqrt(s)", 0.0, 1.0, "100 mg/sqrt(Hz)", "m/s/sqrt(h)", 60.0, 1e-4 / 60, 10 / 60
+    ),
+    "dimensionless": _Range("", 0.0, 0.5, "50 %", "ppm", 1e6, 0.0, 0.01),
+    "angle": _Range("rad", 0.0, 0.5, "29 deg", "mrad", 1e3, 0.0, 0.01),
+}
+
+
 def _show(value) -> str:
     """One-line rendering of a bad input for an error message."""
     return np.array2string(value, separator=", ") if isinstance(value, np.ndarray) else repr(value)
 
 
-def _axes(value, name: str, constraint: str) -> np.ndarray:
-    """Validate one field: scalar or 3 finite values with the right sign -> read-only (3,)."""
+def _axes(value, name: str, constraint: str, family: str) -> np.ndarray:
+    """Validate one field: scalar or 3 finite values with the right sign, within the
+    family's :data:`RANGES` -> read-only (3,)."""
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -72,6 +120,19 @@ def _axes(value, name: str, constraint: str) -> np.ndarray:
         raise ValueError(f"{name}: must be >= 0, got {_show(value)}")
     if constraint == "positive" and np.any(a <= 0.0):
         raise ValueError(f"{name}: must be > 0, got {_show(value)}")
+    r = RANGES[family]
+    big, small = float(np.abs(a).max()), float(np.abs(a).min())
+    unit = f" {r.si_unit}" if r.si_unit else ""
+    if big > r.high:
+        raise ValueError(
+            f"{name}: {big:.3g}{unit}, beyond the {r.high:g}{unit} ({r.text}) "
+            "that no navigation IMU reaches (a unit slip?)"
+        )
+    if small < r.low:
+        raise ValueError(
+            f"{name}: {small:.3g} {r.si_unit}, below the {r.low:g} {r.si_unit} "
+            "that a correlation time needs (a unit slip?)"
+        )
     a = np.array(np.broadcast_to(a, (3,)))
     a.flags.writeable = False
     return a
@@ -105,8 +166,9 @@ class ImuErrors:
     Raises
     ------
     ValueError
-        ``"imu.<field>: <reason>"`` for a negative σ, τ ≤ 0, NaN/inf, a wrong
-        shape or a non-numeric value.
+        ``"imu.<field>: <reason>"`` for a negative σ, τ ≤ 0, NaN/inf, a value outside
+        the plausible range of its unit family (:data:`RANGES`), a wrong shape or a
+        non-numeric value.
     """
 
     gyro_bias: ArrayLike = 0.0
@@ -125,8 +187,9 @@ class ImuErrors:
     accel_misalignment_sd: ArrayLike = 0.0
 
     def __post_init__(self):
-        for name, (_, constraint) in _SPEC.items():
-            object.__setattr__(self, name, _axes(getattr(self, name), f"imu.{name}", constraint))
+        for name, (family, constraint) in _SPEC.items():
+            value = _axes(getattr(self, name), f"imu.{name}", constraint, family)
+            object.__setattr__(self, name, value)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, ImuErrors):
@@ -135,6 +198,31 @@ class ImuErrors:
 
     def __hash__(self) -> int:
         return hash(tuple(getattr(self, n).tobytes() for n in _SPEC))
+
+    def unusual(self) -> tuple[tuple[str, str], ...]:
+        """``(field, why)`` for every value outside the span of real IMU grades
+        (:data:`RANGES`): legal, but likely a unit mistake."""
+        out = []
+        for name, (family, _) in _SPEC.items():
+            r = RANGES[family]
+            a = np.abs(getattr(self, name))
+            if (a > r.usual_high).any():
+                out.append(
+                    (
+                        name,
+                        f"{a.max() * r.per_si:.3g} {r.unit} is beyond any real IMU "
+                        f"(above {r.usual_high * r.per_si:.3g} {r.unit}): a unit mistake?",
+                    )
+                )
+            elif ((a > 0) & (a < r.usual_low)).any():
+                out.append(
+                    (
+                        name,
+                        f"{a[a > 0].min() * r.per_si:.3g} {r.unit} is better than any "
+                        f"real IMU (below {r.usual_low * r.per_si:.3g} {r.unit}): a unit mistake?",
+                    )
+                )
+        return tuple(out)
 
     @classmethod
     def from_datasheet(
@@ -190,7 +278,10 @@ class ImuErrors:
                 values[key] = parse_quantity(raw, family, path, constraint=constraint)
         if base is not None:
             values = {f.name: getattr(base, f.name) for f in fields(base)} | values
-        return cls(**values)
+        try:
+            return cls(**values)
+        except ValueError as exc:  # name the field where the table is
+            raise ValueError(re.sub(r"^imu\.", f"{field}.", str(exc))) from None
 
 
 #: Named error sets (SI).  ``seed001`` is S1 Table 1 (spec §8.3); see :func:`imu_preset`.
