@@ -150,7 +150,18 @@ def test_two_runs_on_one_out_one_refuses_the_other_completes(tmp_path) -> None:
     scenario = tmp_path / "mid.toml"
     scenario.write_text(SMALL.replace("steps = 60", "steps = 3000"))  # some seconds
     out = tmp_path / "out"
-    argv = ("run", scenario, "--runs", "6", "--out", out, "--quiet", "--workers", "1", "--no-figures")
+    argv = (
+        "run",
+        scenario,
+        "--runs",
+        "6",
+        "--out",
+        out,
+        "--quiet",
+        "--workers",
+        "1",
+        "--no-figures",
+    )
     a, b = _ftnav(*argv), _ftnav(*argv)
     results = [(p.wait(300), *p.communicate()) for p in (a, b)]
     statuses = sorted(r[0] for r in results)
