@@ -388,3 +388,34 @@ def test_every_builtin_scenario_passes_the_checks(name):
         sc = load_scenario(builtin_path(name))
     assert sc.name == name
     assert Path(builtin_path(name)).exists()
+
+
+def test_a_filter_period_longer_than_the_flight_is_refused(tmp_path):
+    from ftnav.scenarios import builtin_path
+
+    text = builtin_path("seed002").read_text().replace("dt = 1.0", "dt = 1e6", 1)
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    with pytest.raises(ScenarioError, match=r"^filter\.dt: 1e\+06 s is longer than the flight"):
+        load_scenario(path)
+
+
+def test_a_fault_past_the_end_is_a_warning(tmp_path):
+    from ftnav.io.ins_scenario_file import ScenarioWarning
+    from ftnav.scenarios import builtin_path
+
+    text = builtin_path("seed002").read_text().replace("end = 3000.0", "end = 9000.0", 1)
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    with pytest.warns(ScenarioWarning, match=r"faults\[1\]\.end: 9000 s is after the end"):
+        load_scenario(path)
+
+
+def test_an_integer_choice_is_named_in_the_refusal(tmp_path):
+    from ftnav.scenarios import builtin_path
+
+    text = builtin_path("seed002").read_text().replace("states = 18", "states = 7", 1)
+    path = tmp_path / "s.toml"
+    path.write_text(text)
+    with pytest.raises(ScenarioError, match=r"expected one of: 18, 15\)$"):
+        load_scenario(path)

@@ -140,7 +140,11 @@ def _reason(err: Mapping[str, Any]) -> str:
     if kind == "missing":
         return "missing required key"
     if kind == "literal_error":
-        choices = re.findall(r"'((?:[^'\\]|\\.)*)'", str(ctx.get("expected", "")))
+        expected = str(ctx.get("expected", ""))
+        # strings are quoted ('a' or 'b'); numbers are not (18 or 15)
+        choices = re.findall(r"'((?:[^'\\]|\\.)*)'", expected) or re.findall(
+            r"-?\d+(?:\.\d+)?", expected
+        )
         shown = repr(value) if isinstance(value, str) else _show(value)
         return f"unknown value {shown} (expected one of: {', '.join(choices)})"
     if kind in ("float_type", "float_parsing"):

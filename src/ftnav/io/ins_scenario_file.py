@@ -544,6 +544,13 @@ def parse_ins_scenario(
     assumed = imu if f.filter.imu is None else imu_errors(f.filter.imu, "filter.imu", origin)
     fl = f.filter
     steps = int(round(fl.duration_s / fl.dt))
+    if steps < 1:
+        raise _err(
+            "filter.dt",
+            f"{fl.dt:g} s is longer than the flight (filter.duration_s {fl.duration_s:g} s): "
+            "no filter epoch",
+            origin,
+        )
     spe = fl.dt / prof.dt
     if abs(spe - round(spe)) > 1e-9 or round(spe) % 2:
         raise _err("filter.dt", f"must be an even number of IMU periods ({prof.dt} s)", origin)
@@ -593,6 +600,13 @@ def parse_ins_scenario(
                 f"{x.start:g} s is not before the end of the flight "
                 f"({steps * fl.dt:g} s, filter.duration_s): the fault would never act",
                 origin,
+            )
+        if x.end > steps * fl.dt + 1e-9:
+            warnings.warn(
+                f"{origin}: {p}.end: {x.end:g} s is after the end of the flight "
+                f"({steps * fl.dt:g} s, filter.duration_s): the fault is cut there",
+                ScenarioWarning,
+                stacklevel=2,
             )
         if (x.kind == "gyro-bias") != (x.sensor == SINS):
             raise _err(

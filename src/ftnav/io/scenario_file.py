@@ -15,6 +15,7 @@ line ``<field path>: <reason>``, e.g. ``sensors[1].R: not positive definite``.
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -49,7 +50,7 @@ from ftnav.io.common import (
     to_scenario_error,
     unique,
 )
-from ftnav.io.ins_scenario_file import InsScenarioFile, parse_ins_scenario
+from ftnav.io.ins_scenario_file import InsScenarioFile, ScenarioWarning, parse_ins_scenario
 from ftnav.io.sections import (
     EvaluationFile,
     FigureFile,
@@ -375,6 +376,13 @@ def _build_fault(f: FaultFile, sensors: Sequence[Sensor], i: int, duration: floa
             "faults",
             i,
             "start",
+        )
+    if f.end > duration + 1e-9:
+        warnings.warn(
+            f"faults[{i}].end: {f.end:g} s is after the end of the run ({duration:g} s, "
+            "dt*steps): the fault is cut there",
+            ScenarioWarning,
+            stacklevel=2,
         )
     j = names.index(f.sensor)
     m = sensors[j].dim
