@@ -20,6 +20,7 @@ import pytest
 import scipy.io as sio
 from recording_runs import drive_copy
 from test_recording_input import _imu_lines, _pos_lines, _refused, _write
+from test_recording_navego_input import NAVEGO
 
 from ftnav.io.common import ScenarioError
 from ftnav.io.recording_file import load_recording
@@ -152,34 +153,6 @@ def test_a_gnss_file_without_a_period_is_refused(tmp_path, rows, pattern):
 
 # --- NaveGo .mat ----------------------------------------------------------------------
 
-NAVEGO = """
-kind = "recording"
-name = "mini-navego"
-
-[imu]
-file = "imu.mat"
-format = "navego-mat"
-
-[imu.errors]
-gyro_arw = "0.3 deg/sqrt(h)"
-accel_vrw = "0.029 m/s/sqrt(h)"
-gyro_bias_sd = "0.2 deg/s"
-accel_bias_sd = "16 mg"
-
-[[aids]]
-type = "gnss"
-name = "gnss"
-file = "gnss.mat"
-format = "navego-mat"
-
-[alignment]
-mode = "given"
-
-[[methods]]
-name = "ckf"
-architecture = "centralized"
-"""
-
 
 def _navego(folder: Path, gnss: dict | None = None, fb: float = -9.79) -> Path:
     n, k = 2001, 51
@@ -204,7 +177,7 @@ def _navego(folder: Path, gnss: dict | None = None, fb: float = -9.79) -> Path:
     sio.savemat(folder / "imu.mat", {"imu2": imu})
     sio.savemat(folder / "gnss.mat", {"gnss": {a: b for a, b in g.items() if b is not None}})
     path = folder / "rec.toml"
-    path.write_text(NAVEGO)
+    path.write_text(NAVEGO.format(alignment=""))
     return path
 
 
