@@ -336,3 +336,12 @@ def test_a_diverged_run_is_exit_3_one_line_and_writes_nothing(inputs, tmp_path, 
         err,
     ), err
     assert _snapshot(out) == before
+
+
+def test_single_files_in_one_folder_are_all_kept_in_its_manifest(tmp_path, capsys):
+    """Each commit updates the folder's manifest under a lock of its own, so files
+    written by different commands into one folder are all listed (and replaceable)."""
+    for name in ("a.json", "b.json", "a.json"):
+        assert main(["schema", "--out", str(tmp_path / name)]) == 0
+    assert json.loads((tmp_path / MANIFEST).read_text())["kept"] == ["a.json", "b.json"]
+    capsys.readouterr()

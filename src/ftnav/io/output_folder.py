@@ -133,12 +133,32 @@ def _manifest_text(files: list[str], kept: list[str], last: list[str]) -> str:
 # --------------------------------------------------------------------------- locking
 
 
-def _lock_path(target: Path) -> Path:
-    key = hashlib.sha256(os.fsencode(os.path.realpath(target))).hexdigest()[:32]
+def _lock_path(target: Path, what: str = "") -> Path:
+    key = hashlib.sha256(os.fsencode(os.path.realpath(target)) + what.encode()).hexdigest()[:32]
     uid = os.getuid() if hasattr(os, "getuid") else 0
     folder = Path(tempfile.gettempdir()) / f"ftnav-locks-{uid}"
     folder.mkdir(mode=0o700, exist_ok=True)
     return folder / f"{key}.lock"
+
+
+@contextmanager
+def _manifest_lock(home: Path) -> Iterator[None]:
+    """Hold ``home``'s manifest for one commit (waiting for another command's commit):
+    two commands writing different targets into one folder update one manifest."""
+    fd = None
+    if fcntl is not None and home.is_dir():
+        try:
+            fd = os.open(_lock_path(home, "#manifest"), os.O_RDWR | os.O_CREAT, 0o600)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        except OSError:  # no lock folder: go on without it
+            if fd is not None:
+                os.close(fd)
+            fd = None
+    try:
+        yield
+    finally:
+        if fd is not None:
+            os.close(fd)
 
 
 # ------------------------------------------------------------------------ the target
@@ -291,7 +311,7 @@ class Output:
             yield stage
             names = sorted(p.name for p in stage.iterdir())
             self.check_names(names)
-            with signals_held():
+            with signals_held(), _manifest_lock(home):
                 self._commit(stage, names, home)
         except OSError as e:
             shutil.rmtree(stage, ignore_errors=True)
