@@ -63,9 +63,11 @@ def _rbf_method(path: Path) -> dict:
 
 
 def test_the_builtin_models_fit():
-    parse_scenario(_seed000_with(_rbf_method(MODELS / "seed000-rbf.npz")), base=MODELS.parent)
+    sc = parse_scenario(_seed000_with(_rbf_method(MODELS / "seed000-rbf.npz")), base=MODELS.parent)
+    assert [n for n, _ in sc.learned] == ["fkf-rbf"]
     neural = {"name": "nn", "architecture": "neural", "model": str(MODELS / "seed000-neural.npz")}
-    parse_scenario(_seed000_with(neural), base=MODELS.parent)
+    sc = parse_scenario(_seed000_with(neural), base=MODELS.parent)
+    assert [n for n, _ in sc.learned] == ["nn"]
 
 
 def test_an_rbf_detector_with_other_outputs_is_refused_at_load(tmp_path):

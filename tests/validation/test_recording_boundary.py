@@ -84,7 +84,11 @@ def test_a_pos_field_out_of_bounds_is_refused_with_file_and_line(tmp_path, colum
 
 def test_a_pos_sigma_of_zero_is_kept_as_missing(tmp_path):
     """RTKLIB prints a σ below 0.05 mm as 0: per epoch it means "keep the configured σ"."""
-    load_recording(_write(tmp_path, pos=_pos_with(5, "sdn(m)", "0.0000")), warn=False)
+    (tmp_path / "base").mkdir()
+    base = load_recording(_write(tmp_path / "base"), warn=False).recording
+    rec = load_recording(_write(tmp_path, pos=_pos_with(5, "sdn(m)", "0.0000")), warn=False)
+    assert rec.recording.steps == base.steps  # the epoch is kept
+    assert rec.recording.aids[0].sensor.pos_white_sigma_m == (0.05, 0.05, 0.05)
 
 
 @pytest.mark.parametrize(
@@ -216,7 +220,8 @@ def test_a_navego_gnss_without_sigma_takes_the_recordings(tmp_path):
         'format = "navego-mat"\n\n[alignment]',
         'format = "navego-mat"\npos_white_sigma_m = 5.0\n\n[alignment]',
     )
-    load_recording(path, warn=False)
+    rec = load_recording(path, warn=False).recording
+    assert rec.aids[0].sensor.pos_white_sigma_m == (5.0, 5.0, 5.0)
 
 
 # --- boundary values -----------------------------------------------------------------

@@ -99,8 +99,8 @@ def _refused_integrated(old: str, new: str) -> str:
 
 
 def test_the_small_scenarios_are_valid():
-    parse_scenario(LINEAR)
-    parse_ins_scenario(tomllib.loads(INTEGRATED))
+    assert [m.name for m in parse_scenario(LINEAR).methods] == ["ckf"]
+    assert [m.name for m in parse_ins_scenario(tomllib.loads(INTEGRATED)).methods] == ["ckf"]
 
 
 # ------------------------------------------------------------------ case 1: fault sizes
@@ -225,7 +225,8 @@ def test_noise_matrices_are_bounded(path, value, message):
 
 
 def test_a_zero_variance_where_semi_definite_is_allowed():
-    parse_scenario(_linear("model.Q_true", [[0.0, 0.0], [0.0, 0.1]]))
+    sc = parse_scenario(_linear("model.Q_true", [[0.0, 0.0], [0.0, 0.1]]))
+    assert sc.model.Q_true.tolist() == [[0.0, 0.0], [0.0, 0.1]]
 
 
 # -------------------------------------------------------------- case 4: deep TOML
