@@ -61,7 +61,10 @@ def solution_table(trace: Trace, times: np.ndarray, run: int = 0, method: str = 
     """
     sol = trace.solution
     assert sol is not None
-    check_output(method, (sol.p, sol.v, sol.q, trace.x), (trace.P_diag,), times)
+    one = slice(run, run + 1)  # this run only: a table per run must not check them all
+    check_output(
+        method, (sol.p[one], sol.v[one], sol.q[one], trace.x[one]), (trace.P_diag[one],), times
+    )
     p, v = sol.p[run], sol.v[run]
     euler = np.degrees(attitude.quat_to_euler(sol.q[run]))
     RM, RN = radii(p[:, 0], p[:, 2])
