@@ -62,6 +62,7 @@ from ftnav.io.common import ScenarioError, read_input
 __all__ = [
     "FORMAT",
     "FORMAT_VERSION",
+    "METADATA_MEMBER",
     "ModelFile",
     "ModelFileError",
     "load_model",
@@ -76,6 +77,8 @@ FORMAT_VERSION = 1
 """The newest ``format_version`` this ftnav reads and the one it writes."""
 
 _METADATA = "metadata.json"
+#: the zip member that holds a model file's metadata (its ``format`` is :data:`FORMAT`)
+METADATA_MEMBER = _METADATA
 _NPY = ".npy"
 _NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*\Z")
 _SHA256 = re.compile(r"[0-9a-f]{64}\Z")

@@ -48,6 +48,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ftnav import __version__
+from ftnav.io.model_file import FORMAT, METADATA_MEMBER
 from ftnav.parallel import signals_held
 
 try:  # POSIX
@@ -117,10 +118,10 @@ def _is_model_file(p: Path) -> bool:
         return False
     try:
         with zipfile.ZipFile(p) as zf:
-            info = zf.getinfo("metadata.json")
+            info = zf.getinfo(METADATA_MEMBER)
             if info.file_size > 1 << 20:
                 return False
-            return json.loads(zf.read(info)).get("format") == "ftnav-model"
+            return json.loads(zf.read(info)).get("format") == FORMAT
     except (OSError, ValueError, KeyError, zipfile.BadZipFile):
         return False
 
