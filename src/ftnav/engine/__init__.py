@@ -3,7 +3,8 @@
 A *stream* of measurements (:mod:`ftnav.model.streams`: simulated or recorded) goes
 through a *model* (:mod:`ftnav.engine.linear`, :mod:`ftnav.engine.ins`) that turns it
 into epochs, and every method's filter steps on each epoch (:func:`ftnav.engine.driver.run`).
-No truth enters the engine.
+No truth enters the engine.  :func:`smooth` runs the Rauch–Tung–Striebel smoother over a
+trace recorded with ``run(..., smoothing=True)`` (:mod:`ftnav.engine.smoother`).
 """
 
 from __future__ import annotations
@@ -13,9 +14,10 @@ from typing import Any
 from ftnav.engine.driver import NavigationModel
 from ftnav.engine.ins import InsModel, InsModelState
 from ftnav.engine.linear import LinearModel
+from ftnav.engine.smoother import SmoothedTrace, smooth, smoothed_trace
 from ftnav.model.system import LinearSystem
 
-__all__ = ["navigation_model"]
+__all__ = ["SmoothedTrace", "navigation_model", "smooth", "smoothed_trace"]
 
 
 def navigation_model(scenario: Any, system: LinearSystem | None = None) -> NavigationModel[Any]:

@@ -35,6 +35,7 @@ __all__ = [
     "GuardTrace",
     "LocalCopies",
     "NavigationModel",
+    "SmoothingRecord",
     "Stream",
     "Trace",
     "check_output",
@@ -137,6 +138,8 @@ class EpochRecord(NamedTuple):
     nav : every method's navigation solution before the correction (methods × runs rows,
         method-major), or None for a linear model.
     solution : the corrected navigation solution (same rows), or None.
+    lin : the epoch's matrices as the model formed them (every method's rows,
+        method-major, with ``per_method_rows``), or None for a constant system.
     """
 
     k: int
@@ -144,6 +147,7 @@ class EpochRecord(NamedTuple):
     local: tuple[np.ndarray | None, ...]
     nav: InsState | None
     solution: InsState | None
+    lin: Linearization | None = None
 
 
 def _part(epoch: Epoch, rows: slice) -> Epoch:
@@ -318,7 +322,7 @@ def iterate(
                         states[j] = filters[nm].shift(states[j], outputs[j].x[:, : model.n_fed])
                 mstate = model.correct(mstate, fused, rows)
             solution = model.output(mstate, fused, rows)
-        yield EpochRecord(k, tuple(outputs), tuple(local), nav, solution)
+        yield EpochRecord(k, tuple(outputs), tuple(local), nav, solution, epoch.lin)
 
 
 def method_feedback(
@@ -367,6 +371,37 @@ GuardTrace = GuardOutput
 GUARD_KEYS = tuple(f"guard_{f}" for f in GuardTrace._fields)
 
 
+class SmoothingRecord(NamedTuple):
+    """What the forward pass keeps of one method for the Rauch–Tung–Striebel smoother
+    (:mod:`ftnav.engine.smoother`), recorded only on request (``run``'s ``smoothing``).
+
+    Memory: three (B, K, n_c, n_c) arrays, ``3·B·K·n_c²`` floats (about 11 MB per method
+    for 6000 epochs of 15 states and one run), and the (B, K, 10) solution.
+
+    Attributes
+    ----------
+    x : (B, K, n_c) fused posterior x⁺_k before the feedback shift (the array of
+        :attr:`Trace.x`).
+    P : (B, K, n_c, n_c) its full covariance P⁺_k.
+    Phi, Q : (B, K, n_c, n_c) the transition Φ and process noise Q of the step
+        ``k−1 → k`` (epoch k's linearization, spec §8.4); index 0 is the step from the
+        initial state.
+    n_fed : the first ``n_fed`` states were fed back after every epoch (and every
+        estimate shifted by them, spec §6.2); 0 for output correction or a linear model.
+    base : the navigation solution the estimate after the reset (x⁺_k with its first
+        ``n_fed`` states zeroed) refers to: the corrected solution (feedback) or the
+        free SINS (output correction), q (B, K, 4), v, p (B, K, 3) (``a`` zeros); None
+        for a linear model.
+    """
+
+    x: np.ndarray
+    P: np.ndarray
+    Phi: np.ndarray
+    Q: np.ndarray
+    n_fed: int
+    base: InsState | None
+
+
 class Trace(NamedTuple):
     """Per-epoch outputs of one method over B runs and K epochs (no reference needed).
 
@@ -389,6 +424,8 @@ class Trace(NamedTuple):
     used, available : (B, K, N) bool, the aids that updated the method, and those with a
         finite measurement.
     guard : what the isolation guard did, or None (a method without a detector).
+    smoothing : what the RTS smoother needs (:class:`SmoothingRecord`), recorded only on
+        request (``run``'s ``smoothing``), else None.
     """
 
     x: np.ndarray
@@ -408,6 +445,7 @@ class Trace(NamedTuple):
     used: np.ndarray | None = None
     available: np.ndarray | None = None
     guard: GuardTrace | None = None
+    smoothing: SmoothingRecord | None = None
 
 
 def guard_trace(arrays: dict[str, np.ndarray]) -> GuardTrace | None:
@@ -422,11 +460,16 @@ class Recorder:
 
     The engine's :func:`run` records a whole :class:`Trace` with it; evaluation records
     the outputs that need no reference (:meth:`outputs`) beside its own scores.
+    With ``smoothing`` it also keeps a :class:`SmoothingRecord` (``n_fed`` states fed
+    back after every epoch).
     """
 
-    def __init__(self, B: int, K: int, nav_covariance: bool = False):
+    def __init__(
+        self, B: int, K: int, nav_covariance: bool = False, smoothing: bool = False, n_fed: int = 0
+    ):
         self.B, self.K = B, K
         self.nav_covariance = nav_covariance
+        self.smoothing, self.n_fed = smoothing, n_fed
         self.arrays: dict[str, np.ndarray] = {}
         self.nan: np.ndarray | None = None
 
@@ -458,13 +501,29 @@ class Recorder:
                 self.put(key, k, value, float if key == "guard_statistic" else bool)
 
     def record(
-        self, k: int, out: StepOutput, local: np.ndarray | None, solution: InsState | None
+        self,
+        k: int,
+        out: StepOutput,
+        local: np.ndarray | None,
+        solution: InsState | None,
+        lin: Linearization | None = None,
+        base: InsState | None = None,
     ) -> None:
-        """Epoch k's whole output of one method (:meth:`outputs`, estimate, solution)."""
+        """Epoch k's whole output of one method (:meth:`outputs`, estimate, solution);
+        with ``smoothing`` also its covariance, the epoch's (Φ, Q) ``lin`` and the
+        solution ``base`` its reset estimate refers to (:class:`SmoothingRecord`)."""
         self.put("x", k, out.x)
         self.put("P_diag", k, np.diagonal(out.P, axis1=-2, axis2=-1))
         if self.nav_covariance:
             self.put("P_nav", k, out.P[:, :N_NAV, :N_NAV])
+        if self.smoothing:
+            assert lin is not None, "smoothing needs the epoch's (Phi, Q)"
+            self.put("smooth_P", k, out.P)
+            self.put("smooth_Phi", k, lin.Phi)
+            self.put("smooth_Q", k, lin.Q)
+            if base is not None:
+                for key in ("q", "v", "p"):
+                    self.put(f"smooth_{key}", k, getattr(base, key))
         self.outputs(k, out)
         self.put("local", k, local)
         if solution is not None:
@@ -477,6 +536,16 @@ class Recorder:
         if "nav_q" in a:
             solution = InsState(a["nav_q"], a["nav_v"], a["nav_p"], np.zeros(a["nav_v"].shape))
         assert self.nan is not None
+        smoothing = None
+        if self.smoothing:
+            base = None
+            if "smooth_q" in a:
+                base = InsState(
+                    a["smooth_q"], a["smooth_v"], a["smooth_p"], np.zeros(a["smooth_v"].shape)
+                )
+            smoothing = SmoothingRecord(
+                a["x"], a["smooth_P"], a["smooth_Phi"], a["smooth_Q"], self.n_fed, base
+            )
         return Trace(
             a["x"],
             a["P_diag"],
@@ -495,6 +564,7 @@ class Recorder:
             a.get("used"),
             a.get("available"),
             guard_trace(a),
+            smoothing,
         )
 
 
@@ -507,22 +577,61 @@ def run(
     nav_covariance: bool = False,
     check_spd: bool = True,
     times: Sequence[float] | None = None,
+    smoothing: bool = False,
 ) -> dict[str, Trace]:
     """Run every method over the stream; one :class:`Trace` per method (module docstring).
 
     ``nav_covariance`` also records each method's 9 × 9 navigation covariance
-    (:attr:`Trace.P_nav`; B·K·81 floats per method, so off by default).  ``check_spd``
-    and ``times`` as for :func:`iterate` (a method that diverges raises
-    :class:`Diverged`).
+    (:attr:`Trace.P_nav`; B·K·81 floats per method, so off by default).  ``smoothing``
+    also records what the RTS smoother (:func:`ftnav.engine.smoother.smooth`) needs
+    (:attr:`Trace.smoothing`: the full fused covariance and the epochs' Φ and Q,
+    3·B·K·n_c² floats per method, so off by default; it changes nothing else) and
+    raises ValueError for a model with a differenced aid.  ``check_spd`` and ``times``
+    as for :func:`iterate` (a method that diverges raises :class:`Diverged`).
     """
     names = list(filters)
     B = stream.batch
-    rec = {nm: Recorder(B, steps, nav_covariance) for nm in names}
+    fed = [False] * len(names)
+    constant = None
+    if smoothing:
+        _check_smoothable(model)
+        fb = method_feedback(model, [filters[nm] for nm in names])
+        fed = [model.feedback if fb is None else bool(fb[j]) for j in range(len(names))]
+        F, Q = model.system.model.F, model.system.model.Q
+        if F is not None and Q is not None:  # a constant system: the same (Φ, Q) every epoch
+            n = F.shape[0]
+            constant = Linearization(
+                np.broadcast_to(F, (B, n, n)), np.broadcast_to(Q, (B, n, n)), ()
+            )
+    rec = {
+        nm: Recorder(B, steps, nav_covariance, smoothing, model.n_fed if fed[j] else 0)
+        for j, nm in enumerate(names)
+    }
     for r in iterate(model, stream, filters, steps, progress, check_spd, times):
         for j, nm in enumerate(names):
+            rows = slice(j * B, (j + 1) * B)
             sol = None
             if r.solution is not None:
-                rows = slice(j * B, (j + 1) * B)
                 sol = InsState(*(a[rows] for a in r.solution))
-            rec[nm].record(r.k, r.outputs[j], r.local[j], sol)
+            lin, base = None, None
+            if smoothing:
+                lin = constant if r.lin is None else r.lin
+                if lin is not None and model.per_method_rows:
+                    lin = Linearization(lin.Phi[rows], lin.Q[rows], ())
+                if r.nav is not None:  # the solution the reset estimate refers to
+                    base = sol if fed[j] else InsState(*(a[rows] for a in r.nav))
+            rec[nm].record(r.k, r.outputs[j], r.local[j], sol, lin, base)
     return {nm: rec[nm].trace(model.system.n_sensors) for nm in names}
+
+
+def _check_smoothable(model: NavigationModel[Any]) -> None:
+    """Refuse smoothing a model with a differenced aid (GNSS ``markov = "difference"``):
+    its measurements depend on the previous epoch's state and noise, which the
+    Rauch–Tung–Striebel smoother's model (white measurement noise) does not cover."""
+    for i, psi in enumerate(getattr(model, "psi", ())):  # InsModel's differencing factors
+        if psi is not None:
+            name = model.system.sensors[i].name
+            raise ValueError(
+                f"smoothing: aid {name!r} uses measurement differencing (markov = "
+                '"difference"), which the RTS smoother does not cover; use markov = "augment"'
+            )
