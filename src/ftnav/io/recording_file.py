@@ -35,8 +35,12 @@ from ftnav.io.ins_scenario_file import (
     sensor_from_table,
 )
 from ftnav.io.recording_readers import (
+    WHITESPACE,
     NavegoImu,
+    NavegoTruth,
+    Table,
     check_position,
+    dcm_from_roll_pitch_yaw,
     read_csv,
     read_navego_gnss,
     read_navego_imu,
@@ -114,6 +118,10 @@ class FrameColumns(ColumnsFile):
 
 
 _IMU_CSV_KEYS = ("header", "delimiter", "time", "gyro", "accel")
+_DELIMITER = (
+    "csv: the field separator, or 'whitespace' (any run of spaces and tabs; lines starting "
+    "with # or % are comments)"
+)
 
 
 class ImuFile(BaseModel):
@@ -121,9 +129,15 @@ class ImuFile(BaseModel):
 
     model_config = STRICT
     file: str
-    format: Literal["csv", "navego-mat"] = "csv"
+    format: Literal["csv", "navego-mat", "kfgins-text"] = Field(
+        default="csv",
+        description=(
+            "csv: a delimited text file with a column map; navego-mat: NaveGo's imu.mat; "
+            "kfgins-text: KF-GINS's text (GPS seconds of week, Δθ x y z rad, Δv x y z m/s)"
+        ),
+    )
     header: bool = True
-    delimiter: str = ","
+    delimiter: str = Field(default=",", description=_DELIMITER)
     time: ColumnsFile | None = Field(default=None, description="csv: required")
     gyro: ColumnsFile | None = Field(default=None, description="csv: required")
     accel: ColumnsFile | None = Field(default=None, description="csv: required")
@@ -132,7 +146,10 @@ class ImuFile(BaseModel):
         default=["+x", "+y", "+z"],
         min_length=3,
         max_length=3,
-        description="the sensor axis along body x (right), y (forward) and z (up)",
+        description=(
+            "the sensor axis along body x (right), y (forward) and z (up) (kfgins-text: "
+            "default ['+y', '+x', '-z'], its forward-right-down axes)"
+        ),
     )
     misalignment_deg: list[float] = Field(
         default=[0.0, 0.0, 0.0],
@@ -166,9 +183,16 @@ class AidTable(BaseModel):
     type: Literal["gnss", "nhc", "zupt"]
     name: str | None = None
     file: str | None = None
-    format: Literal["rtklib-pos", "navego-mat", "csv"] = "rtklib-pos"
+    format: Literal["rtklib-pos", "navego-mat", "csv", "kfgins-text"] = Field(
+        default="rtklib-pos",
+        description=(
+            "rtklib-pos: an RTKLIB solution (any time and position form); navego-mat: "
+            "NaveGo's gnss.mat; csv: a delimited text file with a column map; kfgins-text: "
+            "KF-GINS's GNSS text (GPS seconds of week, lat, lon deg, height m, σ N E D m)"
+        ),
+    )
     header: bool = Field(default=True, description="csv")
-    delimiter: str = Field(default=",", description="csv")
+    delimiter: str = Field(default=",", description=_DELIMITER)
     time: ColumnsFile | None = Field(default=None, description="csv: required")
     lat: ColumnsFile | None = Field(default=None, description="csv: required, deg or rad")
     lon: ColumnsFile | None = Field(default=None, description="csv: required, deg or rad")
@@ -199,6 +223,17 @@ class AidTable(BaseModel):
     gyro_std_dps: float = Field(default=0.25, gt=0, description="zupt: gyro std threshold")
 
 
+class AttitudeColumns(ColumnsFile):
+    """Roll, pitch, yaw columns (deg or rad): the ZYX Euler angles of a forward-right-down
+    body in NED (NaveGo's and KF-GINS's; yaw the heading clockwise from North), the same
+    as ``roll_deg``, ``pitch_deg``, ``yaw_deg`` of ftnav's ``solution.csv``."""
+
+    columns: list[str | int] = Field(min_length=3, max_length=3, description="roll, pitch, yaw")
+
+
+_TRUTH_CSV_KEYS = ("header", "delimiter", "time", "lat", "lon", "height", "velocity", "attitude")
+
+
 class ReferenceFile(BaseModel):
     """``[reference]``: what to score against: the GNSS file's best epochs, or a full
     truth (position, velocity, attitude) from a file."""
@@ -207,7 +242,15 @@ class ReferenceFile(BaseModel):
     source: Literal["gnss", "truth"] = "gnss"
     quality: list[int] = Field(default=[1], min_length=1, description="source gnss")
     file: str | None = Field(default=None, description="source truth: required")
-    format: Literal["navego-mat"] = Field(default="navego-mat", description="source truth")
+    format: Literal["navego-mat", "csv"] = Field(default="navego-mat", description="source truth")
+    header: bool = Field(default=True, description="truth csv")
+    delimiter: str = Field(default=",", description=_DELIMITER)
+    time: ColumnsFile | None = Field(default=None, description="truth csv: required")
+    lat: ColumnsFile | None = Field(default=None, description="truth csv: required, deg or rad")
+    lon: ColumnsFile | None = Field(default=None, description="truth csv: required, deg or rad")
+    height: ColumnsFile | None = Field(default=None, description="truth csv: required, m")
+    velocity: FrameColumns | None = Field(default=None, description="truth csv: required")
+    attitude: AttitudeColumns | None = Field(default=None, description="truth csv: required")
 
 
 class AlignmentFile(BaseModel):
@@ -252,6 +295,22 @@ class AlignmentFile(BaseModel):
     )
     position_sigma_m: float | None = Field(
         default=None, gt=0, description="default: static 0.1, given the GNSS aid's σ E, N, U"
+    )
+    velocity_mps: list[float] | None = Field(
+        default=None,
+        min_length=3,
+        max_length=3,
+        description=(
+            "given: the velocity [E, N, U] m/s at the start (the first GNSS fix in the IMU "
+            "log; default: that fix's, required when the file has no velocity)"
+        ),
+    )
+    position_deg_m: list[float] | None = Field(
+        default=None,
+        min_length=3,
+        max_length=3,
+        description="given: the position [lat deg, lon deg, height m] at the start "
+        "(default: the first GNSS fix's)",
     )
 
 
@@ -428,11 +487,13 @@ def _axes_matrix(axes: Sequence[str]) -> np.ndarray:
     return M
 
 
-def _mounting(f: ImuFile, origin: str) -> np.ndarray:
-    """(3, 3) ``M`` with ``body = M · sensor`` from ``axes`` and ``misalignment_deg``."""
-    M = _axes_matrix(f.axes)
+def _mounting(f: ImuFile, origin: str, axes: Sequence[str] | None = None) -> np.ndarray:
+    """(3, 3) ``M`` with ``body = M · sensor`` from ``axes`` (default ``f.axes``) and
+    ``misalignment_deg``."""
+    axes = f.axes if axes is None else axes
+    M = _axes_matrix(axes)
     if np.linalg.det(M) < 0.5:
-        raise ScenarioError("imu.axes", f"{f.axes} is not a right-handed axis set", origin)
+        raise ScenarioError("imu.axes", f"{list(axes)} is not a right-handed axis set", origin)
     if not np.all(np.abs(f.misalignment_deg) <= 90.0):
         raise ScenarioError(
             "imu.misalignment_deg", f"{f.misalignment_deg}: each angle within ±90 deg", origin
@@ -509,11 +570,23 @@ def _read_navego_imu(
     return log, info, 0, nav
 
 
-def _read_imu(
-    f: ImuFile, base: Path, origin: str
-) -> tuple[ImuLog, ImuCleaning, int, NavegoImu | None]:
-    if f.format == "navego-mat":
-        return _read_navego_imu(f, base, origin)
+class _ImuLayout(NamedTuple):
+    """Where an IMU table holds what: the columns (0-based), each quantity's unit as a
+    factor to SI and its family (a rate or an increment), the axes."""
+
+    time: int
+    gyro: list[int]
+    accel: list[int]
+    time_factor: float
+    gyro_factor: float
+    gyro_family: str
+    accel_factor: float
+    accel_family: str
+    axes: Sequence[str]
+
+
+def _csv_imu(f: ImuFile, base: Path, origin: str) -> tuple[Table, Path, _ImuLayout]:
+    """The ``csv`` layout of ``[imu]``: its table, path and layout."""
     for key in ("time", "gyro", "accel"):
         if getattr(f, key) is None:
             raise ScenarioError(f"imu.{key}", "missing required key (format 'csv')", origin)
@@ -532,8 +605,63 @@ def _read_imu(
     tc = _column(table, f.time.columns[0], "imu.time.columns", origin)
     gc = [_column(table, c, "imu.gyro.columns", origin) for c in f.gyro.columns]
     ac = [_column(table, c, "imu.accel.columns", origin) for c in f.accel.columns]
+    return table, path, _ImuLayout(tc, gc, ac, t_fac, g_fac, g_fam, a_fac, a_fam, f.axes)
+
+
+#: KF-GINS's IMU text (i2Nav-WHU/KF-GINS README): GPS seconds of week, the increments
+#: Δθ (rad) and Δv (m/s) over the interval ending there, forward-right-down; an eighth
+#: column (an odometer) is not read
+KFGINS_IMU_COLUMNS = (
+    "gps_seconds_of_week",
+    "dtheta_x_rad",
+    "dtheta_y_rad",
+    "dtheta_z_rad",
+    "dv_x_mps",
+    "dv_y_mps",
+    "dv_z_mps",
+    "odometer",
+)
+#: ftnav's body x (right), y (forward), z (up) from forward-right-down axes
+KFGINS_AXES = ("+y", "+x", "-z")
+
+
+def _kfgins_imu(f: ImuFile, base: Path, origin: str) -> tuple[Table, Path, _ImuLayout]:
+    """The ``kfgins-text`` preset of ``[imu]``: its table, path and layout (increments in
+    rad and m/s; the axes forward-right-down unless ``axes`` is given)."""
+    for key in _IMU_CSV_KEYS:
+        if key in f.model_fields_set:
+            raise ScenarioError(
+                f"imu.{key}", "a setting of format 'csv', not 'kfgins-text'", origin
+            )
+    path = _data_path(f.file, base, "imu.file", origin)
+    table = read_csv(path, False, WHITESPACE, "imu.file", KFGINS_IMU_COLUMNS)
+    if table.values.shape[1] not in (7, 8):
+        raise ScenarioError(
+            str(path),
+            f"imu.file: {table.values.shape[1]} columns; a KF-GINS IMU file has 7 (GPS seconds "
+            "of week, dθ x y z rad, dv x y z m/s) or 8 (and an odometer)",
+            origin,
+        )
+    axes = f.axes if "axes" in f.model_fields_set else list(KFGINS_AXES)
+    return (
+        table,
+        path,
+        _ImuLayout(0, [1, 2, 3], [4, 5, 6], 1.0, 1.0, "angle", 1.0, "velocity", axes),
+    )
+
+
+def _read_imu(
+    f: ImuFile, base: Path, origin: str
+) -> tuple[ImuLog, ImuCleaning, int, NavegoImu | None]:
+    if f.format == "navego-mat":
+        return _read_navego_imu(f, base, origin)
+    if f.format == "kfgins-text":
+        table, path, layout = _kfgins_imu(f, base, origin)
+    else:
+        table, path, layout = _csv_imu(f, base, origin)
+    tc, gc, ac, t_fac, g_fac, g_fam, a_fac, a_fam, axes = layout
     t = table.values[:, tc] * t_fac + f.time_offset_s
-    M = _mounting(f, origin)
+    M = _mounting(f, origin, axes)
     gyro = table.values[:, gc] * g_fac @ M.T
     accel = table.values[:, ac] * a_fac @ M.T
     if g_fam == "angle" or a_fam == "velocity":  # increments: rates over each interval
@@ -541,7 +669,7 @@ def _read_imu(
         dt = np.where(dt > 0, dt, np.nan)
         gyro = gyro / dt[:, None] if g_fam == "angle" else gyro
         accel = accel / dt[:, None] if a_fam == "velocity" else accel
-    names = {"gyro": f.gyro.columns, "accel": f.accel.columns}
+    names = {"gyro": [table.columns[j] for j in gc], "accel": [table.columns[j] for j in ac]}
     _imu_range(
         gyro,
         accel,
@@ -568,6 +696,19 @@ _TO_ENU = {  # column order -> ENU: index and sign
 }
 
 
+def _columns(
+    table: Table, cols: ColumnsFile, n: int, families: Sequence[str], field: str, origin: str
+) -> tuple[np.ndarray, float]:
+    """The ``n`` columns ``cols`` names in ``table`` (rows, n) and their unit's factor to
+    SI (one of ``families``); ``field`` is the key's path."""
+    if len(cols.columns) != n:
+        got = len(cols.columns)
+        raise ScenarioError(f"{field}.columns", f"expected {n}, got {got}", origin)
+    fac, _ = _factor(cols.unit, families, f"{field}.unit", origin)
+    idx = [_column(table, c, f"{field}.columns", origin) for c in cols.columns]
+    return table.values[:, idx], fac
+
+
 def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog, dict[str, Any]]:
     """A GNSS solution as a delimited text file with a column map (``docs/recording-format.md``)."""
     for key in ("time", "lat", "lon", "height"):
@@ -576,13 +717,7 @@ def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog
     table = read_csv(path, a.header, a.delimiter, f"{field}.file")
 
     def columns(key: str, n: int, families: Sequence[str]) -> tuple[np.ndarray, float]:
-        cols = getattr(a, key)
-        if len(cols.columns) != n:
-            got = len(cols.columns)
-            raise ScenarioError(f"{field}.{key}.columns", f"expected {n}, got {got}", origin)
-        fac, _ = _factor(cols.unit, families, f"{field}.{key}.unit", origin)
-        idx = [_column(table, c, f"{field}.{key}.columns", origin) for c in cols.columns]
-        return table.values[:, idx], fac
+        return _columns(table, getattr(a, key), n, families, f"{field}.{key}", origin)
 
     t, t_fac = columns("time", 1, ("time",))
     lat, lat_fac = columns("lat", 1, ("angle",))
@@ -634,8 +769,28 @@ def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLo
                     f"{field}.{key}", f"a setting of format 'csv', not {a.format!r}", origin
                 )
     path = _data_path(a.file, base, f"{field}.file", origin)
+    log, defaults = _read_gnss_format(a, path, field, origin)
+    if not np.isfinite(log.v).any():  # a velocity row would leave every epoch out
+        rows = (a.model_extra or {}).get("rows")
+        if rows in ("position-velocity", "velocity"):
+            raise ScenarioError(
+                f"{field}.rows",
+                f"{rows!r}, but the file has no velocity: the aid measures position only "
+                "(rows = 'position', the default for such a file)",
+                origin,
+            )
+        defaults["rows"] = "position"
+    return log, defaults
+
+
+def _read_gnss_format(
+    a: AidTable, path: Path, field: str, origin: str
+) -> tuple[GnssLog, dict[str, Any]]:
+    """:func:`_read_gnss` of the aid's ``format``."""
     if a.format == "csv":
         return _gnss_csv(a, path, field, origin)
+    if a.format == "kfgins-text":
+        return _gnss_kfgins(a, path, field, origin)
     if a.format == "navego-mat":
         g = read_navego_gnss(path, f"{field}.file")
         defaults: dict[str, Any] = {}
@@ -656,6 +811,58 @@ def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLo
         sigma=sigma,
     )
     return log, {}
+
+
+#: KF-GINS's GNSS text (i2Nav-WHU/KF-GINS README): GPS seconds of week, latitude and
+#: longitude (deg), ellipsoidal height (m), σ North, East, Down (m)
+KFGINS_GNSS_COLUMNS = (
+    "gps_seconds_of_week",
+    "lat_deg",
+    "lon_deg",
+    "height_m",
+    "sigma_n_m",
+    "sigma_e_m",
+    "sigma_d_m",
+)
+
+
+def _gnss_kfgins(
+    a: AidTable, path: Path, field: str, origin: str
+) -> tuple[GnssLog, dict[str, Any]]:
+    """The ``kfgins-text`` preset of a GNSS aid: positions and their σ, no velocity; every
+    epoch quality 1; the σ the aid's default (their median) and per epoch."""
+    table = read_csv(path, False, WHITESPACE, f"{field}.file", KFGINS_GNSS_COLUMNS)
+    x = table.values
+    if x.shape[1] != len(KFGINS_GNSS_COLUMNS):
+        raise ScenarioError(
+            str(path),
+            f"{field}.file: {x.shape[1]} columns; a KF-GINS GNSS file has 7 (GPS seconds of "
+            "week, lat lon deg, height m, σ N E D m): another layout is format 'csv' with "
+            "delimiter 'whitespace'",
+            origin,
+        )
+    check_position(
+        x[:, 1],
+        x[:, 2],
+        x[:, 3],
+        lambda r, k: (f"{path}:{table.lines[r]}", f"column {k}_{'m' if k == 'height' else 'deg'}"),
+    )
+    bad = np.argwhere(x[:, 4:7] <= 0)
+    if bad.size:
+        r, j = bad[0]
+        raise ScenarioError(
+            f"{path}:{table.lines[r]}", f"column {KFGINS_GNSS_COLUMNS[4 + j]}: σ must be > 0"
+        )
+    sigma = np.full((x.shape[0], 6), np.nan)
+    sigma[:, :3] = x[:, [5, 4, 6]]  # E, N, U from N, E, D
+    log = GnssLog(
+        t=x[:, 0] + a.time_offset_s,
+        p=np.stack([x[:, 1] * _DEG, x[:, 2] * _DEG, x[:, 3]], -1),
+        v=np.full((x.shape[0], 3), np.nan),
+        quality=np.ones(x.shape[0], int),
+        sigma=sigma,
+    )
+    return log, {"pos_white_sigma_m": tuple(float(s) for s in np.median(sigma[:, :3], 0))}
 
 
 def _some_quality(log: GnssLog, quality: Sequence[int], field: str, origin: str) -> None:
@@ -957,10 +1164,11 @@ def _start(
             origin,
         )
     if a.mode == "static":
-        if a.attitude_deg is not None:
-            raise ScenarioError(
-                "alignment.attitude_deg", "a setting of mode 'given', not 'static'", origin
-            )
+        for key in ("attitude_deg", "velocity_mps", "position_deg_m"):
+            if getattr(a, key) is not None:
+                raise ScenarioError(
+                    f"alignment.{key}", "a setting of mode 'given', not 'static'", origin
+                )
         sigma_gc = _gyrocompass_sigma(a, log, gnss, imu_err)
         use_gc = a.heading == "gyrocompass" or (
             a.heading == "auto" and sigma_gc <= a.gyrocompass_max_sigma_deg * _DEG
@@ -995,11 +1203,28 @@ def _start(
         sigma = nav.euler_sigma
     if np.any(sigma <= 0):
         raise ScenarioError("alignment.attitude_sigma_deg", "every σ must be > 0", origin)
+    # the start is the first fix in the IMU log: its velocity and position unless given
+    v_file = gnss.v
+    v = np.nan_to_num(v_file) if a.velocity_mps is None else np.asarray(a.velocity_mps, float)
     try:
-        al = given(log, gnss, euler)
+        al = given(log, gnss._replace(v=np.broadcast_to(v, v_file.shape)), euler)
     except ValueError as exc:
         path, _, reason = str(exc).partition(": ")
         raise ScenarioError(path, reason, origin) from None
+    k = int(np.flatnonzero(gnss.t == al.t)[0])
+    if a.velocity_mps is None and not np.isfinite(v_file[k]).all():
+        which = "has no velocity" if np.isnan(v_file).all() else "has none at that epoch"
+        raise ScenarioError(
+            "alignment.velocity_mps",
+            f"the start velocity is unknown: the first GNSS fix in the IMU log (t = "
+            f"{al.t:.3f} s) has no velocity (the file {which}); set velocity_mps = [E, N, U] "
+            "m/s, the vehicle's velocity then",
+            origin,
+        )
+    if a.position_deg_m is not None:
+        lat, lon, h = (np.array([x]) for x in a.position_deg_m)
+        check_position(lat, lon, h, lambda r, name: ("alignment.position_deg_m", name))
+        al = al._replace(p=np.array([lat[0] * _DEG, lon[0] * _DEG, h[0]]))
     return al, sigma
 
 
@@ -1036,6 +1261,11 @@ def _aids(
             )
             notes += _gnss_checks(a, sensor, params, from_file, sel, field, origin)
             raw, labels = gnss_raw(sel, faults, name)
+            # the values a position (velocity) aid does not measure are no part of its
+            # epochs: a file without velocity does not leave every epoch out
+            other = {"position": slice(3, 6), "velocity": slice(0, 3)}.get(sensor.rows)
+            if other is not None:
+                raw[:, other] = np.nan_to_num(raw[:, other], nan=0.0)
             if sensor.per_epoch_sigma:  # the file's σ after the values (sensors.gnss)
                 # a missing σ is 0: the row keeps the sensor's R (NaN would mean "no epoch")
                 sig = sel.sigma if sel.sigma is not None else np.zeros((sel.t.size, 6))
@@ -1132,7 +1362,9 @@ def _check_gnss_epochs(gnss: GnssLog, log: ImuLog, first: int, origin: str) -> N
 
 def _unit_factors(f: ImuFile, origin: str) -> tuple[float, float]:
     """The declared gyro unit in rad/s and accelerometer unit in m/s², 0 for increments
-    (NaveGo: SI by format)."""
+    (NaveGo: SI by format; KF-GINS: increments by format)."""
+    if f.format == "kfgins-text":
+        return 0.0, 0.0
     if f.format == "navego-mat" or f.gyro is None or f.accel is None:
         return 1.0, 1.0
     g_fac, g_fam = _factor(f.gyro.unit, ("angular_rate", "angle"), "imu.gyro.unit", origin)
@@ -1291,7 +1523,7 @@ def load_recording(
         truth = _truth(f.reference, base, origin, raw_log, al, (dt, steps), nav)
         ref_index, ref_p = truth.index, truth.p
     else:
-        for key in ("file", "format"):
+        for key in ("file", "format", *_TRUTH_CSV_KEYS):
             if key in f.reference.model_fields_set:
                 raise ScenarioError(
                     f"reference.{key}", "a setting of source 'truth', not 'gnss'", origin
@@ -1367,7 +1599,15 @@ def _truth(
     if r.file is None:
         raise ScenarioError("reference.file", "missing required key (source 'truth')", origin)
     path = _data_path(r.file, base, "reference.file", origin)
-    tr = read_navego_truth(path, "reference.file")
+    if r.format == "csv":
+        tr = _truth_csv(r, path, origin)
+    else:
+        for key in _TRUTH_CSV_KEYS:
+            if key in r.model_fields_set:
+                raise ScenarioError(
+                    f"reference.{key}", "a setting of format 'csv', not 'navego-mat'", origin
+                )
+        tr = read_navego_truth(path, "reference.file")
     dt, steps = grid
     k = np.rint((tr.t - al.t) / dt).astype(np.int64)
     on = (np.abs(tr.t - (al.t + k * dt)) <= 1e-6) & (k >= 1) & (k <= steps)
@@ -1392,6 +1632,43 @@ def _truth(
         accel_bias_nominal=None if nav is None else nav.accel_bias_nominal,
         removed_gyro_bias=np.asarray(al.gyro_bias, float),
     )
+
+
+def _truth_csv(r: ReferenceFile, path: Path, origin: str) -> NavegoTruth:
+    """A truth as a delimited text file with a column map: what :func:`read_navego_truth`
+    gives for NaveGo's ``ref.mat`` (the attitude :class:`AttitudeColumns`)."""
+    for key in _TRUTH_CSV_KEYS[2:]:
+        if getattr(r, key) is None:
+            raise ScenarioError(f"reference.{key}", "missing required key (format 'csv')", origin)
+    table = read_csv(path, r.header, r.delimiter, "reference.file")
+    if table.values.shape[0] < 2:
+        raise ScenarioError(str(path), f"reference.file: {table.values.shape[0]} sample(s)")
+
+    def columns(key: str, n: int, families: Sequence[str]) -> np.ndarray:
+        values, fac = _columns(table, getattr(r, key), n, families, f"reference.{key}", origin)
+        return values * fac
+
+    t = columns("time", 1, ("time",))[:, 0]
+    p = np.concatenate(
+        [
+            columns("lat", 1, ("angle",)),
+            columns("lon", 1, ("angle",)),
+            columns("height", 1, ("length",)),
+        ],
+        1,
+    )
+    named = {k: getattr(r, k).columns[0] for k in ("lat", "lon", "height")}
+    check_position(
+        np.degrees(p[:, 0]),
+        np.degrees(p[:, 1]),
+        p[:, 2],
+        lambda row, k: (f"{path}:{table.lines[row]}", f"column {named[k]}"),
+    )
+    assert r.velocity is not None
+    order, sign = _TO_ENU[r.velocity.frame]
+    v = columns("velocity", 3, ("velocity",))[:, order] * sign
+    C = dcm_from_roll_pitch_yaw(columns("attitude", 3, ("angle",)))
+    return NavegoTruth(t, p, v, C)
 
 
 def recording_json_schema() -> dict[str, Any]:
