@@ -36,5 +36,6 @@ def navigation_model(scenario: Any, system: LinearSystem | None = None) -> Navig
         scenario.correction,
         scenario.discretization,
         scenario.algorithm,
+        scenario.bias_compensation,
     )
     return ins

@@ -14,7 +14,10 @@ Per filter epoch k (spec §6.2, §8.4-§8.5):
 4. the filters step on these per-run matrices (every local filter and the centre use
    the same ones, spec §6.2);
 5. with ``correction = "feedback"`` the fused navigation errors are fed back to the
-   SINS and every filter's estimates are shifted by the same correction; with
+   SINS and every filter's estimates are shifted by the same correction (with
+   ``bias_compensation`` the estimated IMU biases too: accumulated, and subtracted from
+   every IMU increment before the mechanization and the linearization of the next
+   epochs, as KF-GINS and pyins do — spec §8.5); with
    ``"output"`` the SINS runs free and its output is corrected.  A method may set its
    own ``correction`` (its SINS rows are fed back or not).  With output correction and
    an architecture whose local filters each keep their own copy of the SINS output
@@ -63,6 +66,9 @@ class InsModelState(NamedTuple):
     ins: InsState
     previous: Previous
     shift: np.ndarray | None
+    bias: np.ndarray | None = None
+    """(rows, 6) the IMU biases fed back so far, gyro ε̂ (rad/s) then accelerometer ∇̂
+    (m/s²), body frame, subtracted from the increments (``bias_compensation``), or None."""
 
 
 def _rows(rows: np.ndarray, a: np.ndarray) -> np.ndarray:
@@ -90,6 +96,12 @@ class InsModel:
     dt : filter period (s); ``samples_per_epoch`` IMU increments make one epoch.
     correction : ``"feedback"`` or ``"output"``.
     discretization : ``"series"`` or ``"van-loan"``; ``algorithm`` the strapdown algorithm.
+    bias_compensation : feed the estimated IMU bias states back too and subtract the
+        accumulated biases from the increments (module step 5): the filters' bias states
+        then hold what is left of the biases, ``n_fed`` is the error model's n.  With a
+        Markov bias model (18 states, or 15 with a random walk) the fed-back part is
+        held constant while the model lets the residual decay (the usual closed-loop
+        approximation, KF-GINS); needs ``bias_frame = "body"``.
     """
 
     per_method_rows: bool = True
@@ -106,7 +118,16 @@ class InsModel:
         correction: Literal["feedback", "output"] = "feedback",
         discretization: Literal["van-loan", "series"] = "series",
         algorithm: Literal["two-sample", "single-sample"] = "two-sample",
+        bias_compensation: bool = False,
     ):
+        if bias_compensation and error_model.bias_frame != "body":
+            raise ValueError(
+                "bias_compensation: the bias states must be in the body frame "
+                f"(bias_frame 'body', got {error_model.bias_frame!r})"
+            )
+        self.compensate = bool(bias_compensation)
+        if self.compensate:
+            self.n_fed = error_model.n
         self.system = system
         self.error_model = error_model
         self.aids = tuple(aids)
@@ -133,7 +154,8 @@ class InsModel:
     def start(self, stream: InsStream, copies: int) -> InsModelState:
         """Every method's SINS starts at the stream's initial solution."""
         ins = InsState(*(_tile(a, copies) for a in stream.start))
-        return InsModelState(ins, (None,) * len(self.aids), None)
+        bias = np.zeros((ins.q.shape[0], 6)) if self.compensate else None
+        return InsModelState(ins, (None,) * len(self.aids), None, bias)
 
     def epoch(
         self,
@@ -149,6 +171,9 @@ class InsModel:
         sl = slice((k - 1) * self.spe, k * self.spe)
         dth = _tile(stream.imu.dtheta[:, sl], copies)
         dvel = _tile(stream.imu.dv[:, sl], copies)
+        if state.bias is not None:  # the biases fed back so far (module step 5)
+            dth = dth - state.bias[:, None, :3] * stream.imu.dt
+            dvel = dvel - state.bias[:, None, 3:] * stream.imu.dt
         f_b = dvel.sum(1) / self.dt
         C_bn = attitude.quat_to_dcm(ins.q)
         Phi, Q = discrete_model(
@@ -170,7 +195,7 @@ class InsModel:
         if local_copies is not None and local_copies.rows.any():
             self._at_local_copies(stream, k, copies, ins, Phi, local_copies, z, H, avail)
         epoch = Epoch(k, tuple(z), avail, stream.labels[k - 1], Linearization(Phi, Q, tuple(H)))
-        return InsModelState(ins, previous, state.shift), epoch
+        return state._replace(ins=ins, previous=previous), epoch
 
     def _measure(
         self,
@@ -252,16 +277,26 @@ class InsModel:
         or only to the ``rows`` that are True (methods with their own ``correction``)."""
         if rows is None and not self.feedback:
             return state
-        d = fused[:, :N_NAV]
+        d = fused[:, : self.n_fed]
         ins = feedback(state.ins, d[:, 0:3], d[:, 3:6], d[:, 6:9])
         if rows is not None:  # the other rows' SINS run free
             ins = _pick(rows, ins, state.ins)
             d = np.where(rows[:, None], d, 0.0)
+        bias = state.bias
+        if bias is not None:
+            bias = bias + self._bias_states(d)
         shift = None
         if any(p is not None for p in self.psi):
             n = self.system.n_common
-            shift = np.concatenate([d, np.zeros((d.shape[0], n - N_NAV))], 1)
-        return InsModelState(ins, state.previous, shift)
+            shift = np.concatenate([d, np.zeros((d.shape[0], n - d.shape[1]))], 1)
+        return InsModelState(ins, state.previous, shift, bias)
+
+    def _bias_states(self, d: np.ndarray) -> np.ndarray:
+        """(rows, 6) gyro and accelerometer biases of the fed-back states ``d``: 15
+        states ``[ε, ∇]``; 18 states ``ε_b + ε_r`` and ``∇`` (:mod:`ftnav.nav.error_model`)."""
+        if d.shape[1] == 15:
+            return d[:, 9:15]
+        return np.concatenate([d[:, 9:12] + d[:, 12:15], d[:, 15:18]], 1)
 
     def output(
         self, state: InsModelState, fused: np.ndarray, rows: np.ndarray | None = None

@@ -210,6 +210,14 @@ class FilterFile(BaseModel):
     discretization: Literal["series", "van-loan"] = "series"
     states: Literal[18, 15] = 18
     bias_frame: Literal["body", "nav"] = "body"
+    bias_compensation: bool = Field(
+        default=False,
+        description=(
+            "feedback, bias_frame body: the estimated IMU biases are fed back and "
+            "subtracted from the increments before the strapdown (off: the papers feed "
+            "back the navigation errors only)"
+        ),
+    )
     initial: InitialFile = Field(default_factory=InitialFile)
     imu: ImuSpec | None = Field(
         default=None,
@@ -674,6 +682,13 @@ def parse_ins_scenario(
     except Exception as exc:  # pydantic custom error outside validation
         ctx = getattr(exc, "context", None) or {}
         raise _err(format_loc(ctx.get("path", ())) or "figures", str(exc), origin) from None
+    if fl.bias_compensation and (fl.bias_frame != "body" or fl.correction != "feedback"):
+        raise _err(
+            "filter.bias_compensation",
+            "needs correction 'feedback' and bias_frame 'body' (the biases are fed back "
+            "and subtracted in the body frame)",
+            origin,
+        )
     model = filter_model(assumed, fl.states, fl.bias_frame)
     field = "imu" if f.filter.imu is None else "filter.imu"
     for note in model.notes:
@@ -692,6 +707,7 @@ def parse_ins_scenario(
         methods=tuple(methods),
         evaluation=ev.settings(DEFAULT_SIGMA_BOUND_M),
         correction=fl.correction,
+        bias_compensation=fl.bias_compensation,
         discretization=fl.discretization,
         description=f.description,
         test_profile=test_prof,

@@ -291,6 +291,10 @@ class SinsScenario(ScenarioBase):
         §6.2, §8.5) or ``"output"`` (the SINS runs free; its output is corrected).
     discretization : ``"series"`` (order 5, PSINS kfc2d) or ``"van-loan"``.
     algorithm : the strapdown algorithm (:mod:`ftnav.nav.mechanization`).
+    bias_compensation : with feedback, the estimated IMU biases are fed back too and
+        subtracted from the increments before the mechanization
+        (:class:`ftnav.engine.ins.InsModel`); recordings default to it, scenarios not
+        (the papers feed back the navigation errors only).
     """
 
     error_model: ErrorModelParams
@@ -299,6 +303,7 @@ class SinsScenario(ScenarioBase):
     correction: Correction = "feedback"
     discretization: Literal["series", "van-loan"] = "series"
     algorithm: str = "two-sample"
+    bias_compensation: bool = False
 
     @property
     def sensor_names(self) -> tuple[str, ...]:
