@@ -1,11 +1,15 @@
 """ftnav beside python-ins (pyins 1.0) on the same real drive and the same GNSS outages.
 
 Both process the vendored rtklibexplorer car drive (MEMS IMU 100 Hz + RTK GNSS 4 Hz),
-loosely coupled, scored against the RTK fixes (Q = 1): GNSS on, then outages of
-``--outage-length`` s every ``--outage-every`` s from ``--outage-start`` s (after the first
-GNSS epoch, clipped 30 s before the end), once with GNSS only and once with the vehicle
-constraints (ftnav: NHC + ZUPT; pyins: NHC).  Printed per case: the RMS over outages of
-the maximum horizontal drift, the per-outage range, and the wall time of each tool.
+loosely coupled, scored at the antenna against the RTK fixes (Q = 1): GNSS on (ftnav: the
+posterior at each fix and the prediction just before it; pyins: its output trajectory and
+its prediction), then several outage schedules (``--schedules LENGTH:EVERY``, from
+``--outage-start`` s after the first GNSS epoch, clipped 30 s before the end), once with GNSS
+only and once with the vehicle constraints (ftnav: NHC + ZUPT; pyins: NHC), for each IMU
+time offset of ``--imu-offsets`` (the drive file's -0.20 s, chosen on this drive, and
+upstream's -0.125 s: the sensitivity of the headline to that choice).  Printed per case: the
+RMS over outages of the maximum horizontal drift, the per-outage range, the wall time of
+each tool, and which is ahead.
 
 Same inputs for both: the GNSS epochs (Q = 1), the timing of ``rtklib-drive.toml`` (IMU
 stamps + its ``time_offset_s``; the RTKLIB velocities moved onto the position stamps by
@@ -14,8 +18,8 @@ velocities as stamped instead), and the same outage schedule: a long outage sche
 that ftnav splits into interleaved runs (:func:`ftnav.recorded.stream.interleave`, 60 s
 every 60 s: two runs) is run by pyins as the same runs, one pyins run each.
 
-    python benchmarks/bench_recorded.py                       # 15 s and 60 s outages
-    python benchmarks/bench_recorded.py --lengths 15          # one schedule
+    python benchmarks/bench_recorded.py                       # 3 schedules x 2 IMU offsets
+    python benchmarks/bench_recorded.py --schedules 15:60 --imu-offsets -0.2
 
 The pyins side is ``benchmarks/peer_pyins_drive.py`` (its settings in its docstring).
 """
@@ -32,14 +36,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 
+import tempfile  # noqa: E402
+
+import tomli_w  # noqa: E402
 from peer_pyins_drive import run_pyins  # noqa: E402
 
-from ftnav.engine import navigation_model  # noqa: E402
-from ftnav.engine.driver import run  # noqa: E402
-from ftnav.eval.montecarlo import build_filters  # noqa: E402
-from ftnav.eval.recorded import Reference, score_recording  # noqa: E402
-from ftnav.io.recording_file import load_recording  # noqa: E402
 from ftnav.io.recording_readers import read_rtklib_pos  # noqa: E402
+from ftnav.pipeline import process_recording  # noqa: E402
 from ftnav.recorded.stream import interleave, outage_schedule  # noqa: E402
 from ftnav.recordings import recording_path  # noqa: E402
 
@@ -77,55 +80,82 @@ def _last_gnss_s() -> float:
     return float(pos.t.max() - pos.t.min())
 
 
-def ftnav_drive(outage, aids) -> tuple[dict, float]:
+def drive_file(imu_offset: float, folder: Path) -> Path:
+    """The drive's recording file with another IMU time offset (data paths made absolute)."""
+    src = recording_path("rtklib-drive")
+    doc = tomllib.loads(src.read_text())
+    doc["imu"]["file"] = str(src.parent / doc["imu"]["file"])
+    for a in doc["aids"]:
+        if "file" in a:
+            a["file"] = str(src.parent / a["file"])
+    doc["imu"]["time_offset_s"] = imu_offset
+    path = folder / f"drive{imu_offset:+.3f}.toml"
+    path.write_text(tomli_w.dumps(doc))
+    return path
+
+
+def ftnav_drive(path: Path, outage, aids) -> tuple[dict, float]:
     """The centralized filter's scores on the drive and its wall time (load + run)."""
     t0 = time.perf_counter()
-    loaded = load_recording(
-        recording_path("rtklib-drive"), outage=outage, methods=["ckf"], aids=aids
-    )
-    rec = loaded.recording
-    filters = build_filters(rec, rec.system(), rec.methods)
-    traces = run(navigation_model(rec), loaded.stream, filters, rec.steps)
-    ref = Reference(loaded.reference_index, loaded.reference_p)
-    scores = score_recording(rec, traces, ref, loaded.outages)["ckf"]
-    return scores, time.perf_counter() - t0
+    r = process_recording(path, outages=outage, methods=["ckf"], aids=aids)
+    return r.scores["ckf"], time.perf_counter() - t0
 
 
-def _row(tool: str, case: str, o: dict | None, on: float | None, wall: float) -> str:
+def _row(tool: str, case: str, o: dict | None, on: tuple | None, wall: float) -> str:
     if o is None:
-        return f"{tool:<6} {case:<24} GNSS on: {on:.3f} m RMS{'':<28} {wall:6.1f} s"
+        post, pred = on or (None, None)
+        pr = "-" if pred is None else f"{pred:.3f}"
+        text = f"GNSS on: {post:.3f} m RMS (prediction {pr} m)"
+        return f"{tool:<6} {case:<30} {text:<56} {wall:6.1f} s"
     each = [r["max_error_m"] for r in o["each"]]
     return (
-        f"{tool:<6} {case:<24} {o['count']} outages: RMS of max drift "
+        f"{tool:<6} {case:<30} {o['count']} outages: RMS of max drift "
         f"{o['rms_max_error_m']:7.2f} m ({min(each):.1f}-{max(each):.1f})  {wall:6.1f} s"
     )
 
 
+def _schedule(text: str) -> tuple[float, float]:
+    length, every = (float(x) for x in text.split(":"))
+    return length, every
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--lengths", type=float, nargs="+", default=[15.0, 60.0])
-    ap.add_argument("--outage-every", type=float, default=60.0)
+    ap.add_argument(
+        "--schedules", type=_schedule, nargs="+", default=[(15, 60), (10, 45), (30, 90)]
+    )
     ap.add_argument("--outage-start", type=float, default=40.0)
-    ap.add_argument("--upstream-timing", action="store_true")
+    ap.add_argument("--imu-offsets", type=float, nargs="+", default=None)
     a = ap.parse_args()
     imu_off, vel_off = drive_timing()
-    timing = (
-        {} if a.upstream_timing else {"imu_t_off_s": imu_off, "velocity_time_offset_s": vel_off}
-    )
-    peer = "upstream -0.125 s, velocities as stamped" if a.upstream_timing else "the same"
-    print(f"timing: IMU {imu_off:+g} s, GNSS velocities {vel_off:+g} s (ftnav); pyins: {peer}")
+    offsets = a.imu_offsets or [imu_off, -0.125]
     gnss = ["gnss", "gnss-vel"]  # the receiver's position and velocity aids
-    s, w = ftnav_drive(None, gnss)
-    print(_row("ftnav", "gnss", None, s["horizontal_rms_m"], w))
-    p = run_pyins(None, **timing)
-    print(_row("pyins", "gnss", None, p["rms_after_update_m"], p["wall_s"]))
-    for length in a.lengths:
-        outage = (length, a.outage_every, a.outage_start)
-        for ft_aids, py_nhc, case in ((gnss, False, "gnss"), (None, True, "constraints")):
-            s, w = ftnav_drive(outage, ft_aids)
-            print(_row("ftnav", f"{length:g} s, {case}", s["outages"], None, w), flush=True)
-            po = pyins_runs(length, a.outage_every, a.outage_start, py_nhc, timing)
-            print(_row("pyins", f"{length:g} s, {case}", po, None, po["wall_s"]), flush=True)
+    ahead = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for off in offsets:
+            path = drive_file(off, Path(tmp))
+            timing = {"imu_t_off_s": off, "velocity_time_offset_s": vel_off}
+            print(f"IMU time offset {off:+g} s, GNSS velocities {vel_off:+g} s (both tools)")
+            s, w = ftnav_drive(path, None, gnss)
+            on = (s["horizontal_rms_m"], s.get("prediction_horizontal_rms_m"))
+            print(_row("ftnav", "gnss", None, on, w))
+            p = run_pyins(None, **timing)
+            on = (p["rms_after_update_m"], p["rms_before_update_m"])
+            print(_row("pyins", "gnss", None, on, p["wall_s"]))
+            for length, every in a.schedules:
+                outage = (length, every, a.outage_start)
+                for ft_aids, py_nhc, case in ((gnss, False, "gnss"), (None, True, "constraints")):
+                    label = f"{length:g}/{every:g} s, {case}"
+                    s, w = ftnav_drive(path, outage, ft_aids)
+                    print(_row("ftnav", label, s["outages"], None, w), flush=True)
+                    po = pyins_runs(length, every, a.outage_start, py_nhc, timing)
+                    print(_row("pyins", label, po, None, po["wall_s"]), flush=True)
+                    f, q = s["outages"]["rms_max_error_m"], po["rms_max_error_m"]
+                    ahead.append((off, label, f, q))
+    print("\nftnav ahead of pyins (RMS of the maximum drift):")
+    for off, label, f, q in ahead:
+        mark = "yes" if f < q else "NO"
+        print(f"  IMU {off:+g} s  {label:<30} ftnav {f:6.2f} m  pyins {q:6.2f} m  {mark}")
 
 
 if __name__ == "__main__":

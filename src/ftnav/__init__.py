@@ -3,6 +3,22 @@
 import os as _os
 
 __version__ = "0.1.0"
+__all__ = ["__version__", "process_recording", "run_scenario"]
+
+
+def __getattr__(name: str) -> object:
+    """``ftnav.process_recording`` (:mod:`ftnav.pipeline`) and ``ftnav.run_scenario``
+    (:mod:`ftnav.eval.montecarlo`), imported when first used."""
+    if name == "process_recording":
+        from ftnav.pipeline import process_recording
+
+        return process_recording
+    if name == "run_scenario":
+        from ftnav.eval.montecarlo import run_scenario
+
+        return run_scenario
+    raise AttributeError(f"module 'ftnav' has no attribute {name!r}")
+
 
 if _os.environ.get("FTNAV_PARENT_PID"):
     # a worker process of ftnav.parallel, still starting: from here on it ends with

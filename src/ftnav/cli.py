@@ -62,12 +62,10 @@ import numpy as np
 from tqdm import tqdm
 
 from ftnav import __version__
-from ftnav.engine import navigation_model
-from ftnav.engine.driver import Diverged, run
+from ftnav.engine.driver import Diverged
 from ftnav.eval import resources
 from ftnav.eval.evaluate import evaluate, metrics_to_json
 from ftnav.eval.montecarlo import build_filters, run_scenario
-from ftnav.eval.recorded import Reference, score_recording
 from ftnav.eval.resources import (
     format_bytes,
     kernels_compiled,
@@ -81,11 +79,10 @@ from ftnav.io.learned import save_neuron_model, save_rbf_model
 from ftnav.io.model_file import ModelFileError
 from ftnav.io.output_folder import MANIFEST, Output, OutputRefused
 from ftnav.io.profile_file import resolve_profile
-from ftnav.io.recording_file import load_recording, recording_aids, recording_json_schema
+from ftnav.io.recording_file import recording_json_schema
 from ftnav.io.results import write_estimates, write_metrics
 from ftnav.io.scenario_file import load_scenario, scenario_json_schema
 from ftnav.io.solution_file import (
-    solution_table,
     write_solution_csv,
     write_trace_netcdf,
     write_track_geojson,
@@ -93,10 +90,9 @@ from ftnav.io.solution_file import (
 )
 from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
 from ftnav.model.imu import imu_preset
-from ftnav.model.scenario import Fault
-from ftnav.model.streams import scheduled
 from ftnav.parallel import default_workers
-from ftnav.recordings import recording_names, recording_path
+from ftnav.pipeline import Outages, prepare_recording
+from ftnav.recordings import recording_names
 from ftnav.report.claims import check_claims
 from ftnav.report.recorded import recording_metrics, recording_table
 from ftnav.report.summary import detector_table, markdown_report, results_table
@@ -374,6 +370,11 @@ def _parser() -> _Parser:
         help="inject a fault into a recorded aid (repeatable); START, END on the recording's "
         "time base; a bias or ramp MAGNITUDE in metres on the north position",
     )
+    r.add_argument(
+        "--smooth",
+        action="store_true",
+        help="also write the forward-backward (RTS) smoothed solution (smoothed*.csv)",
+    )
     r.add_argument("--quiet", action="store_true", help="no progress bar (shown after 2 s)")
     r.add_argument(
         "--no-figures",
@@ -619,149 +620,73 @@ def _integrity_warnings(watches: Iterable[dict[str, Any] | None]) -> None:
         )
 
 
-_RECORDING_FAULTS = ("bias", "ramp", "outage", "stuck")
-#: largest ``--fault`` magnitude (m): a position offset of a GNSS fix beyond it is not a
-#: fault of a receiver on Earth, and squared it overflows the filter's arithmetic
-MAX_FAULT_M = 1e5
-
-
-def _parse_fault(text: str, aids: dict[str, str]) -> Fault:
-    """``SENSOR:KIND:START:END[:MAGNITUDE]`` (``--fault``) as a fault of a recorded aid."""
-    parts = text.split(":")
-    if len(parts) not in (4, 5):
-        raise UsageError(f"--fault: expected SENSOR:KIND:START:END[:MAGNITUDE], got {text!r}")
-    sensor, kind = parts[0], parts[1]
-    if aids.get(sensor) not in ("gnss", "gnss-velocity"):
-        gnss = [n for n, t in aids.items() if t.startswith("gnss")]
-        raise UsageError(f"--fault: {sensor!r} is not a GNSS aid of the recording ({gnss})")
-    if kind not in _RECORDING_FAULTS:
-        raise UsageError(f"--fault: kind {kind!r} (recordings: {', '.join(_RECORDING_FAULTS)})")
-    if kind in ("bias", "ramp") and aids[sensor] == "gnss-velocity":
-        pos = [n for n, t in aids.items() if t == "gnss"]
-        raise UsageError(
-            f"--fault: {sensor!r} measures velocity only and a {kind} moves the north "
-            f"position: fault a position aid ({pos})"
-        )
-    try:
-        start, end = float(parts[2]), float(parts[3])
-        mag = float(parts[4]) if len(parts) == 5 else 0.0
-    except ValueError:
-        raise UsageError(f"--fault: START, END and MAGNITUDE must be numbers ({text!r})") from None
-    if not (math.isfinite(start) and math.isfinite(end) and math.isfinite(mag)) or end <= start:
-        raise UsageError(f"--fault: END must be after START, both finite ({text!r})")
-    if kind in ("bias", "ramp") and len(parts) != 5:
-        raise UsageError(f"--fault: a {kind} needs a MAGNITUDE in metres ({text!r})")
-    if abs(mag) > MAX_FAULT_M:
-        raise UsageError(
-            f"--fault: MAGNITUDE {mag:g} m is beyond ±{MAX_FAULT_M:g} m, off the Earth ({text!r})"
-        )
-    return Fault(sensor, kind, start, end, np.array([0.0, mag, 0.0, 0.0, 0.0, 0.0]))
-
-
-def _resolve_recording(spec: str) -> Path:
-    if spec in recording_names():
-        return recording_path(spec)
-    path = Path(spec)
-    if path.suffix == ".toml" or path.exists():
-        return path
-    raise UsageError(
-        f"recording: {spec!r} is neither a built-in recording "
-        f"({', '.join(recording_names())}) nor a recording file"
-    )
-
-
 def _cmd_process(args) -> int:
     with _checking():
-        path = _resolve_recording(args.recording)
-        aids = recording_aids(path)
-        faults = [_parse_fault(f, aids) for f in args.fault]
-        names = _name_list(args.methods, "--methods")
-        keep = _name_list(args.aids, "--aids")
-        outage = None
+        outages = None
         if args.outage_length is not None:
-            if args.outage_length >= args.outage_every:
-                raise UsageError(
-                    f"--outage-length: {args.outage_length:g} s outages every "
-                    f"{args.outage_every:g} s leave no GNSS fix: the length must be shorter "
-                    "than --outage-every"
-                )
-            outage = (args.outage_length, args.outage_every, args.outage_start)
-        loaded = load_recording(
-            path, outage=outage, faults=faults, methods=names, aids=keep, warn=False
+            outages = Outages(args.outage_length, args.outage_every, args.outage_start)
+        prepared = prepare_recording(
+            args.recording,
+            methods=_name_list(args.methods, "--methods"),
+            aids=_name_list(args.aids, "--aids"),
+            outages=outages,
+            faults=list(args.fault),
+            smooth=args.smooth,
+            fields={"faults": "--fault", "outages": "--outage-length"},
         )
-        rec = loaded.recording
+        rec = prepared.recording
         out = args.out if args.out is not None else Path("results") / rec.name
         solutions = (
             ["solution.csv"]
             if len(rec.methods) == 1
             else [f"solution-{m.name}.csv" for m in rec.methods]
         )
+        if args.smooth:
+            solutions += [n.replace("solution", "smoothed", 1) for n in solutions]
         fixed = ["metrics.json", "trace.nc", "track.geojson", "track.kml"]
         output = _claim(out, folder=True, names=[*solutions, *fixed])
-        for f in rec.faults:
-            if f.start < 0 or f.end > rec.times[-1]:
-                raise UsageError(
-                    f"--fault: [{f.start + rec.t_start:.3f}, {f.end + rec.t_start:.3f}) s is "
-                    f"outside the processed span [{rec.t_start:.3f}, "
-                    f"{rec.t_start + rec.times[-1]:.3f}] s (the recording's time base)"
-                )
-        filters = build_filters(rec, rec.system(), rec.methods)
+    loaded = prepared.loaded
     for note in loaded.warnings:  # after every check: a refusal comes alone
         print(f"ftnav: warning: {_one_line(note)}", file=sys.stderr)
     # the engine reports one step per method and epoch, for the whole batch at once
     # (one run per interleaved outage schedule): the bar counts epochs x methods x runs
     runs = loaded.stream.batch
-    total = len(rec.methods) * rec.steps * runs
-    t0 = time.perf_counter()
-    with _bar(total, args.quiet, f"process {rec.name}", delay=2.0) as bar:
-        traces = run(
-            navigation_model(rec),
-            loaded.stream,
-            filters,
-            rec.steps,
-            lambda n: bar.update(n * runs),
-            nav_covariance=loaded.truth is not None,  # NEES against a full truth
-            times=rec.t_start + rec.times,
-        )
-    elapsed = time.perf_counter() - t0
-    ref = Reference(loaded.reference_index, loaded.reference_p)
-    scores = score_recording(
-        rec,
-        traces,
-        ref,
-        loaded.outages,
-        truth=loaded.truth,
-        scheduled=scheduled(loaded.stream, rec.steps),
-    )
-    times = rec.t_start + rec.times
+    with _bar(prepared.work, args.quiet, f"process {rec.name}", delay=2.0) as bar:
+        result = prepared.run(bar.update)
     with output.staged() as stage:
-        tables = {nm: solution_table(tr, times, method=nm) for nm, tr in traces.items()}
+        tables = {nm: result.solution(nm) for nm in result.traces}
         written = []
         for nm, tab in tables.items():
             name = "solution.csv" if len(tables) == 1 else f"solution-{nm}.csv"
             written.append(write_solution_csv(tab, stage / name).name)
+        if result.smoothed is not None:
+            for nm in result.smoothed:
+                name = "smoothed.csv" if len(tables) == 1 else f"smoothed-{nm}.csv"
+                written.append(
+                    write_solution_csv(result.solution(nm, smoothed=True), stage / name).name
+                )
         written.append(
             write_track_geojson(tables, loaded.reference_p, stage / "track.geojson").name
         )
         kml = write_track_kml(tables, loaded.reference_p, stage / "track.kml", rec.name)
         written.append(kml.name)
-        written.append(write_trace_netcdf(loaded, traces, stage / "trace.nc").name)
+        written.append(write_trace_netcdf(loaded, result.traces, stage / "trace.nc").name)
         if not args.no_figures:
             from ftnav.plot.recorded import save_recording_figures
 
-            written += [p.name for p in save_recording_figures(loaded, traces, stage)]
+            written += [p.name for p in save_recording_figures(loaded, result.traces, stage)]
         written.append("metrics.json")
-        doc = recording_metrics(loaded, scores, elapsed, written)
+        doc = recording_metrics(loaded, result.scores, result.elapsed_s, written)
         write_metrics(doc, stage / "metrics.json")
     print(
         f"{rec.name}: {rec.steps} epochs of {rec.dt:.4g} s from {rec.t_start:.3f} s, "
         f"{len(rec.methods)} methods"
         + (f" x {runs} runs (interleaved outage schedules)" if runs > 1 else "")
-        + f", {elapsed:.1f} s"
+        + f", {result.elapsed_s:.1f} s"
     )
-    print(recording_table(scores))
+    print(recording_table(result.scores))
     print(f"Results written to {out}/: {', '.join(written)}")
-    _integrity_warnings(m.get("integrity") for m in scores.values())
+    _integrity_warnings(m.get("integrity") for m in result.scores.values())
     return 0
 
 

@@ -65,3 +65,37 @@ def test_readme_python_snippet(name, steps, tmp_path, monkeypatch, capsys):
     exec(compile(_engine_snippet(), "README.md", "exec"), scope)  # the engine, after it
     x = scope["traces"]["ckf"].x
     assert x.shape[:2] == (3, sc.steps) and np.isfinite(x).all()
+
+
+def _recording_snippet() -> str:
+    blocks = re.findall(r"```python\n(.*?)```", README, flags=re.S)
+    return next(b for b in blocks if "process_recording(" in b)
+
+
+def test_readme_recording_snippet(tmp_path, capsys):
+    """The README's one-call route on a short copy of the drive (60 s, GNSS only): a
+    DataFrame of the solution and of the smoothed one, and the scores."""
+    from ftnav.recordings import recording_path
+
+    src = recording_path("rtklib-drive")
+    data = tomllib.loads(src.read_text())
+    data["imu"]["file"] = str(src.parent / data["imu"]["file"])
+    for a in data["aids"]:
+        if "file" in a:
+            a["file"] = str(src.parent / a["file"])
+    data["aids"] = [a for a in data["aids"] if a["type"] == "gnss"]
+    data["filter"] = {**data.get("filter", {}), "duration_s": 90.0}
+    path = tmp_path / "drive.toml"
+    path.write_text(tomli_w.dumps(data))
+    code = _recording_snippet().replace('"rtklib-drive"', repr(str(path)))
+    code = code.replace("outages=(15, 60, 40)", "outages=(10, 30, 20)")
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    df, smoothed, result = scope["df"], scope["smoothed"], scope["result"]
+    assert list(df.columns[:4]) == ["method", "time_s", "lat_deg", "lon_deg"]
+    assert set(df["method"]) == {"ckf"} and len(df) == result.recording.steps
+    assert np.isfinite(df.drop(columns="method").to_numpy()).all()
+    assert smoothed.shape == df.shape
+    s = result.scores["ckf"]
+    assert 0 < s["horizontal_rms_m"] < 0.5 and s["outages"]["count"] >= 2
+    assert "ckf" in capsys.readouterr().out

@@ -426,6 +426,9 @@ class Trace(NamedTuple):
     guard : what the isolation guard did, or None (a method without a detector).
     smoothing : what the RTS smoother needs (:class:`SmoothingRecord`), recorded only on
         request (``run``'s ``smoothing``), else None.
+    prediction : the solution a user had before each epoch's aiding: the SINS propagated
+        from the last corrected solution (q (B, K, 4), v, p (B, K, 3)), recorded only on
+        request (``run``'s ``prediction``) and for methods that feed back, else None.
     """
 
     x: np.ndarray
@@ -446,6 +449,7 @@ class Trace(NamedTuple):
     available: np.ndarray | None = None
     guard: GuardTrace | None = None
     smoothing: SmoothingRecord | None = None
+    prediction: InsState | None = None
 
 
 def guard_trace(arrays: dict[str, np.ndarray]) -> GuardTrace | None:
@@ -508,6 +512,7 @@ class Recorder:
         solution: InsState | None,
         lin: Linearization | None = None,
         base: InsState | None = None,
+        prior: InsState | None = None,
     ) -> None:
         """Epoch k's whole output of one method (:meth:`outputs`, estimate, solution);
         with ``smoothing`` also its covariance, the epoch's (Φ, Q) ``lin`` and the
@@ -529,6 +534,9 @@ class Recorder:
         if solution is not None:
             for key in ("q", "v", "p"):
                 self.put(f"nav_{key}", k, getattr(solution, key))
+        if prior is not None:
+            for key in ("q", "v", "p"):
+                self.put(f"prior_{key}", k, getattr(prior, key))
 
     def trace(self, n_sensors: int) -> Trace:
         a = self.arrays
@@ -565,6 +573,9 @@ class Recorder:
             a.get("available"),
             guard_trace(a),
             smoothing,
+            None
+            if "prior_q" not in a
+            else InsState(a["prior_q"], a["prior_v"], a["prior_p"], np.zeros(a["prior_v"].shape)),
         )
 
 
@@ -578,6 +589,7 @@ def run(
     check_spd: bool = True,
     times: Sequence[float] | None = None,
     smoothing: bool = False,
+    prediction: bool = False,
 ) -> dict[str, Trace]:
     """Run every method over the stream; one :class:`Trace` per method (module docstring).
 
@@ -588,6 +600,9 @@ def run(
     3·B·K·n_c² floats per method, so off by default; it changes nothing else) and
     raises ValueError for a model with a differenced aid.  ``check_spd`` and ``times``
     as for :func:`iterate` (a method that diverges raises :class:`Diverged`).
+    ``prediction`` also records, for the methods that feed back, the solution before
+    each epoch's aiding (:attr:`Trace.prediction`, B·K·10 floats per method): what a
+    user of the filter had just before the fix it is scored at.
     """
     names = list(filters)
     B = stream.batch
@@ -603,6 +618,10 @@ def run(
             constant = Linearization(
                 np.broadcast_to(F, (B, n, n)), np.broadcast_to(Q, (B, n, n)), ()
             )
+    feeds = fed
+    if prediction and not smoothing:
+        fb = method_feedback(model, [filters[nm] for nm in names])
+        feeds = [model.feedback if fb is None else bool(fb[j]) for j in range(len(names))]
     rec = {
         nm: Recorder(B, steps, nav_covariance, smoothing, model.n_fed if fed[j] else 0)
         for j, nm in enumerate(names)
@@ -620,7 +639,10 @@ def run(
                     lin = Linearization(lin.Phi[rows], lin.Q[rows], ())
                 if r.nav is not None:  # the solution the reset estimate refers to
                     base = sol if fed[j] else InsState(*(a[rows] for a in r.nav))
-            rec[nm].record(r.k, r.outputs[j], r.local[j], sol, lin, base)
+            prior = None
+            if prediction and r.nav is not None and (fed[j] if smoothing else feeds[j]):
+                prior = InsState(*(a[rows] for a in r.nav))
+            rec[nm].record(r.k, r.outputs[j], r.local[j], sol, lin, base, prior)
     return {nm: rec[nm].trace(model.system.n_sensors) for nm in names}
 
 

@@ -4,7 +4,12 @@ The reference is a set of positions at some filter epochs (RTK fixes; a truth fi
 nothing of it enters the engine.  Per method:
 
 * ``horizontal_rms_m`` — RMS of the horizontal error over the reference epochs outside
-  every outage and fault window (GNSS on: the solution after its update);
+  every outage and fault window (GNSS on: the solution after its update), at the point
+  the reference measures (a GNSS reference's antenna: :class:`Reference` ``lever_arm``);
+* ``prediction_horizontal_rms_m`` — the same for the solution just before each epoch's
+  aiding (:attr:`ftnav.engine.driver.Trace.prediction`, when recorded): what a user had
+  when the fix arrived, not the posterior at the fix just used;
+* ``reference_span_s``, ``longest_unscored_s`` — what the reference covers;
 * outages (protocol a) — per outage ``[s, e)`` the horizontal error at its last
   reference epoch and its maximum within, and the RMS over outages of the maxima;
 * detection (protocol b) — per aid with injected faults, the flags against the fault
@@ -34,12 +39,14 @@ from ftnav.eval.metrics import detection_stats
 from ftnav.model.scenario import Recording, fault_window_mask
 from ftnav.nav import attitude
 from ftnav.nav.earth import enu_metres, radii
+from ftnav.nav.mechanization import InsState
 from ftnav.recorded.truth import Truth
 
 __all__ = [
     "CONVERGENCE_S",
     "Reference",
     "navigation_errors",
+    "reference_errors",
     "score_recording",
     "score_truth",
     "watch_trace",
@@ -52,10 +59,24 @@ CONVERGENCE_S = 60.0
 
 class Reference(NamedTuple):
     """Reference positions at filter epochs: ``index`` (K_r,) 0-based epochs and
-    ``p`` (K_r, 3) ``[L, λ, h]``."""
+    ``p`` (K_r, 3) ``[L, λ, h]`` of the point ``lever_arm`` (3,) m from the IMU, body
+    frame (a GNSS antenna; None or zeros: the IMU itself).  A solution is scored at that
+    point: its IMU position moved by ``C_b^n · lever_arm``."""
 
     index: np.ndarray
     p: np.ndarray
+    lever_arm: np.ndarray | None = None
+
+
+def reference_errors(solution: InsState, reference: Reference, run: int = 0) -> np.ndarray:
+    """(K_r, 3) ENU metres of one run's solution minus the reference, at the point the
+    reference measures (:class:`Reference`)."""
+    i = reference.index
+    err = enu_metres(solution.p[run, i], reference.p)
+    arm = reference.lever_arm
+    if arm is not None and np.any(arm):
+        err = err + attitude.quat_to_dcm(solution.q[run, i]) @ np.asarray(arm, float)
+    return err
 
 
 def _outages(per_run: Sequence[tuple[np.ndarray, np.ndarray, Sequence]]) -> dict:
@@ -146,9 +167,7 @@ def score_recording(
     out: dict[str, dict[str, Any]] = {}
     for name, tr in traces.items():
         assert tr.solution is not None
-        errs = [
-            enu_metres(tr.solution.p[g, reference.index], reference.p) for g in range(len(outages))
-        ]
+        errs = [reference_errors(tr.solution, reference, g) for g in range(len(outages))]
         err = errs[0]
         e_h = np.hypot(err[:, 0], err[:, 1])
         on = ~blocked & np.isfinite(e_h)
@@ -156,8 +175,25 @@ def score_recording(
             "horizontal_rms_m": float(np.sqrt(np.mean(e_h[on] ** 2))) if on.any() else None,
             "vertical_rms_m": float(np.sqrt(np.mean(err[on, 2] ** 2))) if on.any() else None,
             "reference_epochs": int(on.sum()),
+            # what the reference covers: the scores say nothing outside it (a walk whose
+            # fixes turn float after 88 s is scored on those 88 s only)
+            "reference_span_s": [float(t_ref[0] + rec.t_start), float(t_ref[-1] + rec.t_start)]
+            if t_ref.size
+            else None,
+            "longest_unscored_s": _longest_gap(t_ref, float(times[-1])),
             "nan_epochs": int(np.sum(~np.isfinite(tr.solution.p[0]).all(-1))),
         }
+        if tr.prediction is not None:
+            # the solution just before the fix is used: what a user had at that moment
+            ep = reference_errors(tr.prediction, reference)
+            eph = np.hypot(ep[:, 0], ep[:, 1])
+            ok = on & np.isfinite(eph)
+            m["prediction_horizontal_rms_m"] = (
+                float(np.sqrt(np.mean(eph[ok] ** 2))) if ok.any() else None
+            )
+            m["prediction_vertical_rms_m"] = (
+                float(np.sqrt(np.mean(ep[ok, 2] ** 2))) if ok.any() else None
+            )
         if any(outages):
             per_run = [
                 (t_ref, np.hypot(e[:, 0], e[:, 1]), w) for e, w in zip(errs, outages, strict=True)
@@ -173,6 +209,12 @@ def score_recording(
                 m["integrity"] = w.as_dict()
         out[name] = m
     return out
+
+
+def _longest_gap(t_ref: np.ndarray, t_end: float) -> float:
+    """Longest stretch of the processed span (0 to ``t_end``) without a reference epoch, s."""
+    edges = np.concatenate([[0.0], np.sort(t_ref), [t_end]])
+    return float(np.max(np.diff(edges)))
 
 
 def navigation_errors(tr: Trace, truth: Truth, run: int = 0) -> np.ndarray:

@@ -318,6 +318,13 @@ class RecordingFilterFile(BaseModel):
     model_config = STRICT
     states: Literal[15, 18] = 15
     correction: Literal["feedback", "output"] = "feedback"
+    bias_compensation: bool = Field(
+        default=True,
+        description=(
+            "feedback: the estimated IMU biases are fed back and subtracted from the "
+            "increments before the strapdown (as KF-GINS and pyins do)"
+        ),
+    )
     imu_rate_hz: float | None = Field(default=None, gt=0, description="default: the log's")
     rate_hz: float = Field(
         default=10.0,
@@ -413,6 +420,9 @@ class LoadedRecording(NamedTuple):
         ``recording.t_start`` (interleaved schedules, :func:`ftnav.recorded.stream.interleave`).
     truth : a full truth (``[reference] source = "truth"``), or None.
     warnings : one line each, what the recording's data suggest is wrong but legal.
+    reference_lever_arm : (3,) m, the point the reference measures from the IMU, body
+        frame (x right, y forward, z up): a GNSS reference's antenna (its aid's
+        ``lever_arm_m``), zeros for a truth at the IMU.
     """
 
     recording: Recording
@@ -424,6 +434,7 @@ class LoadedRecording(NamedTuple):
     outages: tuple[tuple[tuple[float, float], ...], ...]
     truth: Truth | None = None
     warnings: tuple[str, ...] = ()
+    reference_lever_arm: np.ndarray = np.zeros(3)
 
 
 _ENV = re.compile(r"\$\{(\w+)(?::-([^}]*))?\}")
@@ -1511,6 +1522,7 @@ def load_recording(
         initial_sigma=_initial_sigma(attitude_sigma, vel_sigma, pos_sigma, fm.bias_sigma, al.p),
         aids=tuple(specs),
         correction=f.filter.correction,
+        bias_compensation=f.filter.bias_compensation and f.filter.correction == "feedback",
     )
     # every method of the file is checked, the chosen ones' models loaded; errors name the
     # file's methods[i], whatever --methods chose
@@ -1559,7 +1571,10 @@ def load_recording(
     if warn:  # once everything is valid: a refusal comes alone
         for note in notes:
             warnings.warn(note, ScenarioWarning, stacklevel=2)
-    return LoadedRecording(rec, stream, ref_index, ref_p, al, counts, outages_rel, truth, notes)
+    arm = np.zeros(3) if truth is not None else np.array(specs[first].sensor.lever_arm_m, float)
+    return LoadedRecording(
+        rec, stream, ref_index, ref_p, al, counts, outages_rel, truth, notes, arm
+    )
 
 
 #: an IMU gap longer than this many filter epochs (and than 0.1 s) is said: the

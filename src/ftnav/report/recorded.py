@@ -73,9 +73,13 @@ def _f(x: Any, spec: str = ".3f") -> str:
 
 
 def recording_table(scores: dict[str, dict[str, Any]]) -> str:
-    """One line per method: GNSS-on horizontal/vertical RMS, outage drift, detection (one
-    aid per line when a method tests several)."""
-    head = "method           horiz RMS m  vert RMS m  outages RMS max m   "
+    """One line per method: GNSS-on horizontal/vertical RMS (after the fix; before it,
+    the prediction), outage drift (and smoothed), detection (one aid per line when a
+    method tests several)."""
+    smoothed = any(m.get("smoothed") for m in scores.values())
+    head = "method           horiz RMS m  pred RMS m  vert RMS m  outages RMS max m   " + (
+        "smoothed m  " if smoothed else ""
+    )
     lines = [head + "detection"]
     for name, m in scores.items():
         o = m.get("outages")
@@ -85,9 +89,14 @@ def recording_table(scores: dict[str, dict[str, Any]]) -> str:
             f"recovery {_f(d['mean_recovery_s'], '.1f')} s"
             for s, d in (m.get("detection") or {}).items()
         ] or ["-"]
+        sm = ""
+        if smoothed:
+            so = (m.get("smoothed") or {}).get("outages")
+            sm = f"{_f(so['rms_max_error_m']) if so else '-':>10}  "
         lines.append(
-            f"{name:<16} {_f(m['horizontal_rms_m']):>11}  {_f(m['vertical_rms_m']):>10}  "
-            f"{drift:>17}   {det[0]}"
+            f"{name:<16} {_f(m['horizontal_rms_m']):>11}  "
+            f"{_f(m.get('prediction_horizontal_rms_m')):>10}  {_f(m['vertical_rms_m']):>10}  "
+            f"{drift:>17}   {sm}{det[0]}"
         )
         lines += [" " * len(head) + d for d in det[1:]]
     truth = {nm: m["truth"] for nm, m in scores.items() if m.get("truth")}

@@ -1,0 +1,396 @@
+"""A user's own log in one call: parse → prepare → run → score (issue 22).
+
+:func:`process_recording` is the Python route to what ``ftnav process`` does::
+
+    import ftnav
+
+    result = ftnav.process_recording("rtklib-drive", methods=["ckf"])
+    df = result.to_dataframe()          # one row per method and filter epoch
+
+The steps, each in its own layer (``docs/architecture.md``):
+
+1. **parse** (:mod:`ftnav.io.recording_file`): the recording file and its logs, checked
+   once at the boundary;
+2. **prepare** (:mod:`ftnav.recorded`, called by the loader): alignment, the epoch grid,
+   the aids on it, outages and faults, the reference;
+3. **run** (:func:`ftnav.engine.driver.run`): every method over the stream, all outage
+   schedules as one batch;
+4. **score** (:func:`ftnav.eval.recorded.score_recording`): against the reference, at the
+   point it measures (the GNSS antenna: the lever arm applied), the posterior and the
+   prediction, outages, detection, integrity;
+5. optionally **smooth** (:func:`ftnav.engine.smoother.smooth`): the forward–backward
+   (RTS) solution with its σ.
+
+:func:`prepare_recording` and :meth:`Prepared.run` split the call where the command
+line claims its output folder (between the checks and the computing).  Errors of the
+arguments raise :class:`ProcessingError` (a ``ValueError`` naming the argument); errors
+of the file raise :class:`ftnav.io.common.ScenarioError` naming the file and field.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from ftnav.engine import navigation_model
+from ftnav.engine.driver import Trace, run
+from ftnav.engine.smoother import smooth, smoothed_trace
+from ftnav.eval.montecarlo import build_filters
+from ftnav.eval.recorded import Reference, score_recording
+from ftnav.io.recording_file import LoadedRecording, load_recording, recording_aids
+from ftnav.io.solution_file import SOLUTION_COLUMNS, solution_table, trace_dataset
+from ftnav.model.scenario import Fault, Recording
+from ftnav.model.streams import scheduled
+from ftnav.recordings import recording_names, recording_path
+
+__all__ = [
+    "MAX_FAULT_M",
+    "RECORDING_FAULTS",
+    "Outages",
+    "Prepared",
+    "ProcessingError",
+    "RecordingResult",
+    "parse_fault",
+    "prepare_recording",
+    "process_recording",
+    "resolve_recording",
+]
+
+#: fault kinds a recorded GNSS aid can be given
+RECORDING_FAULTS = ("bias", "ramp", "outage", "stuck")
+#: largest fault magnitude (m): a position offset of a GNSS fix beyond it is not a fault
+#: of a receiver on Earth, and squared it overflows the filter's arithmetic
+MAX_FAULT_M = 1e5
+
+
+class ProcessingError(ValueError):
+    """An argument of :func:`process_recording` that cannot be processed; the message
+    starts with the argument's name (the command line's option name from the CLI)."""
+
+
+class Outages(NamedTuple):
+    """GNSS outages of ``length`` s every ``every`` s from ``start`` s after the first GNSS
+    epoch (a schedule longer than its spacing allows is run as interleaved runs)."""
+
+    length: float
+    every: float = 60.0
+    start: float = 30.0
+
+
+def resolve_recording(spec: str | Path) -> Path:
+    """A built-in recording's name, or the path of a recording file."""
+    if isinstance(spec, str) and spec in recording_names():
+        return recording_path(spec)
+    path = Path(spec)
+    if path.suffix == ".toml" or path.exists():
+        return path
+    raise ProcessingError(
+        f"recording: {str(spec)!r} is neither a built-in recording "
+        f"({', '.join(recording_names())}) nor a recording file"
+    )
+
+
+def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fault:
+    """``SENSOR:KIND:START:END[:MAGNITUDE]`` as a fault of a recorded GNSS aid: START and
+    END on the recording's time base (s), a bias or ramp MAGNITUDE in metres on the north
+    position.  ``aids`` maps the recording's aid names to their types
+    (:func:`ftnav.io.recording_file.recording_aids`); errors name ``field``."""
+    parts = text.split(":")
+    if len(parts) not in (4, 5):
+        raise ProcessingError(f"{field}: expected SENSOR:KIND:START:END[:MAGNITUDE], got {text!r}")
+    sensor, kind = parts[0], parts[1]
+    if aids.get(sensor) not in ("gnss", "gnss-velocity"):
+        gnss = [n for n, t in aids.items() if t.startswith("gnss")]
+        raise ProcessingError(f"{field}: {sensor!r} is not a GNSS aid of the recording ({gnss})")
+    if kind not in RECORDING_FAULTS:
+        raise ProcessingError(f"{field}: kind {kind!r} (recordings: {', '.join(RECORDING_FAULTS)})")
+    if kind in ("bias", "ramp") and aids[sensor] == "gnss-velocity":
+        pos = [n for n, t in aids.items() if t == "gnss"]
+        raise ProcessingError(
+            f"{field}: {sensor!r} measures velocity only and a {kind} moves the north "
+            f"position: fault a position aid ({pos})"
+        )
+    try:
+        start, end = float(parts[2]), float(parts[3])
+        mag = float(parts[4]) if len(parts) == 5 else 0.0
+    except ValueError:
+        raise ProcessingError(
+            f"{field}: START, END and MAGNITUDE must be numbers ({text!r})"
+        ) from None
+    if not (math.isfinite(start) and math.isfinite(end) and math.isfinite(mag)) or end <= start:
+        raise ProcessingError(f"{field}: END must be after START, both finite ({text!r})")
+    if kind in ("bias", "ramp") and len(parts) != 5:
+        raise ProcessingError(f"{field}: a {kind} needs a MAGNITUDE in metres ({text!r})")
+    if abs(mag) > MAX_FAULT_M:
+        raise ProcessingError(
+            f"{field}: MAGNITUDE {mag:g} m is beyond ±{MAX_FAULT_M:g} m, off the Earth ({text!r})"
+        )
+    return Fault(sensor, kind, start, end, np.array([0.0, mag, 0.0, 0.0, 0.0, 0.0]))
+
+
+def _outages(outages: Outages | Sequence[float] | None, field: str) -> Outages | None:
+    if outages is None:
+        return None
+    o = Outages(*(float(x) for x in outages))
+    if not all(math.isfinite(x) for x in o) or o.length <= 0 or o.every <= 0:
+        raise ProcessingError(f"{field}: length and spacing must be positive seconds, got {o}")
+    if o.length >= o.every:
+        raise ProcessingError(
+            f"{field}: {o.length:g} s outages every {o.every:g} s leave no GNSS fix: the "
+            "length must be shorter than the spacing"
+        )
+    return o
+
+
+@dataclass(frozen=True)
+class RecordingResult:
+    """One processed recording (:func:`process_recording`): the same for a built-in and
+    a user's own log.
+
+    Attributes
+    ----------
+    loaded : the parsed and prepared recording (stream, reference, alignment, counts).
+    traces : per method, the engine's :class:`~ftnav.engine.driver.Trace` (a batch of one
+        run per interleaved outage schedule).
+    scores : per method, :func:`~ftnav.eval.recorded.score_recording`'s scores.
+    smoothed : per method, the RTS-smoothed solution (``smooth=True``), else None.
+    elapsed_s : wall time of the run (engine and smoother), s.
+    warnings : the loader's warnings (suspicious but legal input), one line each.
+    """
+
+    loaded: LoadedRecording
+    traces: dict[str, Trace]
+    scores: dict[str, dict[str, Any]]
+    smoothed: dict[str, Trace] | None
+    elapsed_s: float
+    warnings: tuple[str, ...]
+
+    @property
+    def recording(self) -> Recording:
+        """The recording as the engine ran it (methods, aids, epochs)."""
+        return self.loaded.recording
+
+    @property
+    def name(self) -> str:
+        return self.loaded.recording.name
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        return tuple(self.traces)
+
+    @property
+    def times(self) -> np.ndarray:
+        """(K,) the filter epochs' times on the recording's own time base, s."""
+        rec = self.loaded.recording
+        return np.asarray(rec.t_start + rec.times)
+
+    @property
+    def runs(self) -> int:
+        """Runs of the batch: one per interleaved outage schedule (1 without outages)."""
+        return int(self.loaded.stream.batch)
+
+    def solution(self, method: str, run: int = 0, smoothed: bool = False) -> np.ndarray:
+        """(K, 13) rows of :data:`~ftnav.io.solution_file.SOLUTION_COLUMNS` of one method
+        and run (``smoothed``: the RTS solution); a diverged solution raises
+        :class:`~ftnav.engine.driver.Diverged`."""
+        traces = self._traces(smoothed)
+        if method not in traces:
+            raise KeyError(f"method {method!r}: processed were {list(traces)}")
+        if not 0 <= run < self.runs:
+            raise IndexError(f"run {run}: the batch has {self.runs} run(s)")
+        return solution_table(traces[method], self.times, run, method)
+
+    def to_dataframe(self, run: int = 0, smoothed: bool = False) -> Any:
+        """A :class:`pandas.DataFrame` of every method's solution, one row per method and
+        filter epoch: ``method`` then the columns of ``solution.csv``
+        (``docs/recording-format.md``)."""
+        import pandas as pd
+
+        frames = []
+        for name in self._traces(smoothed):
+            df = pd.DataFrame(self.solution(name, run, smoothed), columns=list(SOLUTION_COLUMNS))
+            df.insert(0, "method", name)
+            frames.append(df)
+        return pd.concat(frames, ignore_index=True)
+
+    def scores_frame(self) -> Any:
+        """A :class:`pandas.DataFrame` of the scalar scores, one row per method."""
+        import pandas as pd
+
+        rows = {}
+        for name, s in self.scores.items():
+            row = {k: v for k, v in s.items() if isinstance(v, (int, float)) or v is None}
+            out = s.get("outages")
+            if isinstance(out, dict):
+                row["outage_rms_max_m"] = out.get("rms_max_error_m")
+                row["outages"] = out.get("count")
+            rows[name] = row
+        return pd.DataFrame.from_dict(rows, orient="index")
+
+    def to_xarray(self) -> Any:
+        """The whole trace as an :class:`xarray.Dataset` (what ``trace.nc`` holds)."""
+        return trace_dataset(self.loaded, self.traces)
+
+    def _traces(self, smoothed: bool) -> dict[str, Trace]:
+        if not smoothed:
+            return self.traces
+        if self.smoothed is None:
+            raise ValueError("smoothed: the recording was processed without smooth=True")
+        return self.smoothed
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A recording parsed and prepared, its filters built: what :meth:`run` needs."""
+
+    loaded: LoadedRecording
+    filters: dict[str, Any]
+    smooth: bool
+
+    @property
+    def recording(self) -> Recording:
+        return self.loaded.recording
+
+    @property
+    def work(self) -> int:
+        """Steps the engine reports through ``progress``: epochs × methods × runs."""
+        rec = self.loaded.recording
+        return len(rec.methods) * rec.steps * self.loaded.stream.batch
+
+    def run(self, progress: Callable[[int], None] | None = None) -> RecordingResult:
+        """Run every method (engine), smooth on request, score."""
+        loaded = self.loaded
+        rec = loaded.recording
+        runs = loaded.stream.batch
+        t0 = time.perf_counter()
+        traces = run(
+            navigation_model(rec),
+            loaded.stream,
+            self.filters,
+            rec.steps,
+            None if progress is None else (lambda n: progress(n * runs)),
+            nav_covariance=loaded.truth is not None,  # NEES against a full truth
+            times=rec.t_start + rec.times,
+            smoothing=self.smooth,
+            prediction=True,
+        )
+        smoothed = None
+        if self.smooth:
+            smoothed = {nm: smoothed_trace(tr, smooth(tr)) for nm, tr in traces.items()}
+        elapsed = time.perf_counter() - t0
+        ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
+        sched = scheduled(loaded.stream, rec.steps)
+        scores = score_recording(
+            rec, traces, ref, loaded.outages, truth=loaded.truth, scheduled=sched
+        )
+        if smoothed is not None:
+            smooth_scores = score_recording(rec, smoothed, ref, loaded.outages, truth=loaded.truth)
+            for nm, s in smooth_scores.items():
+                scores[nm]["smoothed"] = s
+        return RecordingResult(loaded, traces, scores, smoothed, elapsed, tuple(loaded.warnings))
+
+
+def prepare_recording(
+    recording: str | Path | LoadedRecording,
+    *,
+    methods: Sequence[str] | None = None,
+    aids: Sequence[str] | None = None,
+    outages: Outages | Sequence[float] | None = None,
+    faults: Sequence[Fault | str] = (),
+    smooth: bool = False,
+    fields: Mapping[str, str] | None = None,
+) -> Prepared:
+    """Parse and prepare a recording (:func:`process_recording`'s arguments) without
+    running it.  ``fields`` renames the arguments in error messages (the CLI's options)."""
+    names = {"faults": "faults", "outages": "outages", **(fields or {})}
+    if isinstance(recording, LoadedRecording):
+        if methods is not None or aids is not None or outages is not None or faults:
+            raise ProcessingError(
+                "recording: a loaded recording is processed as it was loaded; give the "
+                "methods, aids, outages and faults to load_recording"
+            )
+        loaded = recording
+    else:
+        path = resolve_recording(recording)
+        types = recording_aids(path)
+        parsed = [
+            parse_fault(f, types, names["faults"]) if isinstance(f, str) else f for f in faults
+        ]
+        outage = _outages(outages, names["outages"])
+        loaded = load_recording(
+            path,
+            outage=None if outage is None else tuple(outage),
+            faults=parsed,
+            methods=None if methods is None else list(methods),
+            aids=None if aids is None else list(aids),
+            warn=False,
+        )
+    rec = loaded.recording
+    for f in rec.faults:
+        if f.start < 0 or f.end > rec.times[-1]:
+            raise ProcessingError(
+                f"{names['faults']}: [{f.start + rec.t_start:.3f}, {f.end + rec.t_start:.3f}) "
+                f"s is outside the processed span [{rec.t_start:.3f}, "
+                f"{rec.t_start + rec.times[-1]:.3f}] s (the recording's time base)"
+            )
+    if smooth:
+        _check_smoothable(rec)
+    filters = build_filters(rec, rec.system(), rec.methods)
+    return Prepared(loaded, dict(filters), smooth)
+
+
+def _check_smoothable(rec: Recording) -> None:
+    for a in rec.aids:
+        if getattr(a.sensor, "difference_factor", None) is not None:
+            raise ProcessingError(
+                f"smooth: aid {a.name!r} is differenced (a Markov error with markov = "
+                "'difference'), which the RTS smoother does not cover"
+            )
+
+
+def process_recording(
+    recording: str | Path | LoadedRecording,
+    *,
+    methods: Sequence[str] | None = None,
+    aids: Sequence[str] | None = None,
+    outages: Outages | Sequence[float] | None = None,
+    faults: Sequence[Fault | str] = (),
+    smooth: bool = False,
+    progress: Callable[[int], None] | None = None,
+) -> RecordingResult:
+    """Process a recorded log: every method over it, scored against its reference.
+
+    Parameters
+    ----------
+    recording : a built-in recording's name (``ftnav list``), the path of a recording
+        file (``docs/recording-format.md``), or a :class:`LoadedRecording`.
+    methods, aids : names of the file's methods and aids to keep (default all).
+    outages : GNSS outages ``(length, every, start)`` s (:class:`Outages`), or None.
+    faults : faults injected into recorded GNSS aids, as :class:`~ftnav.model.scenario.Fault`
+        (times relative to the processed start) or ``"SENSOR:KIND:START:END[:MAGNITUDE]"``
+        on the recording's time base (:func:`parse_fault`).
+    smooth : also run the RTS smoother (:attr:`RecordingResult.smoothed`, scores under
+        ``scores[method]["smoothed"]``).
+    progress : called with the number of engine steps done (epochs × methods × runs).
+
+    Returns
+    -------
+    RecordingResult : traces, scores, the solution as a DataFrame (``to_dataframe``).
+
+    Raises
+    ------
+    ProcessingError : an argument that cannot be processed (named).
+    ftnav.io.common.ScenarioError : the recording file or its logs (file:line, field).
+    ftnav.engine.driver.Diverged : a method's solution diverged (never returned).
+    """
+    prepared = prepare_recording(
+        recording, methods=methods, aids=aids, outages=outages, faults=faults, smooth=smooth
+    )
+    result = prepared.run(progress)
+    return replace(result, warnings=tuple(prepared.loaded.warnings))
