@@ -280,7 +280,7 @@ def test_imu_values_beyond_physics_are_refused(table, field):
 
 
 def test_an_unusual_imu_value_is_a_warning():
-    text = INTEGRATED.replace('imu = "seed001"', 'imu = {gyro_bias_sd = "2 deg/s"}')
+    text = INTEGRATED.replace('imu = "seed001"', 'imu = {gyro_bias_sd = "8 deg/s"}')
     with pytest.warns(ScenarioWarning, match=r"imu\.gyro_bias_sd: .* beyond any real IMU"):
         parse_ins_scenario(tomllib.loads(text))
 

@@ -72,9 +72,10 @@ _DEG = np.pi / 180.0
 _G0 = 9.80665
 #: unit family -> plausible range (SI); docs/scenario-format.md, "What is checked"
 RANGES: dict[str, _Range] = {
-    # consumer MEMS gyros drift ~0.1-1 °/s; a drift of the rates flown is no gyro
+    # consumer MEMS gyros drift ~0.1-1 °/s and start with a bias of up to a few °/s
+    # (ADIS16405: ±3 °/s initial bias, the NaveGo set); a drift of the rates flown is no gyro
     "angular_rate": _Range(
-        "rad/s", 0.0, 1.0, "57 deg/s", "deg/h", 3600 / _DEG, 1e-5 * _DEG / 3600, _DEG
+        "rad/s", 0.0, 1.0, "57 deg/s", "deg/h", 3600 / _DEG, 1e-5 * _DEG / 3600, 5 * _DEG
     ),
     "time": _Range("s", 1e-3, 1e9, "30 years", "s", 1.0, 0.0, np.inf),
     "angle_random_walk": _Range(
