@@ -15,6 +15,12 @@ re-admitted by the guard's own n_off passes and used from the next epoch (recove
 epoch later: 4 → 5 s), a newly isolated aid's pull is rolled back, and false alarms and
 ANEES move with that (seed002 ``fkf-chi2`` ANEES 9.85 → 11.90; seed001 ``fkf-nr-chi2``
 1912 → 1902).  Every method without a detector is unchanged to 1e-9.
+
+Recorded again for issue 22 (``eval.navigation.metric_scale`` added the height twice to
+the Earth radii): only the position errors in metres changed, each by h/R — seed001 by
+2.0e-4 relative (e.g. ``ckf`` second trajectory ``max_abs_error.pos_N_m`` 46.503 → 46.493),
+seed002 by up to 4.6e-4 (``ckf`` ``max_abs_error.pos_horizontal_m`` 5.6774 → 5.6748);
+seed000 (linear) and every non-metric number unchanged to 1e-9.
 """
 
 from __future__ import annotations

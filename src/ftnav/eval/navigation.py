@@ -22,11 +22,11 @@ _METRIC_ORDER = [7, 6, 8, 3, 4, 5, 0, 1, 2]
 
 def metric_scale(p_true: np.ndarray) -> np.ndarray:
     """(..., 9) metric units per error-state unit, in metric-state order (spec §9, §11)."""
-    RM, RN = radii(p_true[..., 0], p_true[..., 2])
-    h = p_true[..., 2]
+    # radii() returns R_M + h and R_N + h already (h was once added twice: issue 22)
+    RMh, RNh = radii(p_true[..., 0], p_true[..., 2])
     scale = np.empty(p_true.shape[:-1] + (N_NAV,))
-    scale[..., 0] = (RN + h) * np.cos(p_true[..., 0])
-    scale[..., 1] = RM + h
+    scale[..., 0] = RNh * np.cos(p_true[..., 0])
+    scale[..., 1] = RMh
     scale[..., 2:6] = 1.0
     scale[..., 6:9] = 1.0 / _ARCMIN
     return scale
