@@ -15,7 +15,7 @@ import math
 import os
 import re
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any, Literal, NamedTuple
@@ -58,13 +58,13 @@ from ftnav.model.scenario import AidSpec, Fault, Recording
 from ftnav.nav.attitude import euler_to_dcm
 from ftnav.nav.earth import gravity
 from ftnav.nav.units import parse_quantity
+from ftnav.recorded.aids import RECORDING_AIDS, AidContext, PreparedAid
 from ftnav.recorded.imu import (
     ImuCleaning,
     ImuLog,
     TimeGoesBack,
     clean,
     noise_density,
-    stationary,
 )
 from ftnav.recorded.plausibility import (
     Verdict,
@@ -89,7 +89,6 @@ from ftnav.recorded.stream import (
     with_outages,
 )
 from ftnav.recorded.truth import Truth, imu_bias_against_truth
-from ftnav.sensors.vehicle import Nhc, Zupt
 
 __all__ = [
     "LoadedRecording",
@@ -176,11 +175,17 @@ _GNSS_CSV_KEYS = (
 )
 
 
+#: every aid type of ``[[aids]]``: the GNSS receiver, read here, and the plug-ins of
+#: :data:`ftnav.recorded.aids.RECORDING_AIDS` (their settings models validate the rest)
+AID_TYPES = ("gnss", *RECORDING_AIDS)
+
+
 class AidTable(BaseModel):
-    """``[[aids]]``: ``type``, and for ``gnss`` its file; the sensor's parameters."""
+    """``[[aids]]``: ``type``, and for ``gnss`` its file; the sensor's parameters (a
+    plug-in aid's keys: its settings model, ``$defs`` ``aid-<type>`` of the schema)."""
 
     model_config = ConfigDict(extra="allow", strict=True)
-    type: Literal["gnss", "nhc", "zupt"]
+    type: Literal[AID_TYPES]  # type: ignore[valid-type]
     name: str | None = None
     file: str | None = None
     format: Literal["rtklib-pos", "navego-mat", "csv", "kfgins-text"] = Field(
@@ -216,11 +221,6 @@ class AidTable(BaseModel):
             "stamped t describes t + offset; RTKLIB's lag theirs by 0.10-0.15 s: -0.125)"
         ),
     )
-    window_s: float = Field(
-        default=0.5, gt=0, description="zupt: stationarity half-window (the span is ±window_s)"
-    )
-    accel_std_mps2: float = Field(default=0.25, gt=0, description="zupt: accel std threshold")
-    gyro_std_dps: float = Field(default=0.25, gt=0, description="zupt: gyro std threshold")
 
 
 class AttitudeColumns(ColumnsFile):
@@ -924,8 +924,6 @@ def _gnss_log(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLog
     return retime_velocity(log, a.velocity_time_offset_s), defaults
 
 
-_ZUPT_ONLY = ("window_s", "accel_std_mps2", "gyro_std_dps")
-
 #: an antenna farther from the IMU than this is warned about (m: a car, a truck's cab)
 LEVER_ARM_WARN_M = 10.0
 #: and refused beyond this (m: longer than any vehicle; a lever arm in mm?)
@@ -1255,6 +1253,8 @@ def _aids(
     them (:func:`_gnss_checks`)."""
     t0, dt, steps, sub = grid
     times = t0 + dt * np.arange(1, steps + 1)
+    # the primary GNSS's epochs: where a constraint applies (recorded.aids.AidContext)
+    primary_epochs = np.arange(sub - 1, steps, sub)
     specs, streams, counts, notes = [], [], {}, []
     for i, a in enumerate(f.aids):
         name, field = a.name or a.type, f"aids[{i}]"
@@ -1292,26 +1292,63 @@ def _aids(
                 "applied": int(np.isfinite(raw[place.kept]).all(-1).sum()),
             }
         else:
-            extra = [k for k in _ZUPT_ONLY if k in (a.model_fields_set or ())]
-            if a.type == "nhc" and extra:
-                raise ScenarioError(f"{field}.{extra[0]}", "a setting of zupt, not of nhc", origin)
-            cls = Nhc if a.type == "nhc" else Zupt
-            try:
-                sensor = cls(name=name, dt=dt, **params)
-            except (TypeError, ValueError) as exc:
-                raise ScenarioError(field, " ".join(str(exc).split()), origin) from None
-            # at the primary GNSS's epochs: a constraint's error is correlated over its
-            # period, applying it more often would overweight it
-            index = np.arange(sub - 1, steps, sub)
-            if a.type == "zupt":
-                rest = stationary(
-                    log, times[index], a.window_s, a.accel_std_mps2, a.gyro_std_dps * _DEG
-                )
-                index = index[rest]
-                counts[name] = {"stationary_epochs": int(index.size)}
-            streams.append((index, np.zeros((index.size, sensor.dim)), np.zeros(index.size, bool)))
+            ready = _plugin_aid(
+                a, name, field, origin, AidContext(name, dt, times, primary_epochs, log)
+            )
+            sensor = ready.sensor
+            streams.append((ready.index, ready.raw, ready.labels))
+            if ready.counts:
+                counts[name] = dict(ready.counts)
         specs.append(AidSpec(sensor))
     return specs, streams, counts, notes
+
+
+def _column_reader(
+    base: Path, field: str, origin: str
+) -> Callable[[str, Sequence[str | int], bool, str], np.ndarray]:
+    """``read_columns(file, columns, header, delimiter)`` for a plug-in aid's own log: the
+    strict delimited-text reader (errors name file:line and ``aids[i].file``)."""
+
+    def read_columns(
+        file: str, columns: Sequence[str | int], header: bool = True, delimiter: str = ","
+    ) -> np.ndarray:
+        path = _data_path(file, base, f"{field}.file", origin)
+        table = read_csv(path, header, delimiter, f"{field}.file")
+        idx = [_column(table, c, f"{field}.columns", origin) for c in columns]
+        return np.asarray(table.values[:, idx], float)
+
+    return read_columns
+
+
+def _plugin_aid(a: AidTable, name: str, field: str, origin: str, ctx: AidContext) -> PreparedAid:
+    """A plug-in aid (:data:`ftnav.recorded.aids.RECORDING_AIDS`): its keys validated by
+    its own settings model (errors name ``aids[i].<key>``), then prepared."""
+    plugin = RECORDING_AIDS[a.type]
+    known = plugin.settings.model_fields
+    keys = dict(a.model_extra or {})
+    for key in sorted((a.model_fields_set & set(AidTable.model_fields)) - {"type", "name"}):
+        if key not in known:  # a key of the GNSS receiver's table
+            raise ScenarioError(f"{field}.{key}", f"a setting of gnss, not of {a.type}", origin)
+        keys[key] = getattr(a, key)
+    for key in keys:
+        if key not in known:
+            owners = [t for t, p in RECORDING_AIDS.items() if key in p.settings.model_fields]
+            why = (
+                f"a setting of {', '.join(owners)}, not of {a.type}"
+                if owners
+                else f"unknown parameter of a {a.type} aid (known: {', '.join(known)})"
+            )
+            raise ScenarioError(f"{field}.{key}", why, origin)
+    try:
+        settings = plugin.settings.model_validate(keys)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        loc = ".".join(str(x) for x in err["loc"])
+        raise ScenarioError(f"{field}.{loc}", err["msg"], origin) from None
+    try:
+        return plugin.prepare(settings, ctx)
+    except (TypeError, ValueError) as exc:
+        raise ScenarioError(field, " ".join(str(exc).split()), origin) from None
 
 
 def _validated(source: str | Path) -> RecordingFile:
@@ -1687,5 +1724,13 @@ def _truth_csv(r: ReferenceFile, path: Path, origin: str) -> NavegoTruth:
 
 
 def recording_json_schema() -> dict[str, Any]:
-    """JSON schema of recording files (``ftnav schema``)."""
-    return RecordingFile.model_json_schema()
+    """JSON schema of recording files (``ftnav schema``), with every plug-in aid's settings
+    under ``$defs`` as ``aid-<type>``."""
+    schema = RecordingFile.model_json_schema()
+    defs = schema.setdefault("$defs", {})
+    for kind, plugin in RECORDING_AIDS.items():
+        sub = plugin.settings.model_json_schema()
+        defs.update(sub.pop("$defs", {}))
+        sub["description"] = (sub.get("description") or "").strip()
+        defs[f"aid-{kind}"] = sub
+    return schema
