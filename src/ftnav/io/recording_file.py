@@ -1292,9 +1292,9 @@ def _aids(
                 "applied": int(np.isfinite(raw[place.kept]).all(-1).sum()),
             }
         else:
-            ready = _plugin_aid(
-                a, name, field, origin, AidContext(name, dt, times, primary_epochs, log)
-            )
+            reader = _column_reader(base, field, origin)
+            ctx = AidContext(name, dt, times, primary_epochs, log, reader)
+            ready = _plugin_aid(a, name, field, origin, ctx)
             sensor = ready.sensor
             streams.append((ready.index, ready.raw, ready.labels))
             if ready.counts:
