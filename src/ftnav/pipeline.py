@@ -31,8 +31,9 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -43,7 +44,13 @@ from ftnav.engine.driver import Trace, run
 from ftnav.engine.smoother import smooth, smoothed_trace
 from ftnav.eval.montecarlo import build_filters
 from ftnav.eval.recorded import Reference, score_recording
-from ftnav.io.recording_file import LoadedRecording, load_recording, recording_aids
+from ftnav.io.ins_scenario_file import ScenarioWarning
+from ftnav.io.recording_file import (
+    LoadedRecording,
+    load_recording,
+    parse_recording,
+    recording_aids,
+)
 from ftnav.io.solution_file import SOLUTION_COLUMNS, solution_table, trace_dataset
 from ftnav.model.scenario import Fault, Recording
 from ftnav.model.streams import scheduled
@@ -317,16 +324,16 @@ def prepare_recording(
             )
         loaded = recording
     else:
-        path = resolve_recording(recording)
-        types = recording_aids(path)
-        parsed = [
+        parsed = parse_recording(resolve_recording(recording))  # read and validated once
+        types = recording_aids(parsed)
+        fault_list = [
             parse_fault(f, types, names["faults"]) if isinstance(f, str) else f for f in faults
         ]
         outage = _outages(outages, names["outages"])
         loaded = load_recording(
-            path,
+            parsed,
             outage=None if outage is None else tuple(outage),
-            faults=parsed,
+            faults=fault_list,
             methods=None if methods is None else list(methods),
             aids=None if aids is None else list(aids),
             warn=False,
@@ -379,6 +386,10 @@ def process_recording(
         ``scores[method]["smoothed"]``).
     progress : called with the number of engine steps done (epochs × methods × runs).
 
+    Suspicious but legal input (an IMU gap, a lever arm over 10 m, …) is issued as a
+    :class:`~ftnav.io.ins_scenario_file.ScenarioWarning` and kept in
+    :attr:`RecordingResult.warnings`.
+
     Returns
     -------
     RecordingResult : traces, scores, the solution as a DataFrame (``to_dataframe``).
@@ -392,5 +403,6 @@ def process_recording(
     prepared = prepare_recording(
         recording, methods=methods, aids=aids, outages=outages, faults=faults, smooth=smooth
     )
-    result = prepared.run(progress)
-    return replace(result, warnings=tuple(prepared.loaded.warnings))
+    for note in prepared.loaded.warnings:  # suspicious but legal input: a Python warning
+        warnings.warn(note, ScenarioWarning, stacklevel=2)
+    return prepared.run(progress)

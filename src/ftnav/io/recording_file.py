@@ -92,8 +92,10 @@ from ftnav.recorded.truth import Truth, imu_bias_against_truth
 
 __all__ = [
     "LoadedRecording",
+    "ParsedRecording",
     "RecordingFile",
     "load_recording",
+    "parse_recording",
     "recording_aids",
     "recording_json_schema",
 ]
@@ -1351,14 +1353,30 @@ def _plugin_aid(a: AidTable, name: str, field: str, origin: str, ctx: AidContext
         raise ScenarioError(field, " ".join(str(exc).split()), origin) from None
 
 
-def _validated(source: str | Path) -> RecordingFile:
+class ParsedRecording(NamedTuple):
+    """A recording file read and validated (once: :func:`parse_recording`); its data
+    files are not read yet.  ``path`` names it in errors and anchors its data paths."""
+
+    path: Path
+    file: RecordingFile
+
+
+def parse_recording(source: str | Path | ParsedRecording) -> ParsedRecording:
+    """Read and validate a recording file (TOML; errors name the file and the field)."""
+    if isinstance(source, ParsedRecording):
+        return source
     try:
-        return RecordingFile.model_validate(read_toml(source))
+        f = RecordingFile.model_validate(read_toml(source))
     except ValidationError as exc:
         raise to_scenario_error(exc, str(source), RecordingFile, explain_method_key) from None
+    return ParsedRecording(Path(source), f)
 
 
-def recording_aids(source: str | Path) -> dict[str, str]:
+def _validated(source: str | Path | ParsedRecording) -> RecordingFile:
+    return parse_recording(source).file
+
+
+def recording_aids(source: str | Path | ParsedRecording) -> dict[str, str]:
     """The aids a recording file names, ``{name: type}`` (its data files are not read);
     a GNSS aid that measures velocity only has the type ``"gnss-velocity"``."""
     return {
@@ -1474,7 +1492,7 @@ def _plausible_imu(
 
 
 def load_recording(
-    source: str | Path,
+    source: str | Path | ParsedRecording,
     *,
     outage: tuple[float, float, float] | None = None,
     faults: Sequence[Fault] = (),
@@ -1486,6 +1504,8 @@ def load_recording(
 
     Parameters
     ----------
+    source : the recording file, or the file already parsed (:func:`parse_recording`:
+        it is not read again).
     outage : ``(length, every, start)`` s of a GNSS outage schedule after the first
         GNSS epoch, clipped to leave 30 s at the end
         (:func:`ftnav.recorded.stream.outage_schedule`); None: GNSS on.
@@ -1497,8 +1517,9 @@ def load_recording(
         :class:`~ftnav.io.ins_scenario_file.ScenarioWarning` once it is all valid (the
         command line issues them after its own checks).
     """
-    origin, base = str(source), Path(source).parent
-    f = _keep_aids(_validated(source), aids)
+    parsed = parse_recording(source)
+    origin, base = str(parsed.path), parsed.path.parent
+    f = _keep_aids(parsed.file, aids)
     imu_err = imu_errors(f.imu.errors, "imu.errors", origin)
     log, cleaning, partial, nav = _read_imu(f.imu, base, origin)
     first = next((i for i, a in enumerate(f.aids) if a.type == "gnss"), None)

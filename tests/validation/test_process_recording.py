@@ -1,0 +1,66 @@
+"""``ftnav.process_recording`` at its boundary: the file read once, arguments refused
+with their names, results that say what they hold.
+
+Oracles: a count of the file reads; the refusal messages (each names its argument); the
+result's own arrays (the DataFrame's rows are the solution table's, the times the
+recording's epochs).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from recording_runs import drive_copy
+
+import ftnav
+import ftnav.io.recording_file as recording_file
+from ftnav.pipeline import ProcessingError, RecordingResult, process_recording
+
+
+def _short(doc: dict) -> None:
+    doc["filter"] = {**doc.get("filter", {}), "duration_s": 40.0}
+    doc["methods"] = [m for m in doc["methods"] if m["name"] == "ckf"]
+
+
+@pytest.fixture(scope="module")
+def short_drive(tmp_path_factory):
+    return drive_copy(tmp_path_factory.mktemp("drive") / "drive.toml", _short)
+
+
+def test_one_call_reads_the_file_once_and_returns_a_typed_result(short_drive, monkeypatch):
+    reads = []
+    real = recording_file.read_toml
+    monkeypatch.setattr(recording_file, "read_toml", lambda src: reads.append(src) or real(src))
+    r = ftnav.process_recording(short_drive)
+    assert isinstance(r, RecordingResult) and len(reads) == 1
+    df = r.to_dataframe()
+    np.testing.assert_array_equal(df["time_s"].to_numpy(), r.times)
+    np.testing.assert_array_equal(df.drop(columns="method").to_numpy(), r.solution("ckf"))
+    assert r.scores_frame().loc["ckf", "reference_epochs"] > 0
+    assert (
+        "horizontal_rms_m" in r.scores["ckf"] and "prediction_horizontal_rms_m" in r.scores["ckf"]
+    )
+    with pytest.raises(KeyError, match="'dkf'"):
+        r.solution("dkf")
+    with pytest.raises(ValueError, match="smooth=True"):
+        r.to_dataframe(smoothed=True)
+
+
+@pytest.mark.parametrize(
+    ("kw", "message"),
+    [
+        ({"outages": (60, 60, 10)}, r"^outages: 60 s outages every 60 s leave no GNSS fix"),
+        ({"outages": (-1, 60, 10)}, r"^outages: length and spacing must be positive"),
+        ({"faults": ["gnss:bias:1:2"]}, r"^faults: a bias needs a MAGNITUDE"),
+        ({"faults": ["nhc:bias:1:2:3"]}, r"^faults: 'nhc' is not a GNSS aid"),
+        ({"faults": ["gnss:bias:1e12:2e12:3"]}, r"^faults: \[.*outside the processed span"),
+    ],
+)
+def test_arguments_are_refused_by_name(short_drive, kw, message):
+    with pytest.raises(ProcessingError, match=message):
+        process_recording(short_drive, **kw)
+
+
+def test_an_unknown_recording_is_refused_by_name():
+    with pytest.raises(ProcessingError, match=r"^recording: 'no-such-drive' is neither"):
+        process_recording("no-such-drive")
