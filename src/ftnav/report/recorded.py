@@ -46,6 +46,9 @@ def recording_metrics(
             ),
         },
         "aids": list(rec.sensor_names),
+        # solution.csv is the IMU's; the scores are at the point the reference measures
+        "solution_point": "imu",
+        "reference_lever_arm_m": [float(x) for x in loaded.reference_lever_arm],
         "data": loaded.counts,
         "outages_s_after_first_gnss": [
             [[s + rec.t_start - rec.t_origin, e + rec.t_start - rec.t_origin] for s, e in run]
