@@ -34,10 +34,12 @@ def metric_scale(p_true: np.ndarray) -> np.ndarray:
 
 def metric_errors(e: np.ndarray, p_true: np.ndarray) -> np.ndarray:
     """(..., 9) output errors in metric states: E/N/U m, E/N/U m/s, φ E/N/U arcmin."""
-    return e[..., _METRIC_ORDER] * metric_scale(p_true)
+    out: np.ndarray = e[..., _METRIC_ORDER] * metric_scale(p_true)
+    return out
 
 
 def metric_variances(P: np.ndarray, p_true: np.ndarray) -> np.ndarray:
     """(B, 9) variances of the metric states from a covariance over ``[φ, δv, δp, ...]``."""
     d = np.diagonal(P, axis1=-2, axis2=-1)[..., :N_NAV]
-    return d[..., _METRIC_ORDER] * metric_scale(p_true) ** 2
+    var: np.ndarray = d[..., _METRIC_ORDER] * metric_scale(p_true) ** 2
+    return var

@@ -19,7 +19,7 @@ import types
 import unicodedata
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union, get_args, get_origin
+from typing import Annotated, Any, Literal, TypedDict, Union, Unpack, get_args, get_origin
 
 import numpy as np
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, Tag, ValidationError
@@ -76,7 +76,8 @@ class ScenarioError(ValueError):
         self.origin = origin
         super().__init__(f"{self.path}: {self.reason}")
 
-    def __reduce__(self):  # keep picklable despite the custom signature
+    def __reduce__(self) -> tuple[type[ScenarioError], tuple[str, str, str]]:
+        # keep picklable despite the custom signature
         return (type(self), (self.path, self.reason, self.origin))
 
 
@@ -409,8 +410,18 @@ def covariance_problem(a: np.ndarray, definite: bool) -> str | None:
     return None
 
 
-def number(description: str, **bounds: float) -> Any:
-    """A finite float field with optional bounds."""
+class _Bounds(TypedDict, total=False):
+    """What :func:`number` passes on to ``pydantic.Field``: a default and bounds."""
+
+    default: float
+    gt: float
+    ge: float
+    lt: float
+    le: float
+
+
+def number(description: str, **bounds: Unpack[_Bounds]) -> Any:
+    """A finite float field with optional bounds (pydantic's field marker: ``Any``)."""
     return Field(description=description, allow_inf_nan=False, **bounds)
 
 

@@ -46,12 +46,12 @@ import secrets
 import struct
 import zipfile
 import zlib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 from numpy.lib import format as npy_format
@@ -143,8 +143,15 @@ class ModelFileError(ValueError):
         self.field = _one_line(field) if field is not None else f"model {str(path)!r}"
         super().__init__(f"{self.field}: {self.reason}")
 
-    def __reduce__(self):  # keep picklable despite the custom signature
+    def __reduce__(
+        self,
+    ) -> tuple[type[ModelFileError], tuple[str | os.PathLike[str], str, str]]:
+        # keep picklable despite the custom signature
         return (type(self), (self.path, self.reason, self.field))
+
+
+#: the error of the file being read, from its reason (:func:`load_model`'s ``fail``)
+_Fail = Callable[[str], ModelFileError]
 
 
 @dataclass(frozen=True, slots=True)
@@ -171,12 +178,14 @@ class ModelFile:
     @property
     def settings(self) -> dict[str, Any]:
         """The ``settings`` object stored by the writer."""
-        return self.metadata["settings"]
+        settings: dict[str, Any] = self.metadata["settings"]  # a JSON object (checked on load)
+        return settings
 
     @property
     def compatibility(self) -> dict[str, Any]:
         """The ``compatibility`` object stored by the writer."""
-        return self.metadata["compatibility"]
+        compatibility: dict[str, Any] = self.metadata["compatibility"]  # checked on load
+        return compatibility
 
 
 # ---------------------------------------------------------------------------------------
@@ -428,7 +437,7 @@ def save_model(
 # ---------------------------------------------------------------------------------------
 
 
-def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, fail) -> bytes:
+def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, fail: _Fail) -> bytes:
     """The decompressed bytes of one member; corruption becomes a :class:`ModelFileError`."""
     try:
         return zf.read(info)
@@ -463,7 +472,7 @@ def _finite_float(text: str) -> float:
     return number
 
 
-def _parse_metadata(raw: bytes, fail) -> dict[str, Any]:
+def _parse_metadata(raw: bytes, fail: _Fail) -> dict[str, Any]:
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError:
@@ -482,7 +491,7 @@ def _parse_metadata(raw: bytes, fail) -> dict[str, Any]:
     return metadata
 
 
-def _check_metadata(metadata: dict[str, Any], kind: str | None, fail) -> None:
+def _check_metadata(metadata: dict[str, Any], kind: str | None, fail: _Fail) -> None:
     """Format, version, checksum, required fields, kind: in this order."""
     if metadata.get("format") != FORMAT:
         raise fail(
@@ -529,7 +538,7 @@ def _check_metadata(metadata: dict[str, Any], kind: str | None, fail) -> None:
 
 
 def _check_header(
-    zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, entry: dict[str, Any], fail
+    zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, entry: dict[str, Any], fail: _Fail
 ) -> None:
     """Check one ``.npy`` member's header (dtype, shape, size) against its metadata entry
     and the bounds, inflating only the header: a member that would inflate to more than
@@ -560,7 +569,7 @@ def _check_header(
         )
 
 
-def _npy_header(name: str, fp: Any, fail) -> tuple[tuple[int, ...], np.dtype, int]:
+def _npy_header(name: str, fp: IO[bytes], fail: _Fail) -> tuple[tuple[int, ...], np.dtype, int]:
     """Shape, dtype and header length of the ``.npy`` data read from ``fp``."""
     try:
         version = npy_format.read_magic(fp)
@@ -578,7 +587,7 @@ def _npy_header(name: str, fp: Any, fail) -> tuple[tuple[int, ...], np.dtype, in
 
 
 def _check_npy(
-    name: str, shape: tuple[int, ...], dtype: np.dtype, entry: dict[str, Any], fail
+    name: str, shape: tuple[int, ...], dtype: np.dtype, entry: dict[str, Any], fail: _Fail
 ) -> None:
     """A ``.npy`` header's dtype (numeric, never objects) and shape against its entry."""
     if dtype.hasobject or dtype.kind not in _ALLOWED_KINDS or dtype.fields is not None:
@@ -592,7 +601,7 @@ def _check_npy(
         raise fail(f"array {name!r} has shape {list(shape)}, the metadata says {entry['shape']}")
 
 
-def _read_array(name: str, raw: bytes, entry: dict[str, Any], fail) -> np.ndarray:
+def _read_array(name: str, raw: bytes, entry: dict[str, Any], fail: _Fail) -> np.ndarray:
     """Parse one ``.npy`` member (never unpickling) and check it against its entry."""
     fp = io.BytesIO(raw)
     shape, dtype, header = _npy_header(name, fp, fail)
@@ -616,7 +625,7 @@ def _read_array(name: str, raw: bytes, entry: dict[str, Any], fail) -> np.ndarra
     return array
 
 
-def _check_compatibility(stored: dict[str, Any], expected: Mapping[str, Any], fail) -> None:
+def _check_compatibility(stored: dict[str, Any], expected: Mapping[str, Any], fail: _Fail) -> None:
     for key, want in expected.items():
         want_n = _normalised(want)
         if key not in stored:

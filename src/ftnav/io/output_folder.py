@@ -121,7 +121,8 @@ def _is_model_file(p: Path) -> bool:
             info = zf.getinfo(METADATA_MEMBER)
             if info.file_size > 1 << 20:
                 return False
-            return json.loads(zf.read(info)).get("format") == FORMAT
+            meta: object = json.loads(zf.read(info))
+            return isinstance(meta, dict) and meta.get("format") == FORMAT
     except (OSError, ValueError, KeyError, zipfile.BadZipFile):
         return False
 

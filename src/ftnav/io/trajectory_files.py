@@ -9,8 +9,12 @@ m/s) over the interval ending at ``t``, body frame x right, y forward, z up.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ftnav.sim.trajectory import Trajectory
 
 __all__ = ["TRUTH_COLUMNS", "IMU_COLUMNS", "write_truth_csv", "write_imu_csv", "read_imu_csv"]
 
@@ -29,7 +33,7 @@ TRUTH_COLUMNS = (
 IMU_COLUMNS = ("t", "dtheta_x", "dtheta_y", "dtheta_z", "dv_x", "dv_y", "dv_z")
 
 
-def write_truth_csv(traj, path: Path) -> Path:
+def write_truth_csv(traj: Trajectory, path: Path) -> Path:
     """Write the truth of a trajectory at every IMU sample time."""
     e = np.degrees(traj.euler)
     data = np.column_stack(
