@@ -42,10 +42,10 @@ from __future__ import annotations
 import io
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple, overload
 
 import numpy as np
 from scipy.io import loadmat
@@ -115,7 +115,10 @@ def _number(text: str, path: Path, line: int, column: str) -> float:
 
 
 def check_position(
-    lat_deg: np.ndarray, lon_deg: np.ndarray, height_m: np.ndarray, where: Any
+    lat_deg: np.ndarray,
+    lon_deg: np.ndarray,
+    height_m: np.ndarray,
+    where: Callable[[int, str], tuple[str, str]],
 ) -> None:
     """Refuse the first fix off the Earth: ``|lat| > 90°``, ``|lon| > 180°`` or a height
     outside [:data:`HEIGHT_MIN_M`, :data:`HEIGHT_MAX_M`]; ``where(row, column)`` names the
@@ -197,7 +200,7 @@ def read_csv(
     if bad.any():
         r, c = np.argwhere(bad)[0]
         raise ScenarioError(f"{path}:{split[r][0]}", f"column {names[c]}: not finite")
-    return Table(names, values, np.array([n for n, _ in split]), dropped)
+    return Table(tuple(names), values, np.array([n for n, _ in split]), dropped)
 
 
 class PosFile(NamedTuple):
@@ -283,7 +286,7 @@ _SECONDS = re.compile(r"(\d{1,6})(?:\.(\d*))?")
 def _exact(whole: int, fraction: str) -> float:
     """``whole.fraction`` s rounded once to a float (as ``datetime.timestamp`` does), so
     one time written as a calendar date or as GPS week and seconds is one float."""
-    scale = 10 ** len(fraction)
+    scale: int = 10 ** len(fraction)
     return (whole * scale + int(fraction or "0")) / scale
 
 
@@ -295,8 +298,9 @@ def _pos_time(first: str, second: str, calendar: bool, label: str, path: Path, l
         try:
             if d is None or c is None:
                 raise ValueError
-            ymd, hms = (int(x) for x in d.groups()), (int(x) for x in c.groups()[:3])
-            whole = int(datetime(*ymd, *hms, tzinfo=UTC).timestamp())
+            year, month, day = (int(x) for x in d.groups())
+            hour, minute, sec = (int(x) for x in c.groups()[:3])
+            whole = int(datetime(year, month, day, hour, minute, sec, tzinfo=UTC).timestamp())
         except ValueError:
             raise ScenarioError(
                 f"{path}:{line}",
@@ -323,7 +327,8 @@ def _to_gpst(t: np.ndarray, system: str) -> np.ndarray:
     if offset is None:
         return t
     utc = t - offset
-    return utc + _LEAP_N[np.searchsorted(_LEAP_AT, utc, side="right")]
+    gpst: np.ndarray = utc + _LEAP_N[np.searchsorted(_LEAP_AT, utc, side="right")]
+    return gpst
 
 
 def enu_rotation(lat_deg: np.ndarray, lon_deg: np.ndarray) -> np.ndarray:
@@ -353,7 +358,8 @@ def _covariance(sd: np.ndarray, off: np.ndarray) -> np.ndarray:
 
 def _dms(d: np.ndarray, m: np.ndarray, s: np.ndarray, negative: np.ndarray) -> np.ndarray:
     """Degrees from RTKLIB's ``d m s`` (the sign on the degrees, ``-0`` included)."""
-    return np.where(negative, -1.0, 1.0) * (np.abs(d) + m / 60.0 + s / 3600.0)
+    deg: np.ndarray = np.where(negative, -1.0, 1.0) * (np.abs(d) + m / 60.0 + s / 3600.0)
+    return deg
 
 
 def _ref_pos(text: str, path: Path, line: int) -> tuple[float, float, float]:
@@ -378,7 +384,12 @@ def _ref_pos(text: str, path: Path, line: int) -> tuple[float, float, float]:
             "as d m s and height, or x y z ECEF (m)",
         )
     llh = (float(lat), float(lon), float(h))
-    check_position(*(np.array([x]) for x in llh), lambda r, name: (f"{path}:{line}", "ref pos"))
+    check_position(
+        np.array([llh[0]]),
+        np.array([llh[1]]),
+        np.array([llh[2]]),
+        lambda r, name: (f"{path}:{line}", "ref pos"),
+    )
     return llh
 
 
@@ -511,10 +522,11 @@ def read_rtklib_pos(path: Path, what: str = "gnss") -> PosFile:
         xyz = np.stack([c(n) for n in first], -1)
         if form == "enu":
             assert base is not None
-            llh = pymap3d.enu2geodetic(*xyz.T, *base)
+            geodetic = pymap3d.enu2geodetic(*xyz.T, *base)
         else:
-            llh = pymap3d.ecef2geodetic(*xyz.T)
-        llh = tuple(np.asarray(a, float) for a in llh)
+            geodetic = pymap3d.ecef2geodetic(*xyz.T)
+        lat, lon, h = (np.asarray(a, float) for a in geodetic)
+        llh = (lat, lon, h)
     where = {"lat": first[0], "lon": first[1], "height": first[2]}
     if form in ("xyz", "enu"):
         where = dict.fromkeys(where, ", ".join(first))
@@ -600,6 +612,18 @@ def _mat_struct(path: Path, what: str) -> tuple[Any, str]:
     return data[structs[0]], structs[0]
 
 
+@overload
+def _mat_field(
+    s: Any, path: Path, name: str, shape: tuple[int | None, ...], required: Literal[True] = True
+) -> np.ndarray: ...
+
+
+@overload
+def _mat_field(
+    s: Any, path: Path, name: str, shape: tuple[int | None, ...], required: bool
+) -> np.ndarray | None: ...
+
+
 def _mat_field(
     s: Any, path: Path, name: str, shape: tuple[int | None, ...], required: bool = True
 ) -> np.ndarray | None:
@@ -633,7 +657,6 @@ def _same_length(path: Path, n: int, **arrays: np.ndarray) -> None:
 
 def _times(s: Any, path: Path) -> np.ndarray:
     t = _mat_field(s, path, "t", (None,))
-    assert t is not None
     if t.size < 2:
         raise ScenarioError(str(path), f"field t: {t.size} sample(s)")
     return t
@@ -681,7 +704,6 @@ def read_navego_imu(path: Path, what: str = "imu") -> NavegoImu:
     t = _times(s, path)
     fb = _mat_field(s, path, "fb", (None, 3))
     wb = _mat_field(s, path, "wb", (None, 3))
-    assert fb is not None and wb is not None
     _same_length(path, t.size, fb=fb, wb=wb)
     ini = _mat_field(s, path, "ini_align", (3,), required=False)
     ini_err = _mat_field(s, path, "ini_align_err", (3,), required=False)
@@ -722,7 +744,7 @@ def read_navego_gnss(path: Path, what: str = "gnss") -> NavegoGnss:
     s, _ = _mat_struct(path, what)
     t = _times(s, path)
     cols = {k: _mat_field(s, path, k, (None,)) for k in ("lat", "lon", "h")}
-    _same_length(path, t.size, **cols)  # type: ignore[arg-type]
+    _same_length(path, t.size, **cols)
     p = np.stack([cols["lat"], cols["lon"], cols["h"]], -1)
     field = {"lat": "lat", "lon": "lon", "height": "h"}
     check_position(
@@ -774,8 +796,7 @@ def read_navego_truth(path: Path, what: str = "reference") -> NavegoTruth:
     t = _times(s, path)
     cols = {k: _mat_field(s, path, k, (None,)) for k in ("lat", "lon", "h")}
     vel = _mat_field(s, path, "vel", (None, 3))
-    assert vel is not None
-    _same_length(path, t.size, vel=vel, **cols)  # type: ignore[arg-type]
+    _same_length(path, t.size, vel=vel, **cols)
     dcm = _mat_field(s, path, "DCMnb_m", (None, 9), required="roll" not in s._fieldnames)
     M = FRD_TO_RFU
     if dcm is not None:
@@ -787,7 +808,7 @@ def read_navego_truth(path: Path, what: str = "reference") -> NavegoTruth:
             raise ScenarioError(str(path), f"field DCMnb_m: not a rotation (|C Cᵀ − I| {err:.2g})")
     else:
         rpy = {k: _mat_field(s, path, k, (None,)) for k in ("roll", "pitch", "yaw")}
-        _same_length(path, t.size, **rpy)  # type: ignore[arg-type]
+        _same_length(path, t.size, **rpy)
         C = dcm_from_roll_pitch_yaw(np.stack([rpy["roll"], rpy["pitch"], rpy["yaw"]], -1))
     p = np.stack([cols["lat"], cols["lon"], cols["h"]], -1)
     return NavegoTruth(t, p, vel @ M, C)
