@@ -27,7 +27,8 @@ nothing of it enters the engine.  Per method:
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any, NamedTuple
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.stats import chi2
@@ -57,7 +58,8 @@ __all__ = [
 CONVERGENCE_S = 60.0
 
 
-class Reference(NamedTuple):
+@dataclass(frozen=True, slots=True)
+class Reference:
     """Reference positions at filter epochs: ``index`` (K_r,) 0-based epochs and
     ``p`` (K_r, 3) ``[L, λ, h]`` of the point ``lever_arm`` (3,) m from the IMU, body
     frame (a GNSS antenna; None or zeros: the IMU itself).  A solution is scored at that

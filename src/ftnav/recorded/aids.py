@@ -17,7 +17,8 @@ errors with file:line), so this module parses nothing itself.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
@@ -30,6 +31,7 @@ from ftnav.sensors.vehicle import Nhc, Zupt
 __all__ = [
     "RECORDING_AIDS",
     "AidContext",
+    "ColumnReader",
     "NhcSettings",
     "PreparedAid",
     "RecordingAid",
@@ -37,6 +39,16 @@ __all__ = [
 ]
 
 _DEG = math.pi / 180.0
+
+
+class ColumnReader(Protocol):
+    """The boundary's strict reader of an aid's own log (:class:`AidContext`)."""
+
+    def __call__(
+        self, file: str, columns: Sequence[str | int], header: bool = True, delimiter: str = ","
+    ) -> np.ndarray:
+        """(rows, len(columns)) float: ``columns`` (names, or 0-based numbers) of ``file``."""
+        ...
 
 
 class AidContext(NamedTuple):
@@ -61,10 +73,11 @@ class AidContext(NamedTuple):
     times: np.ndarray
     primary: np.ndarray
     log: ImuLog
-    read_columns: Callable[[str, Sequence[str | int]], tuple[np.ndarray, np.ndarray]] | None = None
+    read_columns: ColumnReader | None = None
 
 
-class PreparedAid(NamedTuple):
+@dataclass(frozen=True, slots=True)
+class PreparedAid:
     """An aid ready for the stream: its sensor model, the epochs it measures (0-based),
     its readings there (rows, dim), which of them an injected fault altered (rows,), and
     the counts reported in ``metrics.json`` (``data.<name>``)."""
@@ -79,7 +92,10 @@ class PreparedAid(NamedTuple):
 class RecordingAid(Protocol):
     """An aid type of recordings (module docstring)."""
 
-    settings: type[BaseModel]
+    @property
+    def settings(self) -> type[BaseModel]:
+        """The pydantic model of the aid's own keys."""
+        ...
 
     def prepare(self, settings: Any, ctx: AidContext) -> PreparedAid:
         """The sensor model and the aid's readings on the filter grid."""

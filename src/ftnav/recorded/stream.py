@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -225,7 +226,8 @@ def given(imu: ImuLog, gnss: GnssLog, euler: np.ndarray) -> Alignment:
     )
 
 
-class GridPlacement(NamedTuple):
+@dataclass(frozen=True, slots=True)
+class GridPlacement:
     """Epochs of an aid placed on the filter grid: index per kept epoch, and counts."""
 
     index: np.ndarray

@@ -19,7 +19,7 @@ bias (its white noise and a Markov bias of correlation time τ ≪ the run avera
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -30,7 +30,8 @@ from ftnav.recorded.imu import ImuLog, increments
 __all__ = ["Truth", "ideal_imu", "imu_bias_against_truth"]
 
 
-class Truth(NamedTuple):
+@dataclass(frozen=True, slots=True)
+class Truth:
     """The truth at filter epochs and the IMU biases it reveals.
 
     Attributes
