@@ -38,6 +38,7 @@ from ftnav.io.sections import (
     explain_method_key,
     resolve_methods,
 )
+from ftnav.model.flight import Profile
 from ftnav.model.imu import DATASHEET_KEYS, IMU_PRESETS, RANGES, ImuErrors, imu_preset
 from ftnav.model.scenario import (
     METRIC_STATES,
@@ -49,11 +50,13 @@ from ftnav.model.scenario import (
 )
 from ftnav.nav.error_model import ErrorModelParams
 from ftnav.sensors.ads import Barometer
+from ftnav.sensors.base import AidingSensor
 from ftnav.sensors.cns import StarTracker
 from ftnav.sensors.dns import Doppler
 from ftnav.sensors.gnss import Gnss
 from ftnav.sensors.tan import Tan
-from ftnav.sensors.terrain import AnalyticTerrain, GridDem
+from ftnav.sensors.terrain import AnalyticTerrain, GridDem, Terrain
+from ftnav.types import ArrayLike
 
 __all__ = [
     "parse_ins_scenario",
@@ -124,10 +127,9 @@ _Quantity = str | float | int | list[str | float | int]
 
 #: an IMU datasheet table: ``base`` (a preset the table starts from) and the datasheet
 #: keys of :meth:`ImuErrors.from_datasheet`, each ``"<number> <unit>"`` or three of them
-ImuTableFile = create_model(
-    "ImuTableFile",
-    __config__=STRICT,
-    base=(
+#: (its fields are built at run time: pydantic's field definitions, typed ``Any``)
+_IMU_TABLE_FIELDS: dict[str, Any] = {
+    "base": (
         Literal[tuple(IMU_PRESETS)] | None,
         Field(default=None, description="preset whose values the keys not given take"),
     ),
@@ -135,7 +137,8 @@ ImuTableFile = create_model(
         key: (_Quantity | None, Field(default=None, description="'<number> <unit>' or three"))
         for key in DATASHEET_KEYS
     },
-)
+}
+ImuTableFile = create_model("ImuTableFile", __config__=STRICT, **_IMU_TABLE_FIELDS)
 
 #: an IMU: a preset name or a datasheet table (validated by :func:`imu_errors`, so that an
 #: error names ``imu.<key>``; the JSON schema shows both forms)
@@ -274,16 +277,18 @@ class FilterModel(NamedTuple):
     notes: tuple[str, ...]
 
 
-def _deg_h(x) -> str:
+def _deg_h(x: ArrayLike) -> str:
     return f"{np.max(np.asarray(x)) / _DEG_H:.3g} deg/h"
 
 
-def _ug(x) -> str:
+def _ug(x: ArrayLike) -> str:
     ug = np.max(np.asarray(x)) / _G * 1e6
     return f"{ug / 1e3:.3g} mg" if ug >= 1e3 else f"{ug:.3g} ug"
 
 
-def filter_model(imu: ImuErrors, states: int = 18, bias_frame: str = "body") -> FilterModel:
+def filter_model(
+    imu: ImuErrors, states: int = 18, bias_frame: Literal["body", "nav"] = "body"
+) -> FilterModel:
     """The default filter model of an IMU: every error term the IMU declares, represented.
 
     White noise: the angle and velocity random walks give the PSDs ``q_g = ARW²``,
@@ -317,7 +322,9 @@ def filter_model(imu: ImuErrors, states: int = 18, bias_frame: str = "body") -> 
             f"changes with the attitude, added to the accelerometer Markov term "
             f"(τ {np.max(imu.accel_markov_tau):g} s)"
         )
-    if np.any(imu.gyro_scale_sd > 0) or np.any(imu.gyro_misalignment_sd > 0):
+    if np.any(np.asarray(imu.gyro_scale_sd) > 0) or np.any(
+        np.asarray(imu.gyro_misalignment_sd) > 0
+    ):
         notes.append(
             "no state for the gyro scale factor and misalignment: their drift, "
             "proportional to the angular rate, is unmodelled (small at cruise, "
@@ -334,10 +341,10 @@ def filter_model(imu: ImuErrors, states: int = 18, bias_frame: str = "body") -> 
             )
         params = ErrorModelParams(
             gyro_psd=tuple(np.asarray(imu.gyro_arw) ** 2),
-            gyro_markov_sigma=tuple(imu.gyro_markov_sd),
-            gyro_markov_tau=tuple(imu.gyro_markov_tau),
+            gyro_markov_sigma=tuple(np.asarray(imu.gyro_markov_sd)),
+            gyro_markov_tau=tuple(np.asarray(imu.gyro_markov_tau)),
             accel_markov_sigma=tuple(accel_sigma),
-            accel_markov_tau=tuple(imu.accel_markov_tau),
+            accel_markov_tau=tuple(np.asarray(imu.accel_markov_tau)),
             accel_psd=tuple(np.asarray(imu.accel_vrw) ** 2),
             bias_frame=bias_frame,
             states=18,
@@ -346,7 +353,7 @@ def filter_model(imu: ImuErrors, states: int = 18, bias_frame: str = "body") -> 
     else:
         g_rw = 2.0 * np.asarray(imu.gyro_markov_sd) ** 2 / np.asarray(imu.gyro_markov_tau)
         a_rw = 2.0 * a_markov**2 / np.asarray(imu.accel_markov_tau)
-        if np.any(imu.gyro_markov_sd > 0) or np.any(a_markov > 0):
+        if np.any(np.asarray(imu.gyro_markov_sd) > 0) or np.any(a_markov > 0):
             notes.append(
                 "the 15-state model has no Markov states: the Markov terms are "
                 "random walks of PSD 2σ²/τ on the bias states (conservative over "
@@ -375,10 +382,13 @@ def initial_sigma(init: InitialFile, bias_sigma: np.ndarray) -> np.ndarray:
         ]
     )
     # a zero σ would make P0 singular; keep a tiny floor (the state is then known)
-    return np.maximum(np.concatenate([nav, bias_sigma]), 1e-12)
+    sigma: np.ndarray = np.maximum(np.concatenate([nav, bias_sigma]), 1e-12)
+    return sigma
 
 
-def _terrain(t: TerrainFile, origin_lat: float, origin_lon: float, base: Path, origin: str):
+def _terrain(
+    t: TerrainFile, origin_lat: float, origin_lon: float, base: Path, origin: str
+) -> Terrain:
     if t.kind == "grid":
         if not t.path:
             raise _err("terrain.path", "required with kind = 'grid'", origin)
@@ -394,8 +404,8 @@ def _terrain(t: TerrainFile, origin_lat: float, origin_lon: float, base: Path, o
         origin_lon_deg=origin_lon,
         n_waves=t.waves,
         h0_m=t.h0_m,
-        amplitude_range_m=tuple(t.amplitude_range_m),
-        wavelength_range_m=tuple(t.wavelength_range_m),
+        amplitude_range_m=(t.amplitude_range_m[0], t.amplitude_range_m[1]),
+        wavelength_range_m=(t.wavelength_range_m[0], t.wavelength_range_m[1]),
     )
 
 
@@ -429,7 +439,7 @@ def _aid_range(key: str) -> _AidRange | None:
     return AID_RANGES[""] if "sigma" in key else None
 
 
-def check_aid(sensor: Any, given: Mapping[str, Any], path: str, origin: str) -> None:
+def check_aid(sensor: AidingSensor, given: Mapping[str, Any], path: str, origin: str) -> None:
     """Refuse implausible parameters (:data:`AID_RANGES`), warn of unusual σ, and refuse
     an aid whose assumed measurement noise R is not positive definite (a σ of 0)."""
     for key in given:
@@ -481,9 +491,15 @@ def check_aid(sensor: Any, given: Mapping[str, Any], path: str, origin: str) -> 
 
 
 def sensor_from_table(
-    kind: str, params: Mapping[str, Any], path: str, origin: str, terrain=None, dt: float = 1.0
-):
-    """Build one sensor from its TOML table; errors name ``path.<field>``."""
+    kind: str,
+    params: Mapping[str, Any],
+    path: str,
+    origin: str,
+    terrain: Terrain | None = None,
+    dt: float = 1.0,
+) -> AidingSensor:
+    """Build one sensor (of the class :data:`AID_CLASSES` names) from its TOML table;
+    errors name ``path.<field>``."""
     cls = AID_CLASSES[kind]
     fields = {f.name for f in dataclasses.fields(cls)}
     kw = dict(params)
@@ -502,7 +518,7 @@ def sensor_from_table(
         kw["terrain"] = terrain
     kw.setdefault("dt", dt)
     try:
-        sensor = cls(**kw)
+        sensor: AidingSensor = cls(**kw)
     except (TypeError, ValueError) as exc:
         msg = " ".join(str(exc).split())
         m = re.match(r"^[\w.]*?(\w+): (.*)$", msg)
@@ -539,7 +555,7 @@ def parse_ins_scenario(
     except ValidationError as exc:
         raise to_scenario_error(exc, origin, InsScenarioFile, explain_method_key) from None
 
-    def profile(key: str, value: str):
+    def profile(key: str, value: str) -> Profile:
         try:
             cand = base / value
             return resolve_profile(str(cand) if cand.exists() else value)

@@ -59,7 +59,7 @@ from ftnav.io.sections import (
     explain_method_key,
     resolve_methods,
 )
-from ftnav.model.scenario import Fault, Scenario
+from ftnav.model.scenario import Fault, InsScenario, Scenario
 from ftnav.model.system import LinearModel, PrivateStates, Sensor
 
 __all__ = [
@@ -309,10 +309,12 @@ def _build_model(m: ModelFile, dt: float) -> LinearModel:
     src = "model.states"
     continuous = _model_form(m)
     if continuous:
+        assert m.F_c is not None and m.Q_c is not None  # _model_form refuses one alone
         F_c = _matrix(m.F_c, (n, n), src, "model", "F_c")
         Q_c = _matrix(m.Q_c, (n, n), src, "model", "Q_c", psd=True)
         F, Q = _discretized(F_c, Q_c, dt, "Q_c", spd=True)
     else:
+        assert m.F is not None and m.Q is not None  # _model_form refuses a missing one
         F = _matrix(m.F, (n, n), src, "model", "F")
         Q = _matrix(m.Q, (n, n), src, "model", "Q", spd=True)
     x0 = _mean(_vector(m.x0, n, src, "model", "x0"), "model", "x0")
@@ -479,7 +481,7 @@ def parse_scenario(
     return replace(sc, learned=resolve_methods(sc.methods, sc.system(), base, origin, models))
 
 
-def load_scenario(source: str | Path, models: bool = True) -> Scenario:
+def load_scenario(source: str | Path, models: bool = True) -> Scenario | InsScenario:
     """Read, validate and build the scenario in the TOML file ``source``.
 
     ``models=False`` checks the methods but loads no trained model file.
@@ -536,8 +538,12 @@ def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
     ``json.dumps(..., sort_keys=True)`` gives a stable hash input.
     """
     m = sc.model
+    if m.F is None or m.Q is None or m.Q_true is None:
+        raise ValueError("model: no F, Q or Q_true to write (a model linearized per epoch)")
     sensors = []
     for s in sc.sensors:
+        if s.H is None:
+            raise ValueError(f"sensor {s.name!r}: no H to write (linearized per epoch)")
         d: dict[str, Any] = {
             "name": s.name,
             "H": _rows(s.H),
@@ -559,7 +565,7 @@ def scenario_to_dict(sc: Scenario) -> dict[str, Any]:
         sensors.append(d)
     # the settings that differ from their defaults (nested detector and noise as tables)
     methods = [
-        {"name": me.name, "architecture": me.architecture}  # type: ignore[attr-defined]
+        {"name": me.name, "architecture": me.architecture}
         | json.loads(me.model_dump_json(exclude_none=True, exclude_defaults=True))
         for me in sc.methods
     ]
