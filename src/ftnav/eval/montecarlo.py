@@ -16,7 +16,7 @@ same alone, in a batch, or in another worker process (:mod:`ftnav.parallel`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -40,8 +40,8 @@ from ftnav.model.streams import concat_streams, scheduled
 from ftnav.model.system import LinearSystem
 from ftnav.nav.mechanization import navigation_errors
 from ftnav.parallel import run_tasks, split_even
-from ftnav.sim.ins import InsTruth, simulate_ins
-from ftnav.sim.linear import LinearTruth, simulate
+from ftnav.sim.ins import InsTruth, SimulatedIns, simulate_ins
+from ftnav.sim.linear import LinearTruth, Simulated, simulate
 
 __all__ = [
     "CHUNK_BYTES",
@@ -137,7 +137,7 @@ def build_filters(
     }
 
 
-def simulate_runs(scenario: Any, runs: range, seed: int):  # noqa: ANN201 - Simulated[Ins]
+def simulate_runs(scenario: Any, runs: range, seed: int) -> Simulated | SimulatedIns:
     """The stream and truth of runs ``runs`` of either kind of scenario."""
     if scenario.kind == "integrated":
         return simulate_ins(scenario, runs, seed)
@@ -154,7 +154,7 @@ def chunk_runs(sc: Any, twin: bool = True) -> int:
     """
     if sc.kind != "integrated":
         return 1 << 62
-    per_run = sc.samples_per_epoch * sc.steps * 6 * 8 * (2 if twin else 1)
+    per_run: int = sc.samples_per_epoch * sc.steps * 6 * 8 * (2 if twin else 1)
     return max(1, CHUNK_BYTES // per_run)
 
 
@@ -194,7 +194,13 @@ class _Scores:
 
 
 def _score_linear(
-    records, truth: LinearTruth, names: list[str], B: int, K: int, nc: int, dims: Sequence[int]
+    records: Iterable[EpochRecord],
+    truth: LinearTruth,
+    names: list[str],
+    B: int,
+    K: int,
+    nc: int,
+    dims: Sequence[int],
 ) -> dict[str, MethodResult]:
     scores = {nm: _Scores(B, K, nc, len(dims)) for nm in names}
     for r in records:
@@ -210,7 +216,7 @@ def _score_linear(
 
 
 def _score_ins(
-    records: Sequence[EpochRecord] | Any,
+    records: Iterable[EpochRecord],
     truth: InsTruth,
     names: list[str],
     B: int,
@@ -227,6 +233,7 @@ def _score_ins(
     scores = {nm: _Scores(B, K, N_NAV, len(dims)) for nm in names}
     tr = truth.epochs
     for r in records:
+        assert r.nav is not None and r.solution is not None  # an integrated model's are set
         k = r.k
         q_t, v_t, p_t = tr.q[k - 1], tr.v[k - 1], tr.p[k - 1]
         e_true = navigation_errors(r.nav.q, r.nav.v, r.nav.p, q_t, v_t, p_t)
@@ -244,13 +251,14 @@ def _score_ins(
         for j, nm in enumerate(names):
             p, s, out = parts[j], scores[nm], r.outputs[j]
             s.error[:, k - 1] = (
-                e_out[p] if fb[j] else metric_errors(e_true[p] - out.x[:, :N_NAV], p_t)
+                e_out[p]
+                if fb[j] and e_out is not None
+                else metric_errors(e_true[p] - out.x[:, :N_NAV], p_t)
             )
             s.nees[:, k - 1], s.P[:, k - 1] = eps[p], var[p]
-            if r.local[j] is not None:
-                s.rec.put(
-                    "local", k, metric_errors(e_true[p][:, None, :] - r.local[j], p_t)[..., :3]
-                )
+            local = r.local[j]
+            if local is not None:
+                s.rec.put("local", k, metric_errors(e_true[p][:, None, :] - local, p_t)[..., :3])
             s.rec.outputs(k, out)
     return {nm: scores[nm].result() for nm in names}
 
@@ -276,8 +284,10 @@ def score(
         if filters is not None:
             own = method_feedback(model, [filters[nm] for nm in names])
             fb = fb if own is None else list(own)
+        assert isinstance(truth, InsTruth)
         scored = _score_ins(records, truth, names, B, scenario.steps, dims, fb)
     else:
+        assert isinstance(truth, LinearTruth)
         scored = _score_linear(
             records, truth, names, B, scenario.steps, model.system.n_common, dims
         )
@@ -338,7 +348,12 @@ def run_scenario(
     return _merge(done, len(groups), methods, scenario, runs, seed)
 
 
-def _task(task: tuple, progress: Callable[[int], None] | None = None) -> ScenarioResult:
+#: one task of :func:`run_scenario`: the scenario, a batch of runs, the root seed, a
+#: group of methods, the fault-free twin, check_spd, keep the stream and truth
+_Task = tuple[Any, range, int, Sequence[Any], bool, bool, bool]
+
+
+def _task(task: _Task, progress: Callable[[int], None] | None = None) -> ScenarioResult:
     """One task of :func:`run_scenario`: a group of methods over a batch of runs."""
     sc, rr, seed, methods, twin, check_spd, keep = task
     runs = len(rr)
@@ -383,7 +398,7 @@ def _twin_truth(truth: LinearTruth | InsTruth) -> LinearTruth | InsTruth:
     return truth  # the flight is shared by every run
 
 
-def _rebuilt(like: tuple, parts: list[Any]) -> tuple:
+def _rebuilt(like: tuple[Any, ...], parts: list[Any]) -> tuple[Any, ...]:
     """``parts`` as a tuple of the type of ``like`` (a NamedTuple keeps its type)."""
     return type(like)(*parts) if hasattr(like, "_fields") else tuple(parts)
 
@@ -392,15 +407,13 @@ def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult
     """Split a :class:`MethodResult` of a concatenated batch after ``runs`` runs."""
 
     def part(sl: slice) -> MethodResult:
-        return MethodResult(
-            *(
-                _rebuilt(v, [a[sl] for a in v])
-                if isinstance(v, tuple)
-                else None
-                if v is None
-                else v[sl]
-                for v in r
-            )
+        return MethodResult._make(
+            _rebuilt(v, [a[sl] for a in v])
+            if isinstance(v, tuple)
+            else None
+            if v is None
+            else v[sl]
+            for v in r
         )
 
     return part(slice(None, runs)), part(slice(runs, None))

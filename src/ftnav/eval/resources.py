@@ -42,8 +42,16 @@ import os
 import re
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Protocol, TypedDict, Unpack
 
 from ftnav.eval.montecarlo import PARALLEL_MIN_WORK, chunk_runs
+from ftnav.model.scenario import InsScenario
+
+if TYPE_CHECKING:
+    from ftnav.fusion.config import Detector
+    from ftnav.model.flight import Profile
+    from ftnav.model.imu import ImuErrors
+    from ftnav.model.scenario import Scenario
 
 __all__ = [
     "available_memory_bytes",
@@ -79,7 +87,28 @@ def format_bytes(n: float) -> str:
 # ----------------------------------------------------------------------- memory estimate
 
 
-def _result_bytes(method, B: int, K: int, nc: int, N: int, dims_sum: int, local: bool) -> int:
+class _Method(Protocol):
+    """What the estimate reads of a method's configuration (:mod:`ftnav.fusion.config`)."""
+
+    @property
+    def architecture(self) -> str: ...
+
+    @property
+    def detector(self) -> Detector: ...
+
+
+class _RunOptions(TypedDict, total=False):
+    """The keyword options of :func:`run_memory_bytes` that :func:`max_runs_within` passes."""
+
+    workers: int
+    fault_free: bool
+    save_estimates: bool
+    chunk: int | None
+
+
+def _result_bytes(
+    method: _Method, B: int, K: int, nc: int, N: int, dims_sum: int, local: bool
+) -> int:
     """Bytes of one method's per-epoch results over B runs (:class:`MethodResult`)."""
     floats = 2 * nc + 1 + dims_sum  # x, P_diag, nees, R_hat
     flags = 0
@@ -98,7 +127,9 @@ def _state_bytes(B: int, local_sizes: list[int]) -> int:
     return B * _STATE_COPIES * _F8 * sum(n * n + n for n in local_sizes)
 
 
-def _linear_bytes(sc, runs: int, workers: int, fault_free: bool, save_estimates: bool) -> int:
+def _linear_bytes(
+    sc: Scenario, runs: int, workers: int, fault_free: bool, save_estimates: bool
+) -> int:
     K, B, N = int(sc.steps), int(runs), len(sc.sensors)
     nc = len(sc.model.states)
     dims = [int(s.dim) for s in sc.sensors]
@@ -139,7 +170,7 @@ def _linear_bytes(sc, runs: int, workers: int, fault_free: bool, save_estimates:
     return max(simulation, held + results + state, after + results + transient)
 
 
-def _imu_arrays(imu) -> int:
+def _imu_arrays(imu: ImuErrors) -> int:
     """(b, n_imu, 3) arrays alive at the peak of :func:`simulate_imu_errors`."""
     import numpy as np
 
@@ -147,7 +178,7 @@ def _imu_arrays(imu) -> int:
     return 2 + markov + 1  # dtheta, dv, Markov drifts, one temporary (lfilter, scale terms)
 
 
-def _integrated_chunk_bytes(sc, b: int, twin: bool) -> tuple[int, int, int]:
+def _integrated_chunk_bytes(sc: InsScenario, b: int, twin: bool) -> tuple[int, int, int]:
     """(simulation peak, held data, per-epoch temporaries) of one batch of b runs."""
     K, N = int(sc.steps), len(sc.aids)
     n_imu = sc.samples_per_epoch * K
@@ -172,7 +203,12 @@ def _integrated_chunk_bytes(sc, b: int, twin: bool) -> tuple[int, int, int]:
 
 
 def _integrated_bytes(
-    sc, runs: int, workers: int, fault_free: bool, save_estimates: bool, chunk: int | None
+    sc: InsScenario,
+    runs: int,
+    workers: int,
+    fault_free: bool,
+    save_estimates: bool,
+    chunk: int | None,
 ) -> int:
     twin = fault_free and bool(sc.faults)
     b = min(int(runs), chunk_runs(sc, twin) if chunk is None else int(chunk))
@@ -207,7 +243,7 @@ def _integrated_bytes(
     return max(generating, kept + max(run_peak, final, after))
 
 
-def _flight_bytes(profile) -> tuple[int, int]:
+def _flight_bytes(profile: Profile) -> tuple[int, int]:
     """The true flight of :func:`ftnav.sim.trajectory.generate`: (kept, peak while generated)."""
     samples = round(profile.duration * profile.imu_rate)
     largest = max(round(s.duration * profile.imu_rate) for s in profile.segments)
@@ -216,7 +252,7 @@ def _flight_bytes(profile) -> tuple[int, int]:
 
 
 def run_memory_bytes(
-    scenario,
+    scenario: Scenario | InsScenario,
     runs: int,
     *,
     workers: int = 1,
@@ -249,7 +285,7 @@ def run_memory_bytes(
         raise ValueError(f"runs: must be >= 1, got {runs}")
     if workers < 1:
         raise ValueError(f"workers: must be >= 1, got {workers}")
-    if getattr(scenario, "kind", "linear") != "integrated":
+    if not isinstance(scenario, InsScenario):  # kind "integrated"
         return _linear_bytes(scenario, runs, workers, fault_free, save_estimates)
     total = _integrated_bytes(scenario, runs, workers, fault_free, save_estimates, chunk)
     if scenario.test_profile is not None:
@@ -260,7 +296,9 @@ def run_memory_bytes(
     return total
 
 
-def max_runs_within(scenario, budget: float, **options) -> int:
+def max_runs_within(
+    scenario: Scenario | InsScenario, budget: float, **options: Unpack[_RunOptions]
+) -> int:
     """The most runs whose :func:`run_memory_bytes` stays within ``budget`` bytes (0: none)."""
     if run_memory_bytes(scenario, 1, **options) > budget:
         return 0
@@ -278,7 +316,7 @@ def max_runs_within(scenario, budget: float, **options) -> int:
     return lo
 
 
-def trajectory_memory_bytes(profile, imu_errors: bool) -> int:
+def trajectory_memory_bytes(profile: Profile, imu_errors: bool) -> int:
     """Estimated peak memory (bytes) of ``ftnav trajectory`` (one flight, one IMU run).
 
     The flight at its peak (:func:`ftnav.sim.trajectory.generate`), then with IMU
