@@ -18,8 +18,9 @@ e.g. the mean over runs of each run's horizontal RMS error.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -29,7 +30,7 @@ from ftnav.eval.metrics import detection_stats, error_stats, nees_stats, positio
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
 from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS, Evaluation
 
-__all__ = ["MethodMetrics", "evaluate", "metrics_to_json", "split_unit"]
+__all__ = ["FaultFreeMetrics", "MethodMetrics", "evaluate", "metrics_to_json", "split_unit"]
 
 #: Unit suffixes of state and metric names (longest first) and the units they name.
 _UNIT_SUFFIXES = (
@@ -55,6 +56,16 @@ def split_unit(name: str) -> tuple[str, str | None]:
     return name, None
 
 
+class FaultFreeMetrics(TypedDict):
+    """A method's metrics on the fault-free twin (``methods[name].fault_free``)."""
+
+    rmse: dict[str, float]
+    rmse_fault_window: dict[str, float] | None
+    anees: float
+    nees_in_band_fraction: float
+    nis: dict[str, float] | None
+
+
 @dataclass(frozen=True, slots=True)
 class MethodMetrics:
     """Metrics of one method; maps are keyed by state (and position norm) or sensor name."""
@@ -68,8 +79,8 @@ class MethodMetrics:
     anees: float
     anees_band: tuple[float, float]
     nees_in_band_fraction: float
-    detection: dict[str, dict[str, float]] | None
-    fault_free: dict[str, dict[str, float] | None] | None
+    detection: dict[str, dict[str, float | None]] | None
+    fault_free: FaultFreeMetrics | None
     max_rel_diff_to_centralized: float | None
     mean_beta: dict[str, float] | None
     nan_measurements: dict[str, int]
@@ -77,11 +88,11 @@ class MethodMetrics:
     integrity: dict[str, object] | None = None
 
 
-def _named(values: np.ndarray, names) -> dict[str, float]:
+def _named(values: np.ndarray, names: Sequence[str]) -> dict[str, float]:
     return {n: float(v) for n, v in zip(names, values, strict=True)}
 
 
-def _norms(err: np.ndarray, states) -> np.ndarray | None:
+def _norms(err: np.ndarray, states: Sequence[str]) -> np.ndarray | None:
     """(B, K, 2) horizontal and 3-D position error, or None without ENU position states."""
     enu = METRIC_STATES[:3]
     if not all(s in states for s in enu):
@@ -89,7 +100,9 @@ def _norms(err: np.ndarray, states) -> np.ndarray | None:
     return position_norms(err[..., [list(states).index(s) for s in enu]])
 
 
-def _with_norms(values: np.ndarray, states, norm_values: np.ndarray | None) -> dict[str, float]:
+def _with_norms(
+    values: np.ndarray, states: Sequence[str], norm_values: np.ndarray | None
+) -> dict[str, float]:
     """State name → value, followed by the position norms' values when there are any."""
     out = _named(values, states)
     if norm_values is not None:
@@ -97,7 +110,9 @@ def _with_norms(values: np.ndarray, states, norm_values: np.ndarray | None) -> d
     return out
 
 
-def _rmse(err: np.ndarray, norms: np.ndarray | None, states, mask: np.ndarray) -> dict[str, float]:
+def _rmse(
+    err: np.ndarray, norms: np.ndarray | None, states: Sequence[str], mask: np.ndarray
+) -> dict[str, float]:
     """State name (and position norm) → mean over runs of the per-run RMSE over ``mask``."""
     return _with_norms(
         error_stats(err, mask).rmse,
@@ -208,7 +223,7 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
         es = error_stats(err, window)
         es_norms = None if norms is None else error_stats(norms, window)
         ns = nees_stats(res.nees, len(states), window)
-        detection = None
+        detection: dict[str, dict[str, float | None]] | None = None
         if res.flag is not None:
             detection = {}
             for i, sensor in enumerate(sc.sensor_names):
@@ -221,7 +236,7 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
                     for k, v in d._asdict().items()
                 }
                 detection[sensor]["readmitted"] = _readmitted(res.flag[..., i], t, wins)
-        ff = None
+        ff: FaultFreeMetrics | None = None
         ff_res = result.fault_free.get(name)
         if ff_res is not None:
             ff_err = ff_res.error
@@ -240,7 +255,7 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
         rel = None
         if central is not None and name != central:
             ref_res = result.fault_free.get(central) if ff_res is not None else None
-            if ref_res is not None:
+            if ff_res is not None and ref_res is not None:
                 rel = _max_rel_diff(_compared(ff_res), _compared(ref_res))
             else:
                 rel = _max_rel_diff(_compared(res), _compared(result.results[central]))
@@ -272,8 +287,10 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
 
 
 def metrics_to_json(
-    result: ScenarioResult, metrics: dict[str, MethodMetrics], claims: list[dict] | None = None
-) -> dict:
+    result: ScenarioResult,
+    metrics: dict[str, MethodMetrics],
+    claims: list[dict[str, Any]] | None = None,
+) -> dict[str, Any]:
     """The ``metrics.json`` document (stable contract; ``None`` is written as null)."""
     doc = {
         "scenario": result.scenario.name,

@@ -81,7 +81,9 @@ def reference_errors(solution: InsState, reference: Reference, run: int = 0) -> 
     return err
 
 
-def _outages(per_run: Sequence[tuple[np.ndarray, np.ndarray, Sequence]]) -> dict:
+def _outages(
+    per_run: Sequence[tuple[np.ndarray, np.ndarray, Sequence[tuple[float, float]]]],
+) -> dict[str, Any]:
     rows = []
     for t, e_h, outages in per_run:
         for s, e in outages:
@@ -262,8 +264,8 @@ def score_truth(
     assert tr.solution is not None
     t = rec.times[truth.index]
     on = ~fault_window_mask(t, rec.faults)
-    for s, e in outages:
-        on &= ~((t >= s) & (t < e))
+    for start, end in outages:
+        on &= ~((t >= start) & (t < end))
     e = navigation_errors(tr, truth, run)
     on &= np.isfinite(e).all(-1)
     enu = enu_metres(tr.solution.p[run, truth.index], truth.p)

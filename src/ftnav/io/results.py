@@ -4,13 +4,19 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ftnav.engine.driver import Diverged, check_output
 from ftnav.eval.evaluate import split_unit
 from ftnav.eval.montecarlo import ScenarioResult
+from ftnav.sim.linear import LinearTruth
+
+if TYPE_CHECKING:
+    import xarray as xr
 
 __all__ = [
     "write_metrics",
@@ -22,7 +28,7 @@ __all__ = [
 ]
 
 
-def _clean(obj, path: tuple[str, ...] = ()):
+def _clean(obj: object, path: tuple[str, ...] = ()) -> object:
     """JSON-safe copy: tuples to lists, NaN (not applicable) to null, numpy scalars to
     Python; an infinite number of a method is its divergence (:class:`Diverged`)."""
     if isinstance(obj, dict):
@@ -39,7 +45,7 @@ def _clean(obj, path: tuple[str, ...] = ()):
     return obj
 
 
-def write_metrics(doc: dict, path: Path) -> Path:
+def write_metrics(doc: dict[str, Any], path: Path) -> Path:
     """Write the metrics document as strict JSON (no NaN literals: null, "not
     applicable"); an infinite metric of a method raises :class:`Diverged` instead."""
     path = Path(path)
@@ -52,7 +58,7 @@ def write_metrics(doc: dict, path: Path) -> Path:
 METHOD_DIM = "method_name"
 
 
-def flag_attrs(long_name: str) -> dict:
+def flag_attrs(long_name: str) -> dict[str, str | np.ndarray]:
     """netCDF attributes of a fault-flag variable (−1: the method has no detector)."""
     return {
         "units": "1",
@@ -62,7 +68,7 @@ def flag_attrs(long_name: str) -> dict:
     }
 
 
-def state_units(states) -> list[str]:
+def state_units(states: Sequence[str]) -> list[str]:
     """Unit of each state, from its name (``pos_E_m`` → ``m``); linear states: "state units".
 
     A linear scenario does not say in which units its states are: their unit is written
@@ -71,7 +77,7 @@ def state_units(states) -> list[str]:
     return [split_unit(s)[1] or "state units" for s in states]
 
 
-def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
+def estimates_dataset(result: ScenarioResult, fault_free: bool = False) -> xr.Dataset:
     """xarray Dataset of per-epoch estimates (dims method_name, run, time, state, sensor).
 
     Variables: ``error`` and ``P_diag`` (method_name, run, time, state), the error of the
@@ -99,10 +105,11 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
     flag = np.full((len(names), B, K, N), -1, dtype=np.int8)
     beta = np.full((len(names), B, K, N), np.nan)
     for j, name in enumerate(names):
-        if res[name].flag is not None:
-            flag[j] = res[name].flag
-        if res[name].beta is not None:
-            beta[j] = res[name].beta
+        r = res[name]
+        if r.flag is not None:
+            flag[j] = r.flag
+        if r.beta is not None:
+            beta[j] = r.beta
     states = list(sc.metric_states)
     units = state_units(states)
     known = any(u != "state units" for u in units)
@@ -114,7 +121,7 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
     p_units = "square of state_units (per state)" if known else "state units squared"
     integrated = getattr(sc, "kind", "linear") == "integrated"
     M = METHOD_DIM
-    variables = {
+    variables: dict[str, tuple[tuple[str, ...], np.ndarray, dict[str, str]]] = {
         "error": (
             (M, "run", "time", "state"),
             np.stack([res[m].error for m in names]),
@@ -132,12 +139,17 @@ def estimates_dataset(result: ScenarioResult, fault_free: bool = False):
         ),
     }
     if not integrated:
+        x_hat = []
+        for m in names:
+            estimate = res[m].estimate
+            assert estimate is not None  # a linear model's methods keep their estimate
+            x_hat.append(estimate)
         variables["x_hat"] = (
             (M, "run", "time", "state"),
-            np.stack([res[m].estimate for m in names]),
+            np.stack(x_hat),
             {"units": x_units, "long_name": "fused state estimate of each method"},
         )
-        if result.truth is not None:
+        if isinstance(result.truth, LinearTruth):  # a linear scenario's truth, if kept
             variables["truth"] = (
                 ("run", "time", "state"),
                 result.truth.states[..., :n],
