@@ -32,17 +32,21 @@ from ftnav.engine.driver import Trace, run
 from ftnav.engine.smoother import SmoothedTrace, smooth, smoothed_trace
 from ftnav.eval.metrics import nees
 from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, score_recording
+from ftnav.eval.recorded import Reference, reference_errors, score_recording
 from ftnav.io.recording_file import LoadedRecording, load_recording
-from ftnav.nav.earth import enu_metres, radii
+from ftnav.nav.earth import radii
+from ftnav.nav.mechanization import InsState
 from ftnav.recordings import recording_path
 
 
 def horizontal_consistency(
-    loaded: LoadedRecording, p: np.ndarray, P_nav: np.ndarray
+    loaded: LoadedRecording, sol: InsState, P_nav: np.ndarray
 ) -> tuple[float, float]:
     """Mean 2-dof NEES and RMS error / RMS σ of the horizontal error at the withheld fixes
-    (every run's own outages); ``p`` (B, K, 3) and ``P_nav`` (B, K, 9, 9)."""
+    (every run's own outages), at the antenna (the lever arm applied); ``sol`` (B, K, …)
+    and ``P_nav`` (B, K, 9, 9)."""
+    p = sol.p
+    ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
     rec = loaded.recording
     R_fix = loaded.recording.system().sensors[0].R[:2, :2]  # the fix's own noise (m²)
     idx = loaded.reference_index
@@ -53,7 +57,7 @@ def horizontal_consistency(
         for a, b in outages:
             w |= (t >= a) & (t < b)
         pw = p[g, idx[w]]
-        e = enu_metres(pw, loaded.reference_p[w])[:, :2]
+        e = reference_errors(sol, ref, g)[w, :2]
         R_Mh, R_Nh = radii(pw[:, 0], pw[:, 2])
         T = np.zeros((w.sum(), 2, 2))  # (E, N) m from (δL, δλ) rad
         T[:, 0, 1] = R_Nh * np.cos(pw[:, 0])
@@ -101,7 +105,7 @@ def main() -> None:
     )
     for name, aids in (("gnss only", ["gnss", "gnss-vel"]), ("nhc + zupt", None)):
         loaded, tr, s, t_fwd, t_smooth = case(outage, aids)
-        ref = Reference(loaded.reference_index, loaded.reference_p)
+        ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
         rec = loaded.recording
         scores = {
             "forward": score_recording(rec, {"ckf": tr}, ref, loaded.outages)["ckf"],
@@ -111,8 +115,8 @@ def main() -> None:
         }
         assert tr.solution is not None and tr.P_nav is not None and s.solution is not None
         consistency = {
-            "forward": horizontal_consistency(loaded, tr.solution.p, tr.P_nav),
-            "smoothed": horizontal_consistency(loaded, s.solution.p, s.P_nav),
+            "forward": horizontal_consistency(loaded, tr.solution, tr.P_nav),
+            "smoothed": horizontal_consistency(loaded, s.solution, s.P_nav),
         }
         o = {k: v["outages"] for k, v in scores.items()}
         ratio = o["smoothed"]["rms_max_error_m"] / o["forward"]["rms_max_error_m"]

@@ -75,18 +75,13 @@ def _recording_snippet() -> str:
 def test_readme_recording_snippet(tmp_path, capsys):
     """The README's one-call route on a short copy of the drive (60 s, GNSS only): a
     DataFrame of the solution and of the smoothed one, and the scores."""
-    from ftnav.recordings import recording_path
+    from recording_runs import drive_copy
 
-    src = recording_path("rtklib-drive")
-    data = tomllib.loads(src.read_text())
-    data["imu"]["file"] = str(src.parent / data["imu"]["file"])
-    for a in data["aids"]:
-        if "file" in a:
-            a["file"] = str(src.parent / a["file"])
-    data["aids"] = [a for a in data["aids"] if a["type"] == "gnss"]
-    data["filter"] = {**data.get("filter", {}), "duration_s": 90.0}
-    path = tmp_path / "drive.toml"
-    path.write_text(tomli_w.dumps(data))
+    def short(doc: dict) -> None:
+        doc["aids"] = [a for a in doc["aids"] if a["type"] == "gnss"]
+        doc["filter"] = {**doc.get("filter", {}), "duration_s": 90.0}
+
+    path = drive_copy(tmp_path / "drive.toml", short)
     code = _recording_snippet().replace('"rtklib-drive"', repr(str(path)))
     code = code.replace("outages=(15, 60, 40)", "outages=(10, 30, 20)")
     scope: dict = {}

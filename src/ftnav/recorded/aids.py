@@ -132,6 +132,18 @@ class ZuptSettings(BaseModel):
     gyro_std_dps: float = Field(default=0.25, gt=0, description="gyro std threshold")
 
 
+def _constraint(
+    cls: type[Nhc] | type[Zupt], settings: NhcSettings | ZuptSettings, ctx: AidContext
+) -> Nhc | Zupt:
+    """A vehicle constraint's sensor model from its settings."""
+    return cls(
+        name=ctx.name,
+        dt=ctx.dt,
+        sigma_m_s=settings.sigma_m_s,
+        gate_probability=settings.gate_probability,
+    )
+
+
 def _no_readings(sensor: AidingSensor, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros((index.size, sensor.dim)), np.zeros(index.size, bool)
 
@@ -140,12 +152,7 @@ class _NhcAid:
     settings = NhcSettings
 
     def prepare(self, settings: NhcSettings, ctx: AidContext) -> PreparedAid:
-        sensor = Nhc(
-            name=ctx.name,
-            dt=ctx.dt,
-            sigma_m_s=settings.sigma_m_s,
-            gate_probability=settings.gate_probability,
-        )
+        sensor = _constraint(Nhc, settings, ctx)
         return PreparedAid(sensor, ctx.primary, *_no_readings(sensor, ctx.primary), {})
 
 
@@ -153,12 +160,7 @@ class _ZuptAid:
     settings = ZuptSettings
 
     def prepare(self, settings: ZuptSettings, ctx: AidContext) -> PreparedAid:
-        sensor = Zupt(
-            name=ctx.name,
-            dt=ctx.dt,
-            sigma_m_s=settings.sigma_m_s,
-            gate_probability=settings.gate_probability,
-        )
+        sensor = _constraint(Zupt, settings, ctx)
         rest = stationary(
             ctx.log,
             ctx.times[ctx.primary],
