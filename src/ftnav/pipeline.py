@@ -35,7 +35,7 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -52,7 +52,7 @@ from ftnav.io.recording_file import (
     recording_aids,
 )
 from ftnav.io.solution_file import SOLUTION_COLUMNS, solution_table, trace_dataset
-from ftnav.model.scenario import Fault, Recording
+from ftnav.model.scenario import Fault, FaultKind, Recording
 from ftnav.model.streams import scheduled
 from ftnav.recordings import recording_names, recording_path
 
@@ -138,7 +138,8 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
         raise ProcessingError(
             f"{field}: MAGNITUDE {mag:g} m is beyond ±{MAX_FAULT_M:g} m, off the Earth ({text!r})"
         )
-    return Fault(sensor, kind, start, end, np.array([0.0, mag, 0.0, 0.0, 0.0, 0.0]))
+    checked = cast("FaultKind", kind)  # one of RECORDING_FAULTS (above)
+    return Fault(sensor, checked, start, end, np.array([0.0, mag, 0.0, 0.0, 0.0, 0.0]))
 
 
 def _outages(outages: Outages | Sequence[float] | None, field: str) -> Outages | None:
@@ -268,7 +269,7 @@ class Prepared:
     def work(self) -> int:
         """Steps the engine reports through ``progress``: epochs × methods × runs."""
         rec = self.loaded.recording
-        return len(rec.methods) * rec.steps * self.loaded.stream.batch
+        return int(len(rec.methods) * rec.steps * self.loaded.stream.batch)
 
     def run(self, progress: Callable[[int], None] | None = None) -> RecordingResult:
         """Run every method (engine), smooth on request, score."""
@@ -332,7 +333,7 @@ def prepare_recording(
         outage = _outages(outages, names["outages"])
         loaded = load_recording(
             parsed,
-            outage=None if outage is None else tuple(outage),
+            outage=None if outage is None else (outage.length, outage.every, outage.start),
             faults=fault_list,
             methods=None if methods is None else list(methods),
             aids=None if aids is None else list(aids),

@@ -215,7 +215,11 @@ def covariance_ok(P: np.ndarray) -> bool:
 
 
 def _checked(
-    name: str, k: int, out: StepOutput, check_spd: bool, times: Sequence[float] | None
+    name: str,
+    k: int,
+    out: StepOutput,
+    check_spd: bool,
+    times: Sequence[float] | np.ndarray | None,
 ) -> None:
     if np.isfinite(out.x).all() and np.isfinite(out.P).all():
         if not check_spd or covariance_ok(out.P):
@@ -230,7 +234,7 @@ def check_output(
     method: str,
     values: Sequence[np.ndarray | None] = (),
     variances: Sequence[np.ndarray | None] = (),
-    times: Sequence[float] | None = None,
+    times: Sequence[float] | np.ndarray | None = None,
 ) -> None:
     """Refuse to report a diverged method: raise :class:`Diverged` at the first epoch
     where one of ``values`` is NaN or inf or one of ``variances`` is NaN, inf or negative.
@@ -266,7 +270,7 @@ def iterate(
     steps: int,
     progress: Callable[[int], None] | None = None,
     check_spd: bool = True,
-    times: Sequence[float] | None = None,
+    times: Sequence[float] | np.ndarray | None = None,
 ) -> Iterator[EpochRecord]:
     """Step every method over ``steps`` epochs of ``stream``; yield each epoch's record.
 
@@ -587,7 +591,7 @@ def run(
     progress: Callable[[int], None] | None = None,
     nav_covariance: bool = False,
     check_spd: bool = True,
-    times: Sequence[float] | None = None,
+    times: Sequence[float] | np.ndarray | None = None,
     smoothing: bool = False,
     prediction: bool = False,
 ) -> dict[str, Trace]:

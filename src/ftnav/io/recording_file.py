@@ -15,7 +15,7 @@ import math
 import os
 import re
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any, Literal, NamedTuple
@@ -58,7 +58,7 @@ from ftnav.model.scenario import AidSpec, Fault, Recording
 from ftnav.nav.attitude import euler_to_dcm
 from ftnav.nav.earth import gravity
 from ftnav.nav.units import parse_quantity
-from ftnav.recorded.aids import RECORDING_AIDS, AidContext, PreparedAid
+from ftnav.recorded.aids import RECORDING_AIDS, AidContext, ColumnReader, PreparedAid
 from ftnav.recorded.imu import (
     ImuCleaning,
     ImuLog,
@@ -89,6 +89,7 @@ from ftnav.recorded.stream import (
     with_outages,
 )
 from ftnav.recorded.truth import Truth, imu_bias_against_truth
+from ftnav.sensors.gnss import Gnss
 
 __all__ = [
     "LoadedRecording",
@@ -489,7 +490,7 @@ def _column(table: Any, ref: str | int, field: str, origin: str) -> int:
         raise ScenarioError(
             field, f"no column {ref!r} in the file (columns: {', '.join(table.columns)})", origin
         )
-    return table.columns.index(ref)
+    return int(table.columns.index(ref))
 
 
 def _axes_matrix(axes: Sequence[str]) -> np.ndarray:
@@ -511,7 +512,7 @@ def _mounting(f: ImuFile, origin: str, axes: Sequence[str] | None = None) -> np.
         raise ScenarioError(
             "imu.misalignment_deg", f"{f.misalignment_deg}: each angle within ±90 deg", origin
         )
-    return euler_to_dcm(np.radians(f.misalignment_deg)) @ M
+    return np.asarray(euler_to_dcm(np.radians(f.misalignment_deg)) @ M, float)
 
 
 #: the largest rate (rad/s, 5 730 °/s) and specific force (m/s², 102 g) a recording may
@@ -1102,7 +1103,7 @@ def _initial_sigma(
         [pos[1] / R, pos[0] / (R * math.cos(p[0]))],
         [pos[2]],
     ]
-    return np.maximum(np.r_[nav, bias_sigma], 1e-12)
+    return np.asarray(np.maximum(np.r_[nav, bias_sigma], 1e-12), float)
 
 
 def _gyrocompass_sigma(
@@ -1272,6 +1273,7 @@ def _aids(
                 origin,
                 dt=dt,
             )
+            assert isinstance(sensor, Gnss)  # the table's type is gnss
             notes += _gnss_checks(a, sensor, params, from_file, sel, field, origin)
             raw, labels = gnss_raw(sel, faults, name)
             # the values a position (velocity) aid does not measure are no part of its
@@ -1305,9 +1307,7 @@ def _aids(
     return specs, streams, counts, notes
 
 
-def _column_reader(
-    base: Path, field: str, origin: str
-) -> Callable[[str, Sequence[str | int], bool, str], np.ndarray]:
+def _column_reader(base: Path, field: str, origin: str) -> ColumnReader:
     """``read_columns(file, columns, header, delimiter)`` for a plug-in aid's own log: the
     strict delimited-text reader (errors name file:line and ``aids[i].file``)."""
 

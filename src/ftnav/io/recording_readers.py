@@ -216,7 +216,7 @@ class PosFile(NamedTuple):
     sigma_neu: np.ndarray
     v_neu: np.ndarray
     lines: np.ndarray
-    sigma_v_neu: np.ndarray | None = None
+    sigma_v_neu: np.ndarray
 
 
 #: GPST counted as Unix seconds (ftnav's time base for RTKLIB files): the GPS epoch

@@ -17,7 +17,7 @@ evaluation (:mod:`ftnav.eval`) compares the engine's trace with it afterwards.  
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, cast, overload
 
 import numpy as np
 
@@ -104,28 +104,36 @@ def _per_run(labels: np.ndarray, batch: int) -> np.ndarray:
     return np.broadcast_to(labels[:, None, :], (labels.shape[0], batch, labels.shape[-1]))
 
 
-def concat_streams(*streams):  # noqa: ANN002, ANN201 - streams of one type, the same type back
+@overload
+def concat_streams(*streams: MeasurementStream) -> MeasurementStream: ...
+@overload
+def concat_streams(*streams: InsStream) -> InsStream: ...
+@overload
+def concat_streams(*streams: MeasurementStream | InsStream) -> MeasurementStream | InsStream: ...
+def concat_streams(*streams: MeasurementStream | InsStream) -> MeasurementStream | InsStream:
     """The runs of each stream in turn as one stream (the labels become per run)."""
     labels = np.concatenate([_per_run(s.labels, s.batch) for s in streams], 1)
     first = streams[0]
     if isinstance(first, MeasurementStream):
+        measured = cast("tuple[MeasurementStream, ...]", streams)
         return MeasurementStream(
-            tuple(np.concatenate(p) for p in zip(*(s.z for s in streams), strict=True)),
-            np.concatenate([s.available for s in streams]),
+            tuple(np.concatenate(p) for p in zip(*(s.z for s in measured), strict=True)),
+            np.concatenate([s.available for s in measured]),
             labels,
         )
+    inertial = cast("tuple[InsStream, ...]", streams)
     imu = first.imu._replace(
-        dtheta=np.concatenate([s.imu.dtheta for s in streams]),
-        dv=np.concatenate([s.imu.dv for s in streams]),
+        dtheta=np.concatenate([s.imu.dtheta for s in inertial]),
+        dv=np.concatenate([s.imu.dv for s in inertial]),
     )
     aids = tuple(
         x[0]._replace(
             raw=np.concatenate([a.raw for a in x]),
             available=np.concatenate([a.available for a in x]),
         )
-        for x in zip(*(s.aids for s in streams), strict=True)
+        for x in zip(*(s.aids for s in inertial), strict=True)
     )
-    start = InsState(*(np.concatenate(u) for u in zip(*(s.start for s in streams), strict=True)))
+    start = InsState(*(np.concatenate(u) for u in zip(*(s.start for s in inertial), strict=True)))
     return InsStream(imu, aids, start, labels)
 
 

@@ -120,8 +120,11 @@ class Linearized(NamedTuple):
 class AidingSensor(Protocol):
     """What the fusion code needs from an aiding sensor (module docstring)."""
 
-    name: str
-    dt: float
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def dt(self) -> float: ...
 
     @property
     def dim(self) -> int: ...
