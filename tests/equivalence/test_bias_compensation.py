@@ -10,6 +10,7 @@ Oracles:
   far (the running sum of the fused bias estimates) plus nothing else equal the bias
   states the uncompensated filter holds, to a small fraction of their σ over a short
   simulated flight (the error model is linear in the bias; what differs is second order);
+* the trace's record of the compensated biases (``Trace.bias``) is that running sum;
 * the settings refuse what cannot be compensated (a nav-frame bias; output correction).
 """
 
@@ -78,6 +79,10 @@ def test_the_fed_back_biases_are_the_open_loop_bias_estimates(seed002):
     sigma = np.sqrt(traces[False].P_diag[..., 9:n])
     assert np.abs(open_loop).max() > 0  # the biases were estimated at all
     np.testing.assert_array_less(np.abs(fed - open_loop), 0.05 * sigma + 1e-15)
+    # the trace's record of what the SINS subtracts is that running sum (15 states:
+    # [ε, ∇]); without compensation there is none
+    assert n == 15 and traces[False].bias is None
+    np.testing.assert_allclose(traces[True].bias, fed, rtol=1e-12, atol=1e-18)
 
 
 def test_bias_compensation_needs_feedback_in_the_body_frame(tmp_path):

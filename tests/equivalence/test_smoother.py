@@ -166,6 +166,9 @@ class ToySins:
         q = np.tile([1.0, 0.0, 0.0, 0.0], (rows, 1))
         return InsState(q, V_TRUE + e[:, 3:6], P_TRUE + e[:, 6:9], np.zeros((rows, 3)))
 
+    def compensated_bias(self, e) -> None:
+        return None
+
     def correct(self, e, fused, rows=None):
         if not self.feedback:
             return e

@@ -98,6 +98,11 @@ class NavigationModel(Protocol[M]):
         """Every method's navigation solution before the correction, or None (linear)."""
         ...
 
+    def compensated_bias(self, state: M) -> np.ndarray | None:
+        """(rows, 6) the IMU biases every method's SINS subtracts so far (gyro rad/s, then
+        accelerometer m/s²), or None (no bias compensation, or linear)."""
+        ...
+
     def correct(self, state: M, fused: np.ndarray, rows: np.ndarray | None = None) -> M:
         """Feed every method's fused estimate (rows, n) back (only the ``rows`` (rows,)
         that are True, when given)."""
@@ -138,6 +143,8 @@ class EpochRecord(NamedTuple):
     nav : every method's navigation solution before the correction (methods × runs rows,
         method-major), or None for a linear model.
     solution : the corrected navigation solution (same rows), or None.
+    bias : (rows, 6) the IMU biases compensated after the epoch's feedback (same rows),
+        or None (:meth:`NavigationModel.compensated_bias`).
     lin : the epoch's matrices as the model formed them (every method's rows,
         method-major, with ``per_method_rows``), or None for a constant system.
     """
@@ -148,6 +155,7 @@ class EpochRecord(NamedTuple):
     nav: InsState | None
     solution: InsState | None
     lin: Linearization | None = None
+    bias: np.ndarray | None = None
 
 
 def _part(epoch: Epoch, rows: slice) -> Epoch:
@@ -326,7 +334,8 @@ def iterate(
                         states[j] = filters[nm].shift(states[j], outputs[j].x[:, : model.n_fed])
                 mstate = model.correct(mstate, fused, rows)
             solution = model.output(mstate, fused, rows)
-        yield EpochRecord(k, tuple(outputs), tuple(local), nav, solution, epoch.lin)
+        bias = model.compensated_bias(mstate)
+        yield EpochRecord(k, tuple(outputs), tuple(local), nav, solution, epoch.lin, bias)
 
 
 def method_feedback(
@@ -433,6 +442,10 @@ class Trace(NamedTuple):
     prediction : the solution a user had before each epoch's aiding: the SINS propagated
         from the last corrected solution (q (B, K, 4), v, p (B, K, 3)), recorded only on
         request (``run``'s ``prediction``) and for methods that feed back, else None.
+    bias : (B, K, 6) the IMU biases the SINS subtracts after each epoch's feedback, gyro
+        (rad/s) then accelerometer (m/s²), body frame: with bias compensation, for a
+        method that feeds back, the estimate of the whole bias (the bias states of ``x``
+        hold only the residual that epoch fed back), else None.
     """
 
     x: np.ndarray
@@ -454,6 +467,7 @@ class Trace(NamedTuple):
     guard: GuardTrace | None = None
     smoothing: SmoothingRecord | None = None
     prediction: InsState | None = None
+    bias: np.ndarray | None = None
 
 
 def guard_trace(arrays: dict[str, np.ndarray]) -> GuardTrace | None:
@@ -517,6 +531,7 @@ class Recorder:
         lin: Linearization | None = None,
         base: InsState | None = None,
         prior: InsState | None = None,
+        bias: np.ndarray | None = None,
     ) -> None:
         """Epoch k's whole output of one method (:meth:`outputs`, estimate, solution);
         with ``smoothing`` also its covariance, the epoch's (Φ, Q) ``lin`` and the
@@ -541,6 +556,7 @@ class Recorder:
         if prior is not None:
             for key in ("q", "v", "p"):
                 self.put(f"prior_{key}", k, getattr(prior, key))
+        self.put("bias", k, bias)
 
     def trace(self, n_sensors: int) -> Trace:
         a = self.arrays
@@ -580,6 +596,7 @@ class Recorder:
             None
             if "prior_q" not in a
             else InsState(a["prior_q"], a["prior_v"], a["prior_p"], np.zeros(a["prior_v"].shape)),
+            a.get("bias"),
         )
 
 
@@ -610,22 +627,19 @@ def run(
     """
     names = list(filters)
     B = stream.batch
+    fb = method_feedback(model, [filters[nm] for nm in names])
+    feeds = [model.feedback if fb is None else bool(fb[j]) for j in range(len(names))]
     fed = [False] * len(names)
     constant = None
     if smoothing:
         _check_smoothable(model)
-        fb = method_feedback(model, [filters[nm] for nm in names])
-        fed = [model.feedback if fb is None else bool(fb[j]) for j in range(len(names))]
+        fed = feeds
         F, Q = model.system.model.F, model.system.model.Q
         if F is not None and Q is not None:  # a constant system: the same (Φ, Q) every epoch
             n = F.shape[0]
             constant = Linearization(
                 np.broadcast_to(F, (B, n, n)), np.broadcast_to(Q, (B, n, n)), ()
             )
-    feeds = fed
-    if prediction and not smoothing:
-        fb = method_feedback(model, [filters[nm] for nm in names])
-        feeds = [model.feedback if fb is None else bool(fb[j]) for j in range(len(names))]
     rec = {
         nm: Recorder(B, steps, nav_covariance, smoothing, model.n_fed if fed[j] else 0)
         for j, nm in enumerate(names)
@@ -644,9 +658,10 @@ def run(
                 if r.nav is not None:  # the solution the reset estimate refers to
                     base = sol if fed[j] else InsState(*(a[rows] for a in r.nav))
             prior = None
-            if prediction and r.nav is not None and (fed[j] if smoothing else feeds[j]):
+            if prediction and r.nav is not None and feeds[j]:
                 prior = InsState(*(a[rows] for a in r.nav))
-            rec[nm].record(r.k, r.outputs[j], r.local[j], sol, lin, base, prior)
+            bias = None if r.bias is None or not feeds[j] else r.bias[rows]
+            rec[nm].record(r.k, r.outputs[j], r.local[j], sol, lin, base, prior, bias)
     return {nm: rec[nm].trace(model.system.n_sensors) for nm in names}
 
 

@@ -270,6 +270,10 @@ class InsModel:
         """Every method's SINS solution before this epoch's correction."""
         return state.ins
 
+    def compensated_bias(self, state: InsModelState) -> np.ndarray | None:
+        """The IMU biases fed back so far (:attr:`InsModelState.bias`), or None."""
+        return state.bias
+
     def correct(
         self, state: InsModelState, fused: np.ndarray, rows: np.ndarray | None = None
     ) -> InsModelState:

@@ -48,6 +48,9 @@ class LinearModel:
     def correct(self, state: None, fused: np.ndarray, rows: np.ndarray | None = None) -> None:
         return None
 
+    def compensated_bias(self, state: None) -> None:
+        return None
+
     def output(self, state: None, fused: np.ndarray, rows: np.ndarray | None = None) -> None:
         return None
 

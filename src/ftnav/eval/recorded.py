@@ -257,8 +257,9 @@ def score_truth(
       filter's posterior covariance at the same epochs; its mean, the two-sided 95 %
       band of one run's χ²(9), and the fraction of GNSS-on epochs after
       ``convergence_s`` inside it;
-    * ``biases``: the filter's bias estimate at the last epoch (plus what the alignment
-      removed from the log) against the truth's (:mod:`ftnav.recorded.truth`) and the
+    * ``biases``: the filter's bias estimate at the last epoch (with bias compensation
+      the biases the SINS subtracts, :attr:`~ftnav.engine.driver.Trace.bias`; plus what
+      the alignment removed from the log) against the truth's (:mod:`ftnav.recorded.truth`) and the
       data set's nominal values; the error in % of the truth's.
     """
     assert tr.solution is not None
@@ -313,6 +314,8 @@ def _biases(rec: Recording, tr: Trace, truth: Truth, run: int) -> dict[str, Any]
     else:
         gyro, accel = x[9:12], x[12:15]
         gyro_sd, accel_sd = sd[9:12], sd[12:15]
+    if tr.bias is not None:  # compensated: the states hold the residual, fed back already
+        gyro, accel = tr.bias[run, -1, :3], tr.bias[run, -1, 3:]
     gyro = gyro + truth.removed_gyro_bias
     out: dict[str, Any] = {}
     for key, value, sigma, known, nominal, unit, scale in (
