@@ -79,10 +79,11 @@ def test_the_fed_back_biases_are_the_open_loop_bias_estimates(seed002):
     sigma = np.sqrt(traces[False].P_diag[..., 9:n])
     assert np.abs(open_loop).max() > 0  # the biases were estimated at all
     np.testing.assert_array_less(np.abs(fed - open_loop), 0.05 * sigma + 1e-15)
-    # the trace's record of what the SINS subtracts is that running sum (15 states:
-    # [ε, ∇]); without compensation there is none
-    assert n == 15 and traces[False].bias is None
-    np.testing.assert_allclose(traces[True].bias, fed, rtol=1e-12, atol=1e-18)
+    # the trace's record of what the SINS subtracts is that running sum (18 states:
+    # ε_b + ε_r, then ∇); without compensation there is none
+    assert n == 18 and traces[False].bias is None
+    expected = np.concatenate([fed[..., 0:3] + fed[..., 3:6], fed[..., 6:9]], -1)
+    np.testing.assert_allclose(traces[True].bias, expected, rtol=1e-9, atol=1e-18)
 
 
 def test_bias_compensation_needs_feedback_in_the_body_frame(tmp_path):
