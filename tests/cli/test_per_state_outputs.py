@@ -89,9 +89,14 @@ def test_detection_columns_per_faulty_sensor():
     assert det.columns[1].group == "consistency"  # the fault-free twin's ANEES (issue 20)
     assert det.columns[2].group == "sensor gnss"
     row = dict(det.rows)
-    assert row["ckf"][1] == pytest.approx(metrics["ckf"].fault_free["anees"])
+    # the values with their 95 % intervals over the runs (issue 23)
+    anees_ff = row["ckf"][1]
+    assert anees_ff.value == pytest.approx(metrics["ckf"].fault_free["anees"])
+    assert anees_ff.lo < anees_ff.value < anees_ff.hi and anees_ff.method == "t"
     assert row["ckf"][2] is None  # no detector
-    assert row["fkf-oracle"][2] == pytest.approx(1.0)
+    pd = row["fkf-oracle"][2]
+    assert pd.value == pytest.approx(1.0) and pd.method == "wilson-cluster"
+    assert 0.0 < pd.lo < 1.0 == pd.hi
 
 
 def test_integrated_tables_have_every_navigation_state_with_units():

@@ -13,6 +13,10 @@ per-state map (``rmse``, ``rmse_fault``, ``rmse_nofault``, ``ensemble_rmse``,
 ``pos_horizontal_m`` and ``pos_3d_m``: the same statistic of the horizontal
 ``sqrt(e_E² + e_N²)`` and 3-D position error (:data:`~ftnav.model.ins_scenario.POSITION_NORMS`),
 e.g. the mean over runs of each run's horizontal RMS error.
+
+``methods[name].intervals`` holds the 95 % confidence interval of every metric above
+that is an average over runs (:class:`MetricIntervals`; the method per kind in
+:mod:`ftnav.eval.intervals`): each ``{value, lo, hi, runs, method}``.
 """
 
 from __future__ import annotations
@@ -26,11 +30,32 @@ import numpy as np
 
 from ftnav import __version__
 from ftnav.eval.integrity import MethodWatch, WatchSettings, watch
-from ftnav.eval.metrics import detection_stats, error_stats, nees_stats, position_norms
+from ftnav.eval.intervals import (
+    Interval,
+    bootstrap_interval,
+    mean_interval,
+    rate_interval,
+    rms_interval,
+)
+from ftnav.eval.metrics import (
+    DetectionEvents,
+    detection_events,
+    error_stats,
+    nees_stats,
+    position_norms,
+    summarize_detection,
+)
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
 from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS, Evaluation
 
-__all__ = ["FaultFreeMetrics", "MethodMetrics", "evaluate", "metrics_to_json", "split_unit"]
+__all__ = [
+    "FaultFreeMetrics",
+    "MethodMetrics",
+    "MetricIntervals",
+    "evaluate",
+    "metrics_to_json",
+    "split_unit",
+]
 
 #: Unit suffixes of state and metric names (longest first) and the units they name.
 _UNIT_SUFFIXES = (
@@ -67,6 +92,33 @@ class FaultFreeMetrics(TypedDict):
 
 
 @dataclass(frozen=True, slots=True)
+class MetricIntervals:
+    """95 % confidence intervals of a method's metrics over its runs
+    (:mod:`ftnav.eval.intervals`).
+
+    Attributes
+    ----------
+    rmse, rmse_fault, rmse_nofault : state (and position norm) → interval of the mean
+        over runs of the per-run RMSE (Student-t over runs); None where the metric is.
+    ensemble_rmse : state → interval of the ensemble RMS (t on the per-run mean squares).
+    anees : interval of the ANEES (t over the per-run mean NEES).
+    detection : sensor → {``rate``, ``event_rate``, ``false_alarm_rate`` (Wilson with
+        the runs as clusters), ``mean_delay_s``, ``median_delay_s``, ``p95_delay_s``
+        (bootstrap over runs), ``mean_recovery_s`` (t)}, or None (no detector).
+    fault_free_rmse, fault_free_anees : the same on the fault-free twin, or None.
+    """
+
+    rmse: dict[str, Interval]
+    rmse_fault: dict[str, Interval] | None
+    rmse_nofault: dict[str, Interval] | None
+    ensemble_rmse: dict[str, Interval]
+    anees: Interval
+    detection: dict[str, dict[str, Interval]] | None
+    fault_free_rmse: dict[str, Interval] | None
+    fault_free_anees: Interval | None
+
+
+@dataclass(frozen=True, slots=True)
 class MethodMetrics:
     """Metrics of one method; maps are keyed by state (and position norm) or sensor name."""
 
@@ -86,6 +138,7 @@ class MethodMetrics:
     nan_measurements: dict[str, int]
     nis: dict[str, float] | None = None
     integrity: dict[str, object] | None = None
+    intervals: MetricIntervals | None = None
 
 
 def _named(values: np.ndarray, names: Sequence[str]) -> dict[str, float]:
@@ -119,6 +172,39 @@ def _rmse(
         states,
         None if norms is None else error_stats(norms, mask).rmse,
     )
+
+
+def _per_run(
+    err: np.ndarray, norms: np.ndarray | None, states: Sequence[str], mask: np.ndarray
+) -> tuple[dict[str, Interval], dict[str, Interval]]:
+    """State (and position norm) → interval of the mean per-run RMSE, and of the
+    ensemble RMS, over ``mask``."""
+    columns = err if norms is None else np.concatenate([err, norms], -1)
+    names = list(states) + ([] if norms is None else list(POSITION_NORMS))
+    ms = (columns[:, mask] ** 2).mean(1)  # (B, n) per-run mean squares
+    rmse = {n: mean_interval(np.sqrt(ms[:, j])) for j, n in enumerate(names)}
+    ensemble = {n: rms_interval(ms[:, j]) for j, n in enumerate(names)}
+    return rmse, ensemble
+
+
+def _anees_interval(nees: np.ndarray, window: np.ndarray) -> Interval:
+    return mean_interval(nees[:, window].mean(1)) if window.any() else mean_interval(np.empty(0))
+
+
+def detection_intervals(ev: DetectionEvents) -> dict[str, Interval]:
+    """The intervals of one detector's :class:`~ftnav.eval.metrics.DetectionStats`."""
+    B, E = ev.delays.shape
+    detected = np.isfinite(ev.delays)
+    delays = [d[np.isfinite(d)] for d in ev.delays]
+    return {
+        "rate": rate_interval(ev.fault_alarms, np.full(B, ev.fault_epochs)),
+        "event_rate": rate_interval(detected.sum(1), np.full(B, E)),
+        "false_alarm_rate": rate_interval(ev.clean_alarms, np.full(B, ev.clean_epochs)),
+        "mean_delay_s": bootstrap_interval(delays),
+        "median_delay_s": bootstrap_interval(delays, 0.5),
+        "p95_delay_s": bootstrap_interval(delays, 0.95),
+        "mean_recovery_s": mean_interval(ev.recoveries.mean(1) if E else np.empty(0)),
+    }
 
 
 def _compared(res: MethodResult) -> np.ndarray:
@@ -224,19 +310,23 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
         es_norms = None if norms is None else error_stats(norms, window)
         ns = nees_stats(res.nees, len(states), window)
         detection: dict[str, dict[str, float | None]] | None = None
+        det_ci: dict[str, dict[str, Interval]] | None = None
         if res.flag is not None:
-            detection = {}
+            detection, det_ci = {}, {}
             for i, sensor in enumerate(sc.sensor_names):
                 wins = [
                     (f.start, f.end) for f in sc.faults if f.sensor == sensor and f.kind != "outage"
                 ]
-                d = detection_stats(res.flag[..., i], t, wins, sc.evaluation.grace)
+                ev = detection_events(res.flag[..., i], t, wins, sc.evaluation.grace)
+                d = summarize_detection(ev)
+                det_ci[sensor] = detection_intervals(ev)
                 detection[sensor] = {
                     k: (None if isinstance(v, float) and math.isnan(v) else float(v))
                     for k, v in d._asdict().items()
                 }
                 detection[sensor]["readmitted"] = _readmitted(res.flag[..., i], t, wins)
         ff: FaultFreeMetrics | None = None
+        ff_ci: tuple[dict[str, Interval], Interval] | None = None
         ff_res = result.fault_free.get(name)
         if ff_res is not None:
             ff_err = ff_res.error
@@ -251,6 +341,10 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
                 "nees_in_band_fraction": float(ff_ns.in_band_fraction),
                 "nis": _mean_nis(watched(name, ff_res, sc)),
             }
+            ff_ci = (
+                _per_run(ff_err, ff_norms, states, window)[0],
+                _anees_interval(ff_res.nees, window),
+            )
         w = watched(name, res, sc)
         rel = None
         if central is not None and name != central:
@@ -259,6 +353,17 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
                 rel = _max_rel_diff(_compared(ff_res), _compared(ref_res))
             else:
                 rel = _max_rel_diff(_compared(res), _compared(result.results[central]))
+        rmse_ci, ensemble_ci = _per_run(err, norms, states, window)
+        intervals = MetricIntervals(
+            rmse=rmse_ci,
+            rmse_fault=_per_run(err, norms, states, in_fault)[0] if in_fault.any() else None,
+            rmse_nofault=_per_run(err, norms, states, out_fault)[0] if out_fault.any() else None,
+            ensemble_rmse=ensemble_ci,
+            anees=_anees_interval(res.nees, window),
+            detection=det_ci,
+            fault_free_rmse=None if ff_ci is None else ff_ci[0],
+            fault_free_anees=None if ff_ci is None else ff_ci[1],
+        )
         out[name] = MethodMetrics(
             architecture=methods[name].architecture if name in methods else "",
             rmse=_with_norms(es.rmse, states, es_norms and es_norms.rmse),
@@ -282,6 +387,7 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
             },
             nis=_mean_nis(w),
             integrity=None if w is None else w.as_dict(),
+            intervals=intervals,
         )
     return out
 

@@ -32,6 +32,9 @@ __all__ = [
     "NeesStats",
     "position_norms",
     "DetectionStats",
+    "DetectionEvents",
+    "detection_events",
+    "summarize_detection",
     "error_stats",
     "nees",
     "nees_stats",
@@ -312,6 +315,87 @@ def _ratio(num: float, den: float) -> float:
     return float(num) / float(den) if den > 0 else float("nan")
 
 
+class DetectionEvents(NamedTuple):
+    """Per-run counts behind :class:`DetectionStats` (its sufficient statistics: the
+    intervals of :mod:`ftnav.eval.intervals` are built from them).
+
+    Attributes
+    ----------
+    fault_alarms : (B,) alarmed fault epochs of each run.
+    fault_epochs : fault epochs of one run (the same in every run).
+    clean_alarms : (B,) alarmed clean epochs of each run (:class:`DetectionStats`).
+    clean_epochs : clean epochs of one run.
+    delays : (B, E) detection delay in s of each run's E events, NaN where missed.
+    recoveries : (B, E) recovery time in s of each event (:class:`DetectionStats`).
+    dt : the epoch spacing in s.
+    """
+
+    fault_alarms: np.ndarray
+    fault_epochs: int
+    clean_alarms: np.ndarray
+    clean_epochs: int
+    delays: np.ndarray
+    recoveries: np.ndarray
+    dt: float
+
+
+def detection_events(
+    flags: np.ndarray,
+    times: np.ndarray,
+    windows: Sequence[tuple[float, float]],
+    grace: float,
+) -> DetectionEvents:
+    """Each run's alarms, detections, delays and recoveries against ground-truth fault
+    windows (the parameters and epoch classes of :func:`detection_stats`)."""
+    flags = np.asarray(flags, dtype=bool)
+    times = np.asarray(times, dtype=float)
+    if flags.ndim != 2:
+        raise ValueError(f"flags must have shape (B, K), got {flags.shape}")
+    B, K = flags.shape
+    if times.shape != (K,):
+        raise ValueError(f"times must have shape ({K},), got {times.shape}")
+    dt = float(times[1] - times[0]) if K > 1 else 1.0
+    t_end = float(times[-1]) + dt if K > 0 else 0.0
+
+    fault = np.zeros(K, dtype=bool)
+    graced = np.zeros(K, dtype=bool)
+    delays: list[np.ndarray] = []
+    recoveries: list[np.ndarray] = []
+    for t_on, t_off in _merge_windows(windows):
+        in_win = (times >= t_on) & (times < t_off)
+        graced |= (times >= t_off) & (times < t_off + grace)
+        if not in_win.any():
+            continue
+        fault |= in_win
+
+        # Detection: first alarm inside the window, vectorized over runs.
+        alarmed = flags[:, in_win]  # (B, Kw)
+        detected = alarmed.any(axis=1)
+        first = np.argmax(alarmed, axis=1)
+        delays.append(np.where(detected, times[in_win][first] - t_on, np.nan))
+
+        # Recovery: first epoch at/after t_off where the flag is False.
+        after = times >= t_off
+        cleared = ~flags[:, after]  # (B, Ka)
+        if cleared.shape[1] == 0:
+            rec = np.full(B, t_end - t_off)
+        else:
+            first_clear = np.argmax(cleared, axis=1)
+            rec = np.where(cleared.any(axis=1), times[after][first_clear] - t_off, t_end - t_off)
+        recoveries.append(rec)
+
+    clean = ~fault & ~graced
+    return DetectionEvents(
+        flags[:, fault].sum(1),
+        int(fault.sum()),
+        flags[:, clean].sum(1),
+        int(clean.sum()),
+        np.stack(delays, 1) if delays else np.empty((B, 0)),
+        np.stack(recoveries, 1) if recoveries else np.empty((B, 0)),
+        dt,
+    )
+
+
 def detection_stats(
     flags: np.ndarray,
     times: np.ndarray,
@@ -346,68 +430,32 @@ def detection_stats(
     The delay of an event uses the first alarmed epoch inside its window,
     ``times[k_first] - t_on``; an event with no alarm inside it is missed.
     """
-    flags = np.asarray(flags, dtype=bool)
-    times = np.asarray(times, dtype=float)
-    if flags.ndim != 2:
-        raise ValueError(f"flags must have shape (B, K), got {flags.shape}")
-    B, K = flags.shape
-    if times.shape != (K,):
-        raise ValueError(f"times must have shape ({K},), got {times.shape}")
-    dt = float(times[1] - times[0]) if K > 1 else 1.0
-    t_end = float(times[-1]) + dt if K > 0 else 0.0
+    return summarize_detection(detection_events(flags, times, windows, grace))
 
-    fault = np.zeros(K, dtype=bool)
-    graced = np.zeros(K, dtype=bool)
-    delays: list[np.ndarray] = []
-    recoveries: list[np.ndarray] = []
-    n_events = 0
-    n_detected = 0
-    for t_on, t_off in _merge_windows(windows):
-        in_win = (times >= t_on) & (times < t_off)
-        graced |= (times >= t_off) & (times < t_off + grace)
-        if not in_win.any():
-            continue
-        fault |= in_win
-        n_events += 1
 
-        # Detection: first alarm inside the window, vectorized over runs.
-        alarmed = flags[:, in_win]  # (B, Kw)
-        detected = alarmed.any(axis=1)
-        first = np.argmax(alarmed, axis=1)
-        n_detected += int(detected.sum())
-        delays.append(times[in_win][first[detected]] - t_on)
-
-        # Recovery: first epoch at/after t_off where the flag is False.
-        after = times >= t_off
-        cleared = ~flags[:, after]  # (B, Ka)
-        if cleared.shape[1] == 0:
-            rec = np.full(B, t_end - t_off)
-        else:
-            first_clear = np.argmax(cleared, axis=1)
-            rec = np.where(cleared.any(axis=1), times[after][first_clear] - t_off, t_end - t_off)
-        recoveries.append(rec)
-
-    clean = ~fault & ~graced
-    rate = _ratio(flags[:, fault].sum(), B * fault.sum())
-    fa_rate = _ratio(flags[:, clean].sum(), B * clean.sum())
-
-    events = n_events * B
-    event_rate = _ratio(n_detected, events)
+def summarize_detection(ev: DetectionEvents) -> DetectionStats:
+    """:class:`DetectionStats` of the per-run :class:`DetectionEvents`."""
+    B = ev.fault_alarms.shape[0]
+    rate = _ratio(ev.fault_alarms.sum(), B * ev.fault_epochs)
+    fa_rate = _ratio(ev.clean_alarms.sum(), B * ev.clean_epochs)
+    events = ev.delays.size
+    detected = np.isfinite(ev.delays)
+    event_rate = _ratio(detected.sum(), events)
     missed_rate = 1.0 - event_rate if events > 0 else float("nan")
-
-    d = np.concatenate(delays) if delays else np.empty(0)
+    # the delays in event order within each run, as pooled before: window by window
+    d = ev.delays.T[detected.T]
     if d.size:
         mean_d, med_d, p95_d = float(d.mean()), float(np.median(d)), float(np.percentile(d, 95))
     else:
         mean_d = med_d = p95_d = float("nan")
-    mean_rec = float(np.concatenate(recoveries).mean()) if recoveries else float("nan")
-
+    rec = np.ascontiguousarray(ev.recoveries.T)  # window by window, as pooled before
+    mean_rec = float(rec.mean()) if rec.size else float("nan")
     return DetectionStats(
         rate=rate,
         event_rate=event_rate,
         missed_rate=missed_rate,
         false_alarm_rate=fa_rate,
-        false_alarms_per_hour=fa_rate * 3600.0 / dt,
+        false_alarms_per_hour=fa_rate * 3600.0 / ev.dt,
         mean_delay_s=mean_d,
         median_delay_s=med_d,
         p95_delay_s=p95_d,

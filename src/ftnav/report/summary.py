@@ -12,6 +12,10 @@ error), one row per method, and one quantity per table:
    "fault acts on" line names each faulty sensor's own state;
 5. consistency (ANEES) and detection per faulty sensor.
 
+A value averaged over runs carries its 95 % confidence interval
+(:mod:`ftnav.eval.intervals`): ``3.66 ±0.03`` where the interval is symmetric (t over
+runs), ``0.998 [0.990, 1.000]`` where it is not (rates, bootstrap delays).
+
 Column headers say what they are: a linear state is headed ``state`` / ``s`` (its units
 are those of the scenario, which the file does not name); a state whose name ends in a
 unit (``_m``, ``_m_s``, ``_arcmin``, ...) is grouped by quantity with the unit in brackets
@@ -28,6 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ftnav.eval.evaluate import MethodMetrics, split_unit
+from ftnav.eval.intervals import Interval
 from ftnav.eval.montecarlo import ScenarioResult
 from ftnav.model.scenario import POSITION_NORMS
 
@@ -59,11 +64,12 @@ class Column(NamedTuple):
 
 
 class Table(NamedTuple):
-    """One quantity: ``rows`` are (method, one value per column; None = not defined)."""
+    """One quantity: ``rows`` are (method, one value per column; None = not defined;
+    an :class:`~ftnav.eval.intervals.Interval` where the value has one)."""
 
     title: str
     columns: tuple[Column, ...]
-    rows: tuple[tuple[str, tuple[float | None, ...]], ...]
+    rows: tuple[tuple[str, tuple[float | Interval | None, ...]], ...]
     note: str = ""
 
 
@@ -128,8 +134,21 @@ def fault_states(scenario) -> dict[str, str]:
     return out
 
 
-def _values(source: dict[str, float] | None, columns: Sequence[Column]) -> tuple:
-    return tuple(None if source is None else source.get(c.key) for c in columns)
+def _values(
+    source: dict[str, float] | None,
+    columns: Sequence[Column],
+    intervals: dict[str, Interval] | None = None,
+) -> tuple:
+    """The columns' values of ``source``, as their intervals where ``intervals`` has them."""
+    if source is None:
+        return (None,) * len(columns)
+    return tuple(
+        intervals[c.key] if intervals and c.key in intervals else source.get(c.key) for c in columns
+    )
+
+
+def _value(x: float | Interval | None) -> float | None:
+    return x.value if isinstance(x, Interval) else x
 
 
 def _ratio(inside, free) -> float | None:
@@ -153,7 +172,10 @@ def summary_tables(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
         Table(
             f"RMSE over the evaluation window (mean over runs of each run's RMSE; {units})",
             cols,
-            tuple((n, _values(m.rmse, cols)) for n, m in metrics.items()),
+            tuple(
+                (n, _values(m.rmse, cols, m.intervals and m.intervals.rmse))
+                for n, m in metrics.items()
+            ),
         )
     ]
     if any(m.rmse_fault for m in metrics.values()):
@@ -164,7 +186,10 @@ def summary_tables(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
             f"{_state_column(k).markdown} ({', '.join(v)})" for k, v in by_state.items()
         )
         note = f"The faults act on: {acts}." if acts else ""
-        inside = {n: _values(m.rmse_fault, cols) for n, m in metrics.items()}
+        inside = {
+            n: _values(m.rmse_fault, cols, m.intervals and m.intervals.rmse_fault)
+            for n, m in metrics.items()
+        }
         tables.append(
             Table(
                 "RMSE inside the fault windows, with the faults", cols, tuple(inside.items()), note
@@ -184,7 +209,13 @@ def summary_tables(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
                 )
             )
             ratio = tuple(
-                (n, tuple(_ratio(a, b) for a, b in zip(inside[n], twin[n], strict=True)))
+                (
+                    n,
+                    tuple(
+                        _ratio(_value(a), _value(b))
+                        for a, b in zip(inside[n], twin[n], strict=True)
+                    ),
+                )
                 for n in metrics
             )
             tables.append(
@@ -219,16 +250,24 @@ def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) 
         )
     rows = []
     for name, m in metrics.items():
-        values: list[float | None] = [m.anees]
+        ci = m.intervals
+        values: list[float | Interval | None] = [ci.anees if ci else m.anees]
         if twin:
-            values.append(m.fault_free["anees"] if m.fault_free else None)
+            ff = m.fault_free["anees"] if m.fault_free else None
+            values.append(ci.fault_free_anees if ci and ci.fault_free_anees else ff)
         if len(cols) > 1 + twin:
             det = m.detection or {}
+            det_ci = (ci and ci.detection) or {}
             for s in faulty:
-                d = det.get(s) or {}
-                values += [d.get("rate"), d.get("mean_delay_s")]
-            fas = [d["false_alarm_rate"] for d in det.values() if d["false_alarm_rate"] is not None]
-            values.append(max(fas) if fas else None)
+                d, dci = det.get(s) or {}, det_ci.get(s) or {}
+                values += [dci.get("rate", d.get("rate")), dci.get("mean_delay_s")]
+            fas = [
+                (d["false_alarm_rate"], det_ci.get(s, {}).get("false_alarm_rate"))
+                for s, d in det.items()
+                if d["false_alarm_rate"] is not None
+            ]
+            worst = max(fas, key=lambda x: x[0]) if fas else None
+            values.append(None if worst is None else worst[1] or worst[0])
         rows.append((name, tuple(values)))
     return Table(
         f"Consistency (ANEES, {n} for a consistent filter; with the faults and of the "
@@ -246,6 +285,8 @@ def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) 
 
 
 def _format(value, fmt: str = "num") -> str:
+    if isinstance(value, Interval):
+        return _format_interval(value, fmt)
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "-"
     if fmt == "ratio":
@@ -262,6 +303,17 @@ def _format(value, fmt: str = "num") -> str:
     if a != 0.0 and a < 1e-3:
         return f"{value:.2e}"
     return f"{value:.3g}"
+
+
+def _format_interval(i: Interval, fmt: str) -> str:
+    """``value ±h`` for a symmetric (t) interval, ``value [lo, hi]`` otherwise; the
+    value alone where there is no interval (one run)."""
+    v = _format(i.value, fmt)
+    if not (math.isfinite(i.lo) and math.isfinite(i.hi)) or v == "-":
+        return v
+    if i.method == "t":
+        return f"{v} ±{_format(i.half_width, fmt)}"
+    return f"{v} [{_format(i.lo, fmt)}, {_format(i.hi, fmt)}]"
 
 
 def _blocks(groups: list[str], widths: list[int], room: int) -> list[range]:
@@ -374,17 +426,23 @@ def _detector_rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
             continue
         for s, key in own.items():
             d = m.detection[s]
-            delay = None if d["median_delay_s"] is None else d["median_delay_s"] / dt
+            dci = (m.intervals and m.intervals.detection or {}).get(s, {})
+            delay: float | Interval | None = (
+                None if d["median_delay_s"] is None else d["median_delay_s"] / dt
+            )
+            if "median_delay_s" in dci and delay is not None:
+                med = dci["median_delay_s"]
+                delay = Interval(med.value / dt, med.lo / dt, med.hi / dt, med.runs, med.method)
             rows.append(
                 [
                     name,
                     detectors.get(name, ""),
                     s,
-                    _format(d["rate"], "rate"),
-                    _format(d["event_rate"], "ratio"),
-                    _format(d["false_alarm_rate"], "small"),
+                    _format(dci.get("rate", d["rate"]), "rate"),
+                    _format(dci.get("event_rate", d["event_rate"]), "ratio"),
+                    _format(dci.get("false_alarm_rate", d["false_alarm_rate"]), "small"),
                     _format(delay, "delay"),
-                    _format(d["mean_recovery_s"], "delay"),
+                    _format(dci.get("mean_recovery_s", d["mean_recovery_s"]), "delay"),
                     _state_column(key).markdown,
                     _format(m.rmse_fault and m.rmse_fault.get(key)),
                     _format(m.rmse_nofault and m.rmse_nofault.get(key)),
@@ -439,7 +497,10 @@ def markdown_report(
         "the faults removed; the ratio is their quotient per state, so a fault shows in "
         "the state it reaches. Linear states are in the scenario's own units; states whose "
         "name ends in a unit carry it in brackets. Pd, false alarms (per epoch) and delay "
-        "refer to each faulty sensor under each method's own detector.",
+        "refer to each faulty sensor under each method's own detector. A value averaged "
+        "over runs carries its 95 % confidence interval: `±h` (Student t over runs) or "
+        "`[lo, hi]` (rates: Wilson with the runs as clusters; delays: bootstrap over "
+        "runs).",
         "",
     ]
     for t in summary_tables(result, metrics):
