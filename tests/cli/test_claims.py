@@ -1,7 +1,7 @@
-"""Which claims a run checks: copies of the built-ins under other names, shortened flights.
+"""Which claims a run checks: the built-ins' (not a user's scenario), shortened flights.
 
-Oracles by construction: a copy of a built-in under another name gets the built-in's
-claims; a claim whose fault window holds no epoch of the run (a shortened flight) is
+Oracles by construction: the built-in's file and its scenario shortened get its paper's
+claims, a user's scenario none whatever its method names; a claim whose fault window holds no epoch of the run (a shortened flight) is
 reported *not checked* with the reason, never as a verdict drawn from a NaN; a claim
 whose window is cut by the end of the run is checked on the part inside and says so.
 """
@@ -47,16 +47,24 @@ def _numbers(obj):
         yield obj
 
 
-def test_copies_under_another_name_get_the_papers_claims():
+def test_claims_go_with_the_builtin_not_with_names(tmp_path):
+    """Issue 23: a built-in's file (wherever it lies) and its scenario shortened in
+    Python get its paper's claims; a user's scenario gets none, even with the built-in's
+    method names, and a built-in's name on another scenario does not bring them."""
     for name, paper in (("seed000", "000"), ("seed001", "001"), ("seed002", "002")):
         sc = _builtin(name)
-        assert papers_of(sc) == (paper,)
-        assert papers_of(replace(sc, name="my-copy")) == (paper,)
-    # not a copy: another kind, or none of the methods the claims compare
+        assert sc.builtin == name and papers_of(sc) == (paper,)
+        assert papers_of(replace(sc, name="my-copy", steps=100)) == (paper,)
+    copy = tmp_path / "copy.toml"
+    copy.write_bytes(builtin_path("seed000").read_bytes())
+    assert papers_of(load_scenario(copy, models=False)) == ("000",)
+    edited = tmp_path / "edited.toml"
+    edited.write_text(builtin_path("seed000").read_text() + "\n# my change\n")
+    mine = load_scenario(edited, models=False)
+    assert mine.builtin is None and papers_of(mine) == ()
+    assert papers_of(replace(_builtin("slowramp"))) == ()
     seed002 = _builtin("seed002")
-    ckf_only = replace(seed002, name="mine", methods=seed002.methods[:1])
-    assert papers_of(ckf_only) == ()
-    assert papers_of(replace(_builtin("seed000"), name="seed002")) == ("000",)
+    assert papers_of(replace(seed002, builtin=None, name="seed002")) == ()
 
 
 def test_shortened_seed000_copy_reports_not_checked_with_the_reason():
@@ -174,9 +182,4 @@ def test_named_like_a_built_in_without_its_methods(tmp_path, capsys):
         == 0
     )
     out = capsys.readouterr().out
-    assert (
-        "[not checked] paper 002 §2.3: Paper 002's claims: the VB-adaptive distributed "
-        "filter against the federated filter with chi-square isolation (not checked: the "
-        "scenario has no method fkf-chi2, dkf-vb (a copy of seed002 keeps ckf, fkf-chi2, "
-        "dkf-vb))"
-    ) in out
+    assert "paper 002" not in out  # a user's file named seed002 is not the built-in

@@ -61,6 +61,7 @@ from ftnav.io.sections import (
 )
 from ftnav.model.scenario import Fault, InsScenario, Scenario
 from ftnav.model.system import LinearModel, PrivateStates, Sensor
+from ftnav.scenarios import builtin_names, builtin_path
 
 __all__ = [
     "ScenarioError",
@@ -493,8 +494,24 @@ def load_scenario(source: str | Path, models: bool = True) -> Scenario | InsScen
     """
     data = read_toml(source)
     if data.get("kind") == "integrated":
-        return parse_ins_scenario(data, str(source), Path(source).parent, models)
-    return parse_scenario(data, str(source), Path(source).parent, models)
+        sc: Scenario | InsScenario = parse_ins_scenario(
+            data, str(source), Path(source).parent, models
+        )
+    else:
+        sc = parse_scenario(data, str(source), Path(source).parent, models)
+    return replace(sc, builtin=builtin_of(Path(source)))
+
+
+def builtin_of(path: Path) -> str | None:
+    """The built-in scenario whose file ``path`` is, byte for byte, or None."""
+    try:
+        text = path.read_bytes()
+    except OSError:
+        return None
+    for name in builtin_names():
+        if builtin_path(name).read_bytes() == text:
+            return name
+    return None
 
 
 def scenario_json_schema() -> dict[str, Any]:

@@ -183,6 +183,10 @@ class ScenarioBase:
     description: str = ""
     figures: tuple[FigureSpec, ...] = ()
     learned: tuple[tuple[str, Any], ...] = ()
+    builtin: str | None = None
+    """The built-in scenario this was read from (its file, unchanged, wherever it lies),
+    whose paper claims apply to it (:func:`ftnav.report.claims.papers_of`); None for
+    every other scenario, whatever its name and methods."""
 
     kind: ClassVar[str] = "linear"
 

@@ -1,11 +1,12 @@
 """Checks of the papers' claims against what a run measured (honest outputs).
 
 Each claim is reported with the numbers measured in this run and whether it
-holds.  A paper's claims are checked on its built-in scenario and on any copy of
-it, under any name, that keeps the methods the claims compare (:func:`papers_of`):
-``seed000`` (linear, paper 000) by ``fkf-inverse-trace-chi2`` or the ``fkf-fr-*``
-rules, ``seed001`` (integrated, paper 001) by ``fkf-nr-chi2`` or ``neural-chi2``,
-``seed002`` (integrated, paper 002) by ``ckf``, ``fkf-chi2`` and ``dkf-vb``.
+holds.  A paper's claims are checked on the built-in scenario they were written for
+(:func:`papers_of`): ``seed000`` (linear, paper 000), ``seed001`` (integrated, paper
+001), ``seed002`` (integrated, paper 002) -- the built-in's file, wherever it lies, and
+that file's scenario shortened or with fewer runs in Python.  A user's scenario gets no
+paper claim, whatever its methods are called (a method named ``ckf`` in a UAV scenario
+says nothing about paper 002's Fig. 2); the exact-fusion check applies to every run.
 
 A claim is checked only when the run has what it needs: its methods, and epochs in
 its fault windows (and after them, for a recovery).  Otherwise, e.g. a shortened
@@ -28,9 +29,8 @@ __all__ = ["check_claims", "papers_of"]
 
 EXACT = 1e-9
 
-#: Methods of the built-ins whose presence makes a scenario a copy (see papers_of).
+#: The methods of the built-ins that the papers' claims compare.
 _P000_METHOD = "fkf-inverse-trace-chi2"
-_P001_METHODS = ("fkf-nr-chi2", "neural-chi2")
 _P002_METHODS = ("ckf", "fkf-chi2", "dkf-vb")
 
 
@@ -94,27 +94,17 @@ def _cut(sc, f) -> str:
     return f"; the window is cut at the end of the run ({_end(sc):g} s)" if f.end > _end(sc) else ""
 
 
-def papers_of(scenario) -> tuple[str, ...]:
-    """The papers (``"000"``, ``"001"``, ``"002"``) whose claims apply to ``scenario``.
+#: The built-in scenario each paper's claims were written for.
+PAPER_SCENARIOS = {"seed000": "000", "seed001": "001", "seed002": "002"}
 
-    Its built-in by name, or a copy of the same kind that keeps the methods its claims
-    compare (module docstring).  A scenario named like a built-in without those
-    methods still gets the paper: its claims are then reported not checked.
-    """
-    names = {m.name for m in scenario.methods}
-    integrated = getattr(scenario, "kind", "linear") == "integrated"
-    out = []
-    if not integrated and (
-        scenario.name == "seed000"
-        or _P000_METHOD in names
-        or any(n.startswith("fkf-fr-") for n in names)
-    ):
-        out.append("000")
-    if integrated and (scenario.name == "seed001" or names & set(_P001_METHODS)):
-        out.append("001")
-    if integrated and (scenario.name == "seed002" or set(_P002_METHODS) <= names):
-        out.append("002")
-    return tuple(out)
+
+def papers_of(scenario) -> tuple[str, ...]:
+    """The papers (``"000"``, ``"001"``, ``"002"``) whose claims apply to ``scenario``:
+    the paper of the built-in it was read from (``scenario.builtin``, module docstring),
+    whatever it is called and whatever it was shortened to; none for any other scenario,
+    whatever its methods are named."""
+    paper = PAPER_SCENARIOS.get(getattr(scenario, "builtin", None) or "")
+    return () if paper is None else (paper,)
 
 
 def _equivalence_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> list[dict]:
