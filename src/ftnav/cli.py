@@ -594,7 +594,8 @@ def _cmd_run(args) -> int:
     for c in claims:
         if c.get("checked", True):
             verdict = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c["holds"]]
-            print(f"[{verdict}] {c['source']}: {c['claim']}")
+            extra = f" ({c['note']})" if c["holds"] is None and c.get("intervals") else ""
+            print(f"[{verdict}] {c['source']}: {c['claim']}{extra}")
         else:
             print(f"[not checked] {c['source']}: {c['claim']} ({c['note']})")
     print(f"Results written to {out}/: {', '.join(written)}")

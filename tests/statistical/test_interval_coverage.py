@@ -14,6 +14,9 @@ coverage must be 95 % ± 2 %; the Monte Carlo standard error of a coverage of 0.
   from run to run; truth ``a/(a+b)``), 100 epochs per run.
 * ANEES: NEES χ²(3) white, scaled per run by ``c_b = exp(N(0, 0.3²))`` (runs that are
   more and less consistent); truth ``3 exp(0.3²/2)``.
+* Ratios of paired means (a fault window's RMS against the fault-free twin's on the
+  same noise): closed-form ratio of the expectations (and the measured shortfall under
+  strong skew with 20 runs, stated).
 * Median detection delay (bootstrap over runs): one event per run, detected with
   probability 0.8 after an exponential delay of mean 2 s; truth ``2 ln 2``.
 """
@@ -31,6 +34,7 @@ from ftnav.eval.intervals import (
     bootstrap_interval,
     mean_interval,
     rate_interval,
+    ratio_interval,
     rms_interval,
     runs_needed,
 )
@@ -78,6 +82,36 @@ def test_anees_intervals_cover_the_closed_form_truth():
     scale = np.exp(rng.normal(0.0, s, (CAMPAIGNS, B, 1)))
     per_run = (rng.chisquare(3, (CAMPAIGNS, B, 100)) * scale).mean(-1)
     _check([mean_interval(r) for r in per_run], 3 * math.exp(s * s / 2))
+
+
+def test_ratio_intervals_cover_the_ratio_of_paired_means():
+    """A fault window's RMS against the fault-free twin's on the same noise: per run
+    the mean squares ``s_b (1 + u_b)`` and ``s_b`` with a shared ``s_b ~ χ²(10)/10``
+    and ``u_b ~ χ²(20)/20``, so the ratio of RMS has truth ``√2``; and the plain ratio
+    of means of paired normal values, truth 2."""
+    rng = np.random.default_rng(7)
+    s = rng.chisquare(10, (CAMPAIGNS, B)) / 10
+    faulty = s * (1 + rng.chisquare(20, (CAMPAIGNS, B)) / 20)
+    _check([ratio_interval(f, c, root=True) for f, c in zip(faulty, s, strict=True)], math.sqrt(2))
+    d = rng.normal(1.0, 0.2, (CAMPAIGNS, B))
+    a = 2 * d + rng.normal(0.0, 0.3, (CAMPAIGNS, B))
+    _check([ratio_interval(x, y) for x, y in zip(a, d, strict=True)], 2.0)
+
+
+def test_ratio_intervals_under_strong_skew_are_short_with_few_runs():
+    """The limit stated in :mod:`ftnav.eval.intervals`: with ``u_b ~ χ²(4)/4`` (a fault
+    whose effect varies a lot between runs) 20 runs cover about 92 %, not 95 % (no
+    normal-theory or percentile-bootstrap interval measured did better: delta 91 %,
+    bootstrap 89 %); 80 runs restore it."""
+    rng = np.random.default_rng(8)
+    for runs, low, high in ((20, 0.90, 0.94), (80, 0.93, 0.97)):
+        s = rng.chisquare(10, (CAMPAIGNS, runs)) / 10
+        faulty = s * (1 + rng.chisquare(4, (CAMPAIGNS, runs)) / 4)
+        cover = _coverage(
+            [ratio_interval(f, c, root=True) for f, c in zip(faulty, s, strict=True)],
+            math.sqrt(2),
+        )
+        assert low <= cover <= high, (runs, cover)
 
 
 def test_median_delay_intervals_cover_the_closed_form_truth():

@@ -11,6 +11,10 @@ correlated in time, a detector's alarms come in bursts).  One method per kind:
   per-run value is itself an average over many epochs);
 * **root mean squares** -- the ensemble RMSE ``sqrt(mean e²)``: the t interval of the
   per-run mean squares, mapped through the square root (monotone), :func:`rms_interval`;
+* **ratios of means over the same runs** -- a method's error with the fault against
+  without it, one method against another on the same noise: Fieller's interval with
+  Student's quantile on the paired per-run values, :func:`ratio_interval` (measured: 95 %
+  for mildly skewed per-run values, 92 % with 20 runs of strongly skewed ones);
 * **rates** -- detection probability per epoch, per event, false-alarm rate: the
   Wilson score interval with the effective number of trials of a cluster sample
   (runs are the clusters): ``n_eff = p(1-p) / Var(p̂)`` with the between-run
@@ -41,8 +45,10 @@ __all__ = [
     "CONFIDENCE",
     "Interval",
     "bootstrap_interval",
+    "decide",
     "mean_interval",
     "rate_interval",
+    "ratio_interval",
     "rms_interval",
     "runs_needed",
 ]
@@ -114,6 +120,59 @@ def rms_interval(per_run_ms: np.ndarray, confidence: float = CONFIDENCE) -> Inte
     lo = math.sqrt(max(ms.lo, 0.0)) if math.isfinite(ms.lo) else _NAN
     hi = math.sqrt(ms.hi) if math.isfinite(ms.hi) else _NAN
     return Interval(root, lo, hi, ms.runs, "t-rms")
+
+
+def ratio_interval(
+    numerator: np.ndarray,
+    denominator: np.ndarray,
+    root: bool = False,
+    confidence: float = CONFIDENCE,
+) -> Interval:
+    """Interval of the ratio of two means over the same runs, ``Σ a_b / Σ d_b`` (paired:
+    a method's error with and without a fault, or against another method on the same
+    noise), by Fieller's theorem with Student's quantile (the set of ``r`` for which
+    ``ā - r d̄`` is not significantly non-zero; Fieller 1954).  ``root``: the square
+    root of the ratio (a ratio of RMS from the per-run mean squares), its bounds mapped
+    through the (monotone) root.  NaN bounds when the denominator's mean is not
+    significantly positive (the set is unbounded)."""
+    a = np.asarray(numerator, float).ravel()
+    d = np.asarray(denominator, float).ravel()
+    keep = np.isfinite(a) & np.isfinite(d)
+    a, d = a[keep], d[keep]
+    B = int(a.size)
+    method = "fieller-rms" if root else "fieller"
+    if B == 0 or d.mean() <= 0:
+        return Interval(_NAN, _NAN, _NAN, B, method)
+    am, dm = float(a.mean()), float(d.mean())
+    r = am / dm
+    lo = hi = _NAN
+    if B >= 2:
+        q2 = _t_quantile(B, confidence) ** 2
+        c = np.cov(a, d) / B  # the variances and covariance of the two means
+        A = dm * dm - q2 * c[1, 1]
+        b = am * dm - q2 * c[0, 1]
+        disc = b * b - A * (am * am - q2 * c[0, 0])
+        if A > 0 and disc >= 0:
+            lo, hi = (b - math.sqrt(disc)) / A, (b + math.sqrt(disc)) / A
+    if not root:
+        return Interval(r, lo, hi, B, method)
+    lo = math.sqrt(max(lo, 0.0)) if math.isfinite(lo) else _NAN
+    hi = math.sqrt(hi) if math.isfinite(hi) else _NAN
+    return Interval(math.sqrt(r), lo, hi, B, method)
+
+
+def decide(interval: Interval, threshold: float, holds_below: bool) -> bool | None:
+    """A comparison ``value < threshold`` (``holds_below``) or ``value > threshold``
+    decided by its interval: True when the whole interval is on the holding side, False
+    when it is wholly on the other, None (undecided) when it contains the threshold or
+    there is no interval."""
+    if not (math.isfinite(interval.lo) and math.isfinite(interval.hi)):
+        return None
+    if interval.hi < threshold:
+        return holds_below
+    if interval.lo > threshold:
+        return not holds_below
+    return None
 
 
 def _wilson(p: float, n: float, z: float) -> tuple[float, float]:

@@ -18,10 +18,13 @@ as a verdict drawn from a NaN.  Every claim carries ``checked``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
 from ftnav.eval.evaluate import MethodMetrics
+from ftnav.eval.intervals import Interval, decide, rate_interval, ratio_interval, runs_needed
 from ftnav.eval.montecarlo import ScenarioResult
 from ftnav.model.faults import fault_effect
 
@@ -58,7 +61,50 @@ def _unchecked(cid, source, text, reason, measured=None):
     }
 
 
-def _claim(cid, source, text, measured, holds, note=""):
+class Evidence(NamedTuple):
+    """What decides a claim: ``quantity``'s interval against ``threshold``; the claim
+    holds on the ``below`` side (``quantity < threshold``) or above it."""
+
+    quantity: str
+    interval: Interval
+    threshold: float
+    below: bool
+
+
+def _decided(evidence: Sequence[Evidence]) -> bool | None:
+    """All parts of a claim decided by their intervals: True when every part holds,
+    False when one does not, None (undecided) otherwise."""
+    parts = [decide(e.interval, e.threshold, e.below) for e in evidence]
+    if any(p is False for p in parts):
+        return False
+    return True if all(p is True for p in parts) else None
+
+
+def _undecided_note(evidence: Sequence[Evidence]) -> str:
+    """Which intervals contain their thresholds, and about how many runs would decide."""
+    out, need = [], []
+    for e in evidence:
+        i = e.interval
+        if decide(i, e.threshold, e.below) is None:
+            out.append(
+                f"{e.quantity} {i.value:.4g} [{i.lo:.4g}, {i.hi:.4g}] contains {e.threshold:g}"
+            )
+            gap = abs(i.value - e.threshold)
+            n = runs_needed(i, gap) if gap > 0 else None
+            need.append(n)
+    if need and all(n is not None for n in need):
+        more = max(n for n in need if n is not None) - evidence[0].interval.runs
+        tail = f"; about {max(more, 1)} more runs needed to decide"
+    else:
+        tail = "; more runs would not decide it (the point estimate is on the threshold)"
+    return "undecided: " + ", ".join(out) + tail
+
+
+def _claim(cid, source, text, measured, holds, note="", evidence: Sequence[Evidence] = ()):
+    """A checked claim.  With ``evidence`` the verdict is its intervals' (95 %): holds
+    only when every interval lies on the holding side, does not hold when one lies
+    wholly on the other, else undecided (``holds`` None) with the runs it would take;
+    ``holds`` is then the point estimate's verdict, kept as ``holds_point``."""
     missing = _nan_paths(measured)
     if missing:
         return _unchecked(
@@ -68,15 +114,35 @@ def _claim(cid, source, text, measured, holds, note=""):
             f"{', '.join(missing)} could not be measured (no epoch of the run where it applies)",
             measured,
         )
-    return {
+    verdict = None if holds is None else bool(holds)
+    out = {
         "id": cid,
         "source": source,
         "claim": text,
         "measured": measured,
-        "holds": None if holds is None else bool(holds),
+        "holds": verdict,
         "checked": True,
         "note": note,
     }
+    if evidence:
+        out["holds_point"] = verdict
+        out["holds"] = _decided(evidence)
+        out["intervals"] = [
+            {
+                "quantity": e.quantity,
+                "value": e.interval.value,
+                "lo": e.interval.lo,
+                "hi": e.interval.hi,
+                "runs": e.interval.runs,
+                "method": e.interval.method,
+                "threshold": e.threshold,
+                "holds_if": "below" if e.below else "above",
+            }
+            for e in evidence
+        ]
+        if out["holds"] is None:
+            out["note"] = "; ".join(x for x in (_undecided_note(evidence), note) if x)
+    return out
 
 
 def _end(sc) -> float:
@@ -152,6 +218,13 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
     def ffwin(name):  # in-window RMSE on the same noise without the fault
         return m[name].fault_free["rmse_fault_window"][st]
 
+    sc0 = result.scenario
+    in_fault = sc0.fault_mask() & (sc0.times >= sc0.evaluation.skip_initial)
+
+    def per_run(name, free=False):  # each run's in-window RMSE of the first state
+        res = (result.fault_free if free else result.results)[name]
+        return np.sqrt(_ms(res, in_fault, (0,)))
+
     rules = [n for n in m if n.startswith("fkf-fr-")]
     if rules and all(m[n].fault_free for n in rules):
         vals = {n: m[n].fault_free["rmse"][st] for n in rules}
@@ -187,6 +260,7 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
         a, b = win(inv), win(tr)
         gain = 1.0 - a / b
         holds = gain >= 0.05
+        ratio_ci = ratio_interval(per_run(inv), per_run(tr))
         note = (
             f"inverse-trace sharing lowers the in-window error by {100 * gain:.1f} %"
             if holds
@@ -203,6 +277,7 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                 {"rmse_fault_inverse_trace": a, "rmse_fault_trace": b, "relative_gain": gain},
                 holds,
                 note,
+                [Evidence("rmse_fault inverse-trace / trace", ratio_ci, 0.95, True)],
             )
         )
     out += _beta_mechanism(result)
@@ -237,6 +312,14 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                     "ratio": ratio,
                 },
                 ratio <= 1.2,
+                evidence=[
+                    Evidence(
+                        "rmse_fault / fault-free",
+                        ratio_interval(per_run(iso), per_run(iso, free=True)),
+                        1.2,
+                        True,
+                    )
+                ],
             )
         )
         plain = [
@@ -252,6 +335,15 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                     *no_isolation,
                     {"ratio_to_fault_free": ratios, "smallest_ratio": worst},
                     worst >= 2.0,
+                    evidence=[
+                        Evidence(
+                            f"{n} rmse_fault / {iso} fault-free",
+                            ratio_interval(per_run(n), per_run(iso, free=True)),
+                            2.0,
+                            False,
+                        )
+                        for n in plain
+                    ],
                 )
             )
         res = result.results[iso]
@@ -319,9 +411,30 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                 holds,
                 "the network never saw this scenario's fault: it was trained on a family of "
                 "typical faults (ftnav train-detector)",
+                _rbf_evidence(m[rbf], faults[0].sensor, result.scenario.dt)
+                + [
+                    Evidence(
+                        "rmse_fault / fault-free",
+                        ratio_interval(per_run(rbf), per_run(rbf, free=True)),
+                        1.2,
+                        True,
+                    )
+                ],
             )
         )
     return out
+
+
+def _rbf_evidence(m: MethodMetrics, sensor: str, dt: float) -> list[Evidence]:
+    """The RBF claim's detection thresholds against their intervals (when evaluated)."""
+    ci = (m.intervals and m.intervals.detection or {}).get(sensor)
+    if not ci:
+        return []
+    return [
+        Evidence("Pd", ci["rate"], 0.95, False),
+        Evidence("false alarm rate", ci["false_alarm_rate"], 5e-3, True),
+        Evidence("median delay [s]", ci["median_delay_s"], 2 * dt, True),
+    ]
 
 
 def _beta_mechanism(result: ScenarioResult) -> list[dict]:
@@ -411,6 +524,17 @@ def _window_state_rms(res, t, start, end, j) -> float:
     return float(np.sqrt(np.mean(res.error[:, w, j] ** 2)))
 
 
+def _ms(res, w: np.ndarray, cols: Sequence[int]) -> np.ndarray:
+    """(B,) each run's mean square over the epochs ``w`` of the error columns ``cols``
+    summed (``(0, 1)``: the horizontal position error's)."""
+    return (res.error[:, w][..., list(cols)] ** 2).sum(-1).mean(1)
+
+
+def _rms_ratio(a, b, w: np.ndarray, cols: Sequence[int]) -> Interval:
+    """Interval of the ratio of two RMS errors over the same runs (paired)."""
+    return ratio_interval(_ms(a, w, cols), _ms(b, w, cols), root=True)
+
+
 def _vb_tracking(sc, est, truth, f, rho) -> dict:
     """Mean relative error of the VB σ over a noise window and, for a ramp, its lag.
 
@@ -494,6 +618,8 @@ def _paper002_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
         }
         hz = {n: _horizontal(v) for n, v in r.items()}
         hz_ff = {n: _horizontal(v) for n, v in ff.items()}
+        w = (t >= f.start) & (t < f.end)
+        hcols = (states.index("pos_E_m"), states.index("pos_N_m"))
         out.append(
             _claim(
                 *texts[0],
@@ -501,13 +627,36 @@ def _paper002_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                 hz["dkf-vb"] < hz["fkf-chi2"],
                 "RMS over runs and the anomaly window; fault-free: same noise without anomaly"
                 + cut,
+                [
+                    Evidence(
+                        "horizontal RMS dkf-vb / fkf-chi2",
+                        _rms_ratio(result.results["dkf-vb"], result.results["fkf-chi2"], w, hcols),
+                        1.0,
+                        True,
+                    )
+                ],
             )
         )
         grow = hz["fkf-chi2"] / hz_ff.get("fkf-chi2", np.nan)
         i = sc.sensor_names.index("gnss")
         flags = result.results["fkf-chi2"].flag
-        w = (t >= f.start) & (t < f.end)
         rate = float(flags[:, w, i].mean()) if flags is not None else float("nan")
+        isolates = []
+        if flags is not None and "fkf-chi2" in result.fault_free:
+            isolates = [
+                Evidence(
+                    "GNSS flag rate in the window",
+                    rate_interval(flags[:, w, i].sum(1), np.full(flags.shape[0], w.sum())),
+                    0.1,
+                    False,
+                ),
+                Evidence(
+                    "fkf-chi2 horizontal RMS / fault-free",
+                    _rms_ratio(result.results["fkf-chi2"], result.fault_free["fkf-chi2"], w, hcols),
+                    1.0,
+                    False,
+                ),
+            ]
         out.append(
             _claim(
                 *texts[1],
@@ -515,6 +664,7 @@ def _paper002_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                 rate > 0.1 and grow > 1.0,
                 "a x5 noise step is a soft fault: the chi-square test flags only the epochs whose "
                 "residual exceeds the threshold" + cut,
+                isolates,
             )
         )
         up = {n: r[n]["pos_U_m"] for n in need}
@@ -553,6 +703,14 @@ def _paper002_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                     up_growth <= 3.0,
                     "RMS over runs and the anomaly window against the same noise without it; "
                     "the horizontal velocity growth is shown for contrast" + cut,
+                    [
+                        Evidence(
+                            "fkf-chi2 up-velocity RMS / fault-free",
+                            _rms_ratio(fkf, fkf_ff, w, (ju,)),
+                            3.0,
+                            True,
+                        )
+                    ],
                 )
             )
     vb = result.results["dkf-vb"]

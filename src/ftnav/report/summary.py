@@ -524,7 +524,7 @@ def markdown_report(
         md += ["## Claims checked", ""]
         for c in claims:
             verdict = (
-                {True: "holds", False: "does NOT hold", None: "not decided"}[c["holds"]]
+                {True: "holds", False: "does NOT hold", None: "undecided"}[c["holds"]]
                 if c.get("checked", True)
                 else "not checked"
             )
@@ -533,6 +533,13 @@ def markdown_report(
                 + (f" {c['note']}." if c["note"] else "")
             )
             md.append(f"  Measured: `{_compact(c['measured'])}`")
+            for i in c.get("intervals", ()):
+                side = "<" if i["holds_if"] == "below" else ">"
+                md.append(
+                    f"  95 % interval of {i['quantity']}: {i['value']:.4g} "
+                    f"[{i['lo']:.4g}, {i['hi']:.4g}] ({i['runs']} runs, {i['method']}); "
+                    f"holds if {side} {i['threshold']:g}"
+                )
         md.append("")
     if figures:
         md += ["## Figures", ""] + [f"![{f}]({f})" for f in figures]
