@@ -249,8 +249,8 @@ def test_ftnav_process_runs_the_learned_methods_and_scores_their_detection(drive
     doc = json.loads((out / "metrics.json").read_text())
     for m in methods.split(","):
         assert (out / f"solution-{m}.csv").is_file()
-    assert doc["methods"]["fkf-rbf-always"]["detection"]["gnss"]["pd"] == 1.0
-    assert doc["methods"]["dkf-rbf-never"]["detection"]["gnss"]["pd"] == 0.0
+    assert doc["methods"]["fkf-rbf-always"]["detection"]["gnss"]["rate"] == 1.0
+    assert doc["methods"]["dkf-rbf-never"]["detection"]["gnss"]["rate"] == 0.0
 
 
 @pytest.mark.parametrize(

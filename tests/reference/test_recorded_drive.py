@@ -69,7 +69,7 @@ def test_a_5_m_gnss_step_is_detected_on_real_noise():
     fault = Fault("gnss", "bias", t0, t0 + 60.0, np.array([0.0, 5.0, 0.0, 0.0, 0.0, 0.0]))
     _, traces, scores = _process("rtklib-drive", methods=["fkf-chi2"], faults=[fault])
     d = scores["fkf-chi2"]["detection"]["gnss"]
-    assert d["pd"] >= 0.95 and d["mean_recovery_s"] <= 5.0 and d["false_alarm_rate"] <= 0.01
+    assert d["rate"] >= 0.95 and d["mean_recovery_s"] <= 5.0 and d["false_alarm_rate"] <= 0.01
     assert scores["fkf-chi2"]["horizontal_rms_m"] <= 0.10  # the fault never reaches the solution
 
 

@@ -347,11 +347,6 @@ def _detection(rec: Recording, flag: np.ndarray, grace: float) -> dict[str, dict
         if not windows:
             continue
         d = detection_stats(flag[None, :, i], rec.times, windows, grace)
-        out[name] = {
-            "pd": d.rate,
-            "false_alarm_rate": d.false_alarm_rate,
-            "mean_delay_s": d.mean_delay_s,
-            "mean_recovery_s": d.mean_recovery_s,
-            "events": d.events,
-        }
+        # the names and fields of a simulated run's detection (one name per quantity)
+        out[name] = {k: v if k == "events" else float(v) for k, v in d._asdict().items()}
     return out

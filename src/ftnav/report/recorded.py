@@ -88,7 +88,7 @@ def recording_table(scores: dict[str, dict[str, Any]]) -> str:
         o = m.get("outages")
         drift = f"{_f(o['rms_max_error_m'])} ({o['count']})" if o else "-"
         det = [
-            f"{s}: Pd {_f(d['pd'], '.2f')} FA {_f(d['false_alarm_rate'], '.3f')} "
+            f"{s}: Pd {_f(d['rate'], '.2f')} FA {_f(d['false_alarm_rate'], '.3f')} "
             f"recovery {_f(d['mean_recovery_s'], '.1f')} s"
             for s, d in (m.get("detection") or {}).items()
         ] or ["-"]
