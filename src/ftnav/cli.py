@@ -281,6 +281,25 @@ def _parser() -> _Parser:
         help="worker processes (default: FTNAV_WORKERS, else the CPUs available); "
         "the results do not depend on it",
     )
+    w = command("sweep", help="a Monte Carlo campaign at every point of a grid of settings")
+    w.add_argument("scenario", help="built-in scenario name or a TOML path")
+    w.add_argument(
+        "--set",
+        dest="sets",
+        action="append",
+        required=True,
+        metavar="KEY=V1,V2,...",
+        help="a dotted key of the scenario file and its values (KEY*=F1,F2 scales it); "
+        "repeat for a cartesian grid, e.g. faults.0.magnitude=10,20,40",
+    )
+    w.add_argument("--runs", type=_positive, default=20, help="runs per point (default 20)")
+    w.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
+    w.add_argument(
+        "--out", type=_out_path, default=None, help="output folder (default results/<name>-sweep)"
+    )
+    w.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    w.add_argument("--quiet", action="store_true", help="no progress bar")
+    w.add_argument("--workers", type=_positive, default=None, help="worker processes (as for run)")
     t = command("trajectory", help="generate a flight's truth and IMU increments")
     t.add_argument("profile", help="built-in profile (seed001, seed002) or a profile TOML path")
     t.add_argument("--out", type=_out_path, required=True, help="output folder")
@@ -390,8 +409,13 @@ def _parser() -> _Parser:
 
 def _resolve(spec: str, models: bool = True):
     """The built-in scenario or scenario file ``spec``; ``models=False`` for training."""
+    return load_scenario(_scenario_path(spec), models)
+
+
+def _scenario_path(spec: str) -> Path:
+    """The file of the built-in scenario or scenario file ``spec``."""
     if spec in builtin_names():
-        return load_scenario(builtin_path(spec), models)
+        return builtin_path(spec)
     path = Path(spec)
     if spec in recording_names() or _is_recording(path):
         raise UsageError(
@@ -400,7 +424,7 @@ def _resolve(spec: str, models: bool = True):
             "docs/recording-format.md, learned models on recordings)"
         )
     if path.suffix == ".toml" or path.exists():
-        return load_scenario(path, models)
+        return path
     raise UsageError(
         f"scenario: {spec!r} is neither a built-in scenario "
         f"({', '.join(builtin_names())}) nor a TOML file"
@@ -513,6 +537,58 @@ def _cmd_schema(args) -> int:
     assert output is not None
     with output.staged() as stage:
         (stage / args.out.name).write_text(text + "\n")
+    return 0
+
+
+def _cmd_sweep(args) -> int:
+    from ftnav.report.sweep import sweep_report, sweep_table
+    from ftnav.sweep import grid, parse_set, run_sweep, sweep_dataset
+
+    with _checking():
+        source = _scenario_path(args.scenario)
+        axes = [parse_set(s) for s in args.sets]
+        keys = [a.key for a in axes]
+        if len(set(keys)) != len(keys):
+            raise UsageError(f"--set: a key is swept twice ({', '.join(keys)})")
+        points = grid(source, axes)
+        sc = points[0][1]
+        out = args.out if args.out is not None else Path("results") / f"{sc.name}-sweep"
+        output = _claim(out, folder=True, names=["sweep.nc", "report.md"])
+        workers = default_workers() if args.workers is None else args.workers
+        _check_memory(sc, args.runs, workers=workers)
+        for _, point in points:
+            _build_filters(point)
+    kind = "integrated" if _integrated(sc) else "linear"
+    _compile_note(kind, args.quiet)
+    total = sum(len(p.methods) * p.steps for _, p in points)
+    t0 = time.perf_counter()
+    with tqdm(
+        total=total,
+        disable=True if args.quiet else None,
+        unit="epoch",
+        desc=f"{sc.name} sweep of {len(points)} points x{args.runs}",
+        file=sys.stderr,
+        mininterval=0.5,
+    ) as bar:
+        sweep = run_sweep(points, axes, args.runs, args.seed, workers, bar.update)
+    elapsed = time.perf_counter() - t0
+    mark_kernels_compiled(kind)
+    ds = sweep_dataset(sweep)
+    command = "ftnav sweep " + " ".join(
+        [args.scenario, *(f"--set {s}" for s in args.sets), f"--runs {args.runs}"]
+    )
+    with output.staged() as stage:
+        ds.to_netcdf(stage / "sweep.nc", engine="scipy")
+        figures = []
+        if not args.no_figures:
+            from ftnav.plot.sweep import save_sweep_figures
+
+            figures = [p.name for p in save_sweep_figures(ds, stage)]
+        (stage / "report.md").write_text(sweep_report(ds, command, figures))
+        written = ["sweep.nc", "report.md", *figures]
+    print(f"{sc.name}: {len(points)} points x {args.runs} runs, seed {args.seed}, {elapsed:.1f} s")
+    print(sweep_table(ds))
+    print(f"Results written to {out}/: {', '.join(written)}")
     return 0
 
 
@@ -882,6 +958,7 @@ _COMMANDS = {
     "list": _cmd_list,
     "schema": _cmd_schema,
     "run": _cmd_run,
+    "sweep": _cmd_sweep,
     "trajectory": _cmd_trajectory,
     "train-detector": _cmd_train_detector,
     "train-fusion": _cmd_train_fusion,

@@ -33,7 +33,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("eval",),
     ("io",),
     ("training",),
-    ("pipeline",),  # parse -> prepare -> run -> score of a recording (process_recording)
+    ("pipeline", "sweep"),  # a recording's parse -> run -> score; a grid of campaigns
     ("plot", "report"),
     ("cli",),
 )

@@ -19,7 +19,7 @@ correlated in time, a detector's alarms come in bursts).  One method per kind:
   Wilson score interval with the effective number of trials of a cluster sample
   (runs are the clusters): ``n_eff = p(1-p) / Var(p̂)`` with the between-run
   (ratio-estimator) variance, kept within ``[B, n]`` -- the plain Wilson interval when
-  the trials are independent, one trial per run when every run is all or nothing,
+  the trials are independent or the runs show no spread (p̂ = 0 or 1),
   :func:`rate_interval` (Wilson 1927; Kish 1965 for the design effect);
 * **order statistics of pooled events** -- median and 95th-percentile detection delay:
   the percentile bootstrap over runs (runs resampled with replacement, the statistic
@@ -198,7 +198,8 @@ def rate_interval(
         ``value`` the pooled rate ``Σ successes / Σ trials``; the Wilson bounds with
         ``n_eff = p̂(1-p̂) / Var(p̂)`` trials, ``Var(p̂)`` the ratio estimator's
         between-run variance ``B/(B-1) Σ (a_b - p̂ n_b)² / (Σ n_b)²``, ``n_eff`` kept
-        within ``[B, Σ n_b]`` (one trial per run when every run agrees).
+        within ``[B, Σ n_b]``; every trial independent when the runs show no spread
+        (p̂ = 0 or 1: nothing to estimate a clustering from).
     """
     a = np.asarray(successes, float).ravel()
     n = np.asarray(trials, float).ravel()
@@ -212,7 +213,9 @@ def rate_interval(
         return Interval(p, _NAN, _NAN, B, "wilson-cluster")
     var = B / (B - 1) * float(np.sum((a - p * n) ** 2)) / total**2
     binomial = p * (1.0 - p)
-    n_eff = float(B) if var <= 0.0 or binomial <= 0.0 else binomial / var
+    # no between-run spread (every run the same fraction, e.g. no alarm at all): no
+    # evidence of clustering, the trials count as independent (the rule-of-three bound)
+    n_eff = total if var <= 0.0 or binomial <= 0.0 else binomial / var
     n_eff = min(max(n_eff, float(B)), total)
     # the variance rests on B runs: Student's quantile with B - 1 degrees of freedom
     # (Korn & Graubard 1998), the normal one when the trials are independent

@@ -1,0 +1,101 @@
+"""Figures of a parameter sweep (:mod:`ftnav.sweep`): each metric against each swept key,
+one line per method with its 95 % interval as a band.
+
+With several swept keys, the figure of one key holds the others at their first value
+(the title says which).  The detection figures show each sensor that some method's
+detector is scored on (a fault of that sensor at some point of the grid).
+"""
+
+from __future__ import annotations
+
+import pathlib
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+
+__all__ = ["save_sweep_figures", "swept", "sweep_figure"]
+
+#: (variable, y label) of the figures, in order.
+_METRICS = (
+    ("detection_rate", "detection probability per epoch"),
+    ("detection_false_alarm_rate", "false alarms per clean epoch"),
+    ("detection_mean_delay_s", "mean detection delay [s]"),
+    ("rmse", "RMSE"),
+    ("anees", "ANEES"),
+)
+
+
+def swept(ds: xr.Dataset) -> list[str]:
+    """The swept keys: the dimensions before ``method``."""
+    return [str(d) for d in ds["anees"].dims if d not in ("method", "bound")]
+
+
+def _state(ds: xr.Dataset) -> str:
+    states = [str(s) for s in ds["state"].values]
+    return "pos_horizontal_m" if "pos_horizontal_m" in states else states[0]
+
+
+def sweep_figure(ds: xr.Dataset, key: str, variable: str, ylabel: str) -> Figure | None:
+    """``variable`` against the swept ``key``, per method (and sensor), with bands; None
+    when no method has a value of it anywhere."""
+    da = ds[variable]
+    others = {d: 0 for d in swept(ds) if d != key and d in da.dims}
+    da = da.isel(others)
+    if "state" in da.dims:
+        state = _state(ds)
+        da = da.sel(state=state)
+        ylabel = f"{ylabel} of {state}"
+    series: list[tuple[str, Any]] = []
+    for m in ds["method"].values:
+        one = da.sel({"method": m})
+        if "sensor" in one.dims:
+            for s in ds["sensor"].values:
+                line = one.sel(sensor=s)
+                if np.isfinite(line.sel(bound="value")).any():
+                    series.append((f"{m} ({s})", line))
+        elif np.isfinite(one.sel(bound="value")).any():
+            series.append((str(m), one))
+    if not series:
+        return None
+    x = ds[key].values
+    numeric = np.issubdtype(np.asarray(x).dtype, np.number)
+    pos = x if numeric else np.arange(len(x))
+    fig = Figure(figsize=(6.4, 4.2), layout="constrained")
+    ax = fig.add_subplot()
+    for label, line in series:
+        v = line.sel(bound="value").values
+        lo, hi = line.sel(bound="lo").values, line.sel(bound="hi").values
+        (h,) = ax.plot(pos, v, marker="o", label=label)
+        ok = np.isfinite(lo) & np.isfinite(hi)
+        if ok.any():
+            ax.fill_between(pos[ok], lo[ok], hi[ok], color=h.get_color(), alpha=0.2, lw=0)
+    if not numeric:
+        ax.set_xticks(pos, [str(v) for v in x])
+    ax.set_xlabel(key)
+    ax.set_ylabel(ylabel)
+    held = ", ".join(f"{d}={ds[d].values[0]}" for d in others)
+    title = f"{ds.attrs.get('scenario', '')}: {ds.attrs.get('runs', '')} runs per point, 95 % bands"
+    ax.set_title(title + (f"\n({held})" if held else ""), fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
+def save_sweep_figures(ds: xr.Dataset, folder: pathlib.Path) -> list[pathlib.Path]:
+    """Every figure of the sweep as ``sweep_<metric>_<key>.png`` in ``folder``."""
+    out = []
+    for key in swept(ds):
+        for variable, ylabel in _METRICS:
+            fig = sweep_figure(ds, key, variable, ylabel)
+            if fig is None:
+                continue
+            name = f"sweep_{variable.removeprefix('detection_')}_{_safe(key)}.png"
+            fig.savefig(folder / name, dpi=110)
+            out.append(folder / name)
+    return out
+
+
+def _safe(key: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_" else "-" for c in key)

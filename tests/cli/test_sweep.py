@@ -1,0 +1,93 @@
+"""``ftnav sweep`` (issue 23 item 3): a grid of scenario settings, each a full campaign.
+
+Oracles: a sweep point equals ``ftnav run`` of the scenario with that setting (same
+seed: the same metrics, bit for bit); the dataset holds every point with its interval;
+Pd rises with the fault size for both detectors (a monotone physical fact at sizes far
+apart); a bad key is one line naming it, exit 2, nothing written.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import tomli_w
+import xarray as xr
+
+from ftnav.cli import main
+from ftnav.eval.evaluate import evaluate
+from ftnav.eval.montecarlo import run_scenario
+from ftnav.io.scenario_file import load_scenario
+from ftnav.scenarios import builtin_path
+from ftnav.sweep import SweepError, grid, parse_set
+
+KEEP = ("ckf", "fkf-inverse-trace-chi2", "fkf-inverse-trace-cusum")
+SIZES = (5, 10, 20, 40, 80)
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    """seed000 with three methods (two detectors), 600 epochs, no figure specs."""
+    doc = tomllib.loads(builtin_path("seed000").read_text())
+    doc["methods"] = [m for m in doc["methods"] if m["name"] in KEEP]
+    doc["steps"] = 600
+    doc.pop("figures", None)
+    path = tmp_path_factory.mktemp("sweep") / "small.toml"
+    path.write_text(tomli_w.dumps(doc))
+    return path
+
+
+@pytest.fixture(scope="module")
+def swept(small, tmp_path_factory):
+    out = tmp_path_factory.mktemp("out") / "s"
+    sets = "faults.0.magnitude=" + ",".join(str(s) for s in SIZES)
+    code = main(["sweep", str(small), "--set", sets, "--runs", "6", "--out", str(out), "--quiet"])
+    assert code == 0
+    return out
+
+
+def test_one_command_gives_the_dataset_and_the_pd_figure(swept):
+    ds = xr.load_dataset(swept / "sweep.nc")
+    assert list(ds["faults.0.magnitude"].values) == list(SIZES)
+    assert list(ds["method"].values) == list(KEEP)
+    pd = ds["detection_rate"].sel(sensor="pos1")
+    for m in KEEP[1:]:
+        v, lo, hi = (pd.sel({"method": m, "bound": b}).values for b in ("value", "lo", "hi"))
+        assert np.all(lo <= v) and np.all(v <= hi)
+        assert v[-1] > v[0] and v[-1] > 0.9  # a 80-unit bias is seen, a 5-unit one hardly
+    assert np.isnan(pd.sel({"method": "ckf", "bound": "value"})).all()  # no detector
+    assert (swept / "sweep_rate_faults-0-magnitude.png").stat().st_size > 10_000
+    assert "| faults.0.magnitude | method |" in (swept / "report.md").read_text()
+
+
+def test_a_point_is_the_run_of_its_scenario(small, swept):
+    ds = xr.load_dataset(swept / "sweep.nc")
+    sc = load_scenario(small)
+    sc = replace(sc, faults=(replace(sc.faults[0], magnitude=np.array([20.0])),))
+    metrics = evaluate(run_scenario(sc, 6, 1))
+    for m in KEEP:
+        got = ds["rmse"].sel({"faults.0.magnitude": 20, "method": m, "state": "s"})
+        assert got.sel(bound="value").item() == metrics[m].rmse["s"]
+        assert got.sel(bound="lo").item() == metrics[m].intervals.rmse["s"].lo
+
+
+def test_keys_and_values_are_checked_before_anything_runs(small, tmp_path, capsys):
+    with pytest.raises(SweepError, match=r"faults\.3: the file has 1 entries"):
+        grid(small, [parse_set("faults.3.magnitude=1,2")])
+    with pytest.raises(SweepError, match=r"faults\.0\.size is not in the file"):
+        grid(small, [parse_set("faults.0.size=1,2")])
+    with pytest.raises(SweepError, match="a value is given twice"):
+        parse_set("steps=10,10")
+    # a point the scenario refuses is named with the file's reason (the fault at 300 s
+    # would never act in a 100 s run), before any point runs
+    with pytest.raises(SweepError, match=r"at steps=100: faults\[0\]\.start: 300 s"):
+        grid(small, [parse_set("steps=600,100")])
+    assert parse_set("sensors.1.R*=0.5,2").scale
+    out = tmp_path / "o"
+    assert main(["sweep", str(small), "--set", "nope=1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--set nope: nope is not in the file (keys there: " in err
+    assert len(err.strip().splitlines()) == 1
+    assert not out.exists()
