@@ -74,6 +74,7 @@ from ftnav.eval.resources import (
     run_memory_bytes,
     trajectory_memory_bytes,
 )
+from ftnav.eval.stopping import check_target, parse_target, run_until
 from ftnav.io.common import ScenarioError, read_toml
 from ftnav.io.learned import save_neuron_model, save_rbf_model
 from ftnav.io.model_file import ModelFileError
@@ -280,6 +281,16 @@ def _parser() -> _Parser:
         default=None,
         help="worker processes (default: FTNAV_WORKERS, else the CPUs available); "
         "the results do not depend on it",
+    )
+    r.add_argument(
+        "--until",
+        default=None,
+        metavar="METHOD.METRIC:rel=F",
+        help="add runs (from --runs) until the metric's 95 %% interval has this half-width, "
+        "e.g. ckf.rmse.s:rel=0.02 or fkf-chi2.detection.gnss.rate:abs=0.01 (docs/campaigns.md)",
+    )
+    r.add_argument(
+        "--max-runs", type=_positive, default=None, help="with --until: at most this many runs"
     )
     w = command("sweep", help="a Monte Carlo campaign at every point of a grid of settings")
     w.add_argument("scenario", help="built-in scenario name or a TOML path")
@@ -598,7 +609,17 @@ def _cmd_run(args) -> int:
         out = args.out if args.out is not None else Path("results") / sc.name
         output = _claim(out, folder=True, names=["metrics.json", "report.md"])
         workers = default_workers() if args.workers is None else args.workers
-        _check_memory(sc, args.runs, save_estimates=args.save_estimates, workers=workers)
+        target = None
+        if args.until is not None:
+            target = parse_target(args.until, [m.name for m in sc.methods])
+            check_target(target, sc)
+        elif args.max_runs is not None:
+            raise UsageError("--max-runs: it bounds --until, which is not given")
+        max_runs = args.max_runs or 10 * args.runs
+        if max_runs < args.runs:
+            raise UsageError(f"--max-runs: {max_runs} is fewer than --runs {args.runs}")
+        most = args.runs if target is None else max_runs
+        _check_memory(sc, most, save_estimates=args.save_estimates, workers=workers)
         _build_filters(sc)
     integrated = _integrated(sc)
     kind = "integrated" if integrated else "linear"
@@ -607,14 +628,21 @@ def _cmd_run(args) -> int:
     total = len(sc.methods) * sc.steps
     t0 = time.perf_counter()
     with tqdm(
-        total=total,
+        total=None if target is not None else total,
         disable=True if args.quiet else None,
         unit="epoch",
-        desc=f"{sc.name} x{args.runs}",
+        desc=f"{sc.name} x{args.runs}" + (f" until {target.text}" if target else ""),
         file=sys.stderr,
         mininterval=0.5,
     ) as bar:
-        result = run_scenario(sc, args.runs, args.seed, progress=bar.update, workers=workers)
+        if target is None:
+            result = run_scenario(sc, args.runs, args.seed, progress=bar.update, workers=workers)
+        else:
+            stopped = run_until(
+                sc, args.seed, target, args.runs, max_runs, workers=workers, progress=bar.update
+            )
+            result = stopped.result
+    runs = result.runs
     second = None
     if integrated and sc.test_profile is not None:
         # learned methods are also scored on a flight they were not trained on
@@ -626,11 +654,11 @@ def _cmd_run(args) -> int:
             total=len(sc2.methods) * sc2.steps,
             disable=True if args.quiet else None,
             unit="epoch",
-            desc=f"{sc2.name} x{args.runs}",
+            desc=f"{sc2.name} x{runs}",
             file=sys.stderr,
             mininterval=0.5,
         ) as bar:
-            result2 = run_scenario(sc2, args.runs, args.seed, progress=bar.update, workers=workers)
+            result2 = run_scenario(sc2, runs, args.seed, progress=bar.update, workers=workers)
         second = (result2, evaluate(result2))
     elapsed = time.perf_counter() - t0
     mark_kernels_compiled(kind)
@@ -651,14 +679,36 @@ def _cmd_run(args) -> int:
         doc = metrics_to_json(result, metrics, claims)
         if second is not None:
             doc["second_trajectory"] = metrics_to_json(*second)
+        stop_line = None
+        if target is not None:
+            i = stopped.interval
+            doc["stopping"] = {
+                "until": target.text,
+                "max_runs": max_runs,
+                "runs": runs,
+                "parts": stopped.parts,
+                "reached": stopped.reached,
+                "value": i.value,
+                "lo": i.lo,
+                "hi": i.hi,
+                "half_width": i.half_width,
+                "target_half_width": target.half_width(i),
+            }
+            stop_line = (
+                f"--until {target.text}: "
+                + ("reached" if stopped.reached else f"NOT reached within --max-runs {max_runs}")
+                + f" after {runs} runs in {stopped.parts} part(s): {i.value:.4g} "
+                f"[{i.lo:.4g}, {i.hi:.4g}], half-width {i.half_width:.3g} "
+                f"(target {target.half_width(i):.3g})"
+            )
         write_metrics(doc, stage / "metrics.json")
         (stage / "report.md").write_text(markdown_report(result, metrics, claims, figures))
         written = ["metrics.json", "report.md", *figures]
         if args.save_estimates:
             written += [p.name for p in write_estimates(result, stage)]
-    print(
-        f"{sc.name}: {args.runs} runs, seed {args.seed}, {len(sc.methods)} methods, {elapsed:.1f} s"
-    )
+    print(f"{sc.name}: {runs} runs, seed {args.seed}, {len(sc.methods)} methods, {elapsed:.1f} s")
+    if stop_line is not None:
+        print(stop_line)
     print(results_table(result, metrics))
     if second is not None:
         print(f"\nSame methods on a flight not used for training ({second[0].scenario.name}):")

@@ -49,6 +49,7 @@ __all__ = [
     "PARALLEL_MIN_WORK",
     "ScenarioResult",
     "build_filters",
+    "join_results",
     "chunk_runs",
     "run_scenario",
     "simulate_runs",
@@ -307,8 +308,13 @@ def run_scenario(
     workers: int = 1,
     check_spd: bool = True,
     chunk: int | None = None,
+    first_run: int = 0,
 ) -> ScenarioResult:
     """Simulate ``runs`` runs from ``seed`` and run every method (module docstring).
+
+    ``first_run``: the runs are ``first_run, ..., first_run + runs - 1`` of the root seed
+    (each run's noise depends on its index only, so a campaign in parts, joined by
+    :func:`join_results`, equals the campaign run at once).
 
     Integrated runs go in batches of ``chunk`` runs (default :func:`chunk_runs`, which
     bounds the memory of the simulated IMU data).  ``workers > 1`` runs the batches (or
@@ -331,7 +337,8 @@ def run_scenario(
     integrated = scenario.kind == "integrated"
     if workers > 1 and integrated:  # no more runs per batch than share the workers evenly
         chunk = min(chunk, -(-runs // workers))
-    starts = range(0, runs, chunk)
+    end = first_run + runs
+    starts = range(first_run, end, chunk)
     groups = [methods]
     if workers > 1 and (
         len(starts) < workers if integrated else len(methods) * scenario.steps >= PARALLEL_MIN_WORK
@@ -340,7 +347,7 @@ def run_scenario(
         groups = [tuple(g) for g in split_even(methods, parts)]
     keep = len(starts) * len(groups) == 1  # the stream and truth stay in this process
     tasks = [
-        (scenario, range(s, min(s + chunk, runs)), seed, g, twin, check_spd, keep)
+        (scenario, range(s, min(s + chunk, end)), seed, g, twin, check_spd, keep)
         for s in starts
         for g in groups
     ]
@@ -417,6 +424,15 @@ def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult
         )
 
     return part(slice(None, runs)), part(slice(runs, None))
+
+
+def join_results(parts: Sequence[ScenarioResult]) -> ScenarioResult:
+    """One campaign from campaigns of consecutive runs of the same scenario and seed
+    (:func:`run_scenario`'s ``first_run``), the runs in order."""
+    first = parts[0]
+    methods = [m for m in first.scenario.methods if m.name in first.results]
+    total = sum(p.runs for p in parts)
+    return _merge(list(parts), 1, methods, first.scenario, total, first.seed)
 
 
 def _merge(
