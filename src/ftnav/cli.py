@@ -292,6 +292,13 @@ def _parser() -> _Parser:
     r.add_argument(
         "--max-runs", type=_positive, default=None, help="with --until: at most this many runs"
     )
+    r.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="tcp://HOST:PORT",
+        help="run the batches on this Dask scheduler's workers (pip install 'ftnav[cluster]'; "
+        "docs/campaigns.md); the results do not depend on it",
+    )
     w = command("sweep", help="a Monte Carlo campaign at every point of a grid of settings")
     w.add_argument("scenario", help="built-in scenario name or a TOML path")
     w.add_argument(
@@ -636,10 +643,24 @@ def _cmd_run(args) -> int:
         mininterval=0.5,
     ) as bar:
         if target is None:
-            result = run_scenario(sc, args.runs, args.seed, progress=bar.update, workers=workers)
+            result = run_scenario(
+                sc,
+                args.runs,
+                args.seed,
+                progress=bar.update,
+                workers=workers,
+                scheduler=args.scheduler,
+            )
         else:
             stopped = run_until(
-                sc, args.seed, target, args.runs, max_runs, workers=workers, progress=bar.update
+                sc,
+                args.seed,
+                target,
+                args.runs,
+                max_runs,
+                workers=workers,
+                progress=bar.update,
+                scheduler=args.scheduler,
             )
             result = stopped.result
     runs = result.runs

@@ -36,7 +36,14 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, TypeVar
 
-__all__ = ["available_cpus", "default_workers", "run_tasks", "signals_held", "split_even"]
+__all__ = [
+    "available_cpus",
+    "default_workers",
+    "run_on_cluster",
+    "run_tasks",
+    "signals_held",
+    "split_even",
+]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -195,8 +202,10 @@ def run_tasks(
     tasks: Sequence[T],
     workers: int,
     progress: Callable[[int], None] | None = None,
+    scheduler: str | None = None,
 ) -> list[R]:
-    """``[fn(task, progress) for task in tasks]``, in up to ``workers`` processes.
+    """``[fn(task, progress) for task in tasks]``, in up to ``workers`` processes, or on
+    the Dask cluster at ``scheduler`` (:func:`run_on_cluster`).
 
     Parameters
     ----------
@@ -211,6 +220,8 @@ def run_tasks(
     list : the results in the order of ``tasks``.  An exception of a task is raised
         here, with its own type and message.
     """
+    if scheduler is not None:
+        return run_on_cluster(fn, tasks, scheduler, progress)
     if workers <= 1 or len(tasks) <= 1:
         return [fn(t, progress) for t in tasks]
     ctx = multiprocessing.get_context("spawn")
@@ -253,6 +264,44 @@ def run_tasks(
         stop.set()
         if reader is not None:  # a killed worker may have left half a message: no wait
             reader.join(timeout=1.0 if failed else None)
+
+
+def _on_worker(fn: Callable[[T, Callable[[int], None] | None], R], task: T) -> R:
+    """One task on a Dask worker: nothing nests a second level of parallelism."""
+    os.environ["FTNAV_WORKERS"] = "1"
+    return fn(task, None)
+
+
+def run_on_cluster(
+    fn: Callable[[T, Callable[[int], None] | None], R],
+    tasks: Sequence[T],
+    scheduler: str,
+    progress: Callable[[int], None] | None = None,
+) -> list[R]:
+    """The tasks on an existing ``dask.distributed`` cluster (``tcp://HOST:PORT``).
+
+    Each task is one Dask task (submitted with a key of its own, ``pure=False``); Dask
+    recomputes a task whose worker is lost before its result reached this process, so a
+    lost worker costs time, never a result, and no task is counted twice (the results
+    are gathered by task, in order).  ``progress`` is not fed on a cluster (the tasks'
+    per-epoch reports stay on the workers).  Dask moves tasks and results
+    between this process and its workers by pickle: run it on workers you trust (your
+    own machines), as with any Dask cluster; nothing a user's file names is unpickled.
+    Dask is imported here only (the ``ftnav[cluster]`` extra).
+    """
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ValueError(
+            "--scheduler: Dask is not installed (pip install 'ftnav[cluster]')"
+        ) from None
+    try:
+        client = Client(scheduler, timeout=10, set_as_default=False)
+    except OSError as exc:
+        raise ValueError(f"--scheduler: no Dask scheduler at {scheduler} ({exc})") from None
+    with client:
+        futures = [client.submit(_on_worker, fn, t, pure=False) for t in tasks]
+        return list(client.gather(futures))
 
 
 @contextlib.contextmanager

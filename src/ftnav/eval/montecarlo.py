@@ -309,8 +309,13 @@ def run_scenario(
     check_spd: bool = True,
     chunk: int | None = None,
     first_run: int = 0,
+    scheduler: str | None = None,
 ) -> ScenarioResult:
     """Simulate ``runs`` runs from ``seed`` and run every method (module docstring).
+
+    ``scheduler``: the address of a ``dask.distributed`` scheduler (``tcp://HOST:PORT``)
+    that runs the batches instead of local processes
+    (:func:`ftnav.parallel.run_on_cluster`); the results are the same.
 
     ``first_run``: the runs are ``first_run, ..., first_run + runs - 1`` of the root seed
     (each run's noise depends on its index only, so a campaign in parts, joined by
@@ -335,6 +340,8 @@ def run_scenario(
     if chunk < 1:
         raise ValueError(f"chunk: must be >= 1, got {chunk}")
     integrated = scenario.kind == "integrated"
+    if scheduler is not None:  # the cluster's workers share the batches
+        workers = max(workers, 2)
     if workers > 1 and integrated:  # no more runs per batch than share the workers evenly
         chunk = min(chunk, -(-runs // workers))
     end = first_run + runs
@@ -351,7 +358,7 @@ def run_scenario(
         for s in starts
         for g in groups
     ]
-    done = run_tasks(_task, tasks, workers, progress)
+    done = run_tasks(_task, tasks, workers, progress, scheduler)
     return _merge(done, len(groups), methods, scenario, runs, seed)
 
 

@@ -154,11 +154,11 @@ def run_until(
     *,
     workers: int = 1,
     progress: Callable[[int], None] | None = None,
+    scheduler: str | None = None,
 ) -> Stopped:
     """Add runs until ``target`` is met or ``max_runs`` are done (module docstring)."""
-    parts = [
-        run_scenario(scenario, min(first_runs, max_runs), seed, progress=progress, workers=workers)
-    ]
+    options: dict[str, Any] = {"progress": progress, "workers": workers, "scheduler": scheduler}
+    parts = [run_scenario(scenario, min(first_runs, max_runs), seed, **options)]
     while True:
         result = join_results(parts)
         metrics = evaluate(result)
@@ -168,6 +168,4 @@ def run_until(
             return Stopped(result, metrics, interval, target.met(interval), len(parts))
         need = runs_needed(interval, target.half_width(interval)) or 2 * done
         more = min(max(need - done, math.ceil(done / 4)), max_runs - done)
-        parts.append(
-            run_scenario(scenario, more, seed, progress=progress, workers=workers, first_run=done)
-        )
+        parts.append(run_scenario(scenario, more, seed, first_run=done, **options))
