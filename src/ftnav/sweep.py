@@ -180,12 +180,16 @@ def run_sweep(
     seed: int,
     workers: int | None = None,
     progress: Callable[[int], None] | None = None,
+    scheduler: str | None = None,
 ) -> SweepResult:
-    """Run the campaign of every grid point of :func:`grid` (module docstring)."""
+    """Run the campaign of every grid point of :func:`grid` (module docstring), on the
+    Dask cluster at ``scheduler`` when given."""
     metrics = []
     first = points[0][1]
     for _, sc in points:
-        options = {} if workers is None else {"workers": workers}
+        options: dict[str, Any] = {"scheduler": scheduler}
+        if workers is not None:
+            options["workers"] = workers
         result = run_scenario(sc, runs, seed, progress=progress, **options)
         metrics.append(evaluate(result))
     return SweepResult(
