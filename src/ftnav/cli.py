@@ -318,6 +318,9 @@ def _parser() -> _Parser:
     w.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     w.add_argument("--quiet", action="store_true", help="no progress bar")
     w.add_argument("--workers", type=_positive, default=None, help="worker processes (as for run)")
+    w.add_argument(
+        "--scheduler", default=None, metavar="tcp://HOST:PORT", help="a Dask scheduler (as for run)"
+    )
     t = command("trajectory", help="generate a flight's truth and IMU increments")
     t.add_argument("profile", help="built-in profile (seed001, seed002) or a profile TOML path")
     t.add_argument("--out", type=_out_path, required=True, help="output folder")
@@ -588,7 +591,7 @@ def _cmd_sweep(args) -> int:
         file=sys.stderr,
         mininterval=0.5,
     ) as bar:
-        sweep = run_sweep(points, axes, args.runs, args.seed, workers, bar.update)
+        sweep = run_sweep(points, axes, args.runs, args.seed, workers, bar.update, args.scheduler)
     elapsed = time.perf_counter() - t0
     mark_kernels_compiled(kind)
     ds = sweep_dataset(sweep)
