@@ -8,30 +8,22 @@ meets its target, or at ``--max-runs`` and says so; a bad target is one line, ex
 from __future__ import annotations
 
 import json
-import tomllib
 
 import pytest
-import tomli_w
+from seed000_copy import seed000_copy
 
 from ftnav.cli import main
 from ftnav.eval.evaluate import evaluate
 from ftnav.eval.montecarlo import run_scenario
 from ftnav.eval.stopping import metric_interval, parse_target, run_until
 from ftnav.io.scenario_file import load_scenario
-from ftnav.scenarios import builtin_path
 
 KEEP = ("ckf", "fkf-inverse-trace-chi2")
 
 
 @pytest.fixture(scope="module")
 def small(tmp_path_factory):
-    doc = tomllib.loads(builtin_path("seed000").read_text())
-    doc["methods"] = [m for m in doc["methods"] if m["name"] in KEEP]
-    doc["steps"] = 600
-    doc.pop("figures", None)
-    path = tmp_path_factory.mktemp("stop") / "small.toml"
-    path.write_text(tomli_w.dumps(doc))
-    return path
+    return seed000_copy(tmp_path_factory.mktemp("stop") / "small.toml", KEEP)
 
 
 def test_parts_equal_the_whole_and_the_rule_stops_at_its_target(small):

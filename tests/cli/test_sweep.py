@@ -8,19 +8,17 @@ apart); a bad key is one line naming it, exit 2, nothing written.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import replace
 
 import numpy as np
 import pytest
-import tomli_w
 import xarray as xr
+from seed000_copy import seed000_copy
 
 from ftnav.cli import main
 from ftnav.eval.evaluate import evaluate
 from ftnav.eval.montecarlo import run_scenario
 from ftnav.io.scenario_file import load_scenario
-from ftnav.scenarios import builtin_path
 from ftnav.sweep import SweepError, grid, parse_set
 
 KEEP = ("ckf", "fkf-inverse-trace-chi2", "fkf-inverse-trace-cusum")
@@ -29,14 +27,7 @@ SIZES = (5, 10, 20, 40, 80)
 
 @pytest.fixture(scope="module")
 def small(tmp_path_factory):
-    """seed000 with three methods (two detectors), 600 epochs, no figure specs."""
-    doc = tomllib.loads(builtin_path("seed000").read_text())
-    doc["methods"] = [m for m in doc["methods"] if m["name"] in KEEP]
-    doc["steps"] = 600
-    doc.pop("figures", None)
-    path = tmp_path_factory.mktemp("sweep") / "small.toml"
-    path.write_text(tomli_w.dumps(doc))
-    return path
+    return seed000_copy(tmp_path_factory.mktemp("sweep") / "small.toml", KEEP)
 
 
 @pytest.fixture(scope="module")
