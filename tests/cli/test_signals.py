@@ -26,12 +26,25 @@ pytestmark = pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs /
 LONG = SMALL.replace("steps = 60", "steps = 5000")
 
 
+def _default_interrupts() -> None:
+    """In the child before exec: SIGINT and SIGQUIT back to their default action.
+
+    A test run started in the background by a non-interactive shell (``make test &``,
+    CI runners) inherits SIGINT ignored, and Python then keeps it ignored (POSIX), so
+    ``ftnav`` would be right to ignore the Ctrl-C this test sends.  The test is about
+    a Ctrl-C from a terminal, so it gives the command a terminal's dispositions.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGQUIT, signal.SIG_DFL)
+
+
 def _ftnav(*args: str | Path) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [sys.executable, "-m", "ftnav.cli", *map(str, args)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_default_interrupts,  # noqa: PLW1509 (no threads started by then)
     )
 
 
