@@ -56,7 +56,7 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from tqdm import tqdm
@@ -65,7 +65,7 @@ from ftnav import __version__
 from ftnav.engine.driver import Diverged
 from ftnav.eval import resources
 from ftnav.eval.evaluate import evaluate, metrics_to_json
-from ftnav.eval.montecarlo import build_filters, run_scenario
+from ftnav.eval.montecarlo import ScenarioResult, build_filters, join_results, run_scenario
 from ftnav.eval.resources import (
     format_bytes,
     kernels_compiled,
@@ -83,6 +83,14 @@ from ftnav.io.profile_file import resolve_profile
 from ftnav.io.recording_file import recording_json_schema
 from ftnav.io.results import write_estimates, write_metrics
 from ftnav.io.scenario_file import load_scenario, scenario_json_schema
+from ftnav.io.shards import (
+    SHARD,
+    ShardHeader,
+    check_shards,
+    read_shard,
+    scenario_digest,
+    write_shard,
+)
 from ftnav.io.solution_file import (
     write_solution_csv,
     write_trace_netcdf,
@@ -203,6 +211,26 @@ _positive = _at_least(1)
 _seed = _at_least(0)
 
 
+class _Runs(NamedTuple):
+    """``--runs`` of ``ftnav run``: runs ``first .. first + count - 1``; ``shard``: given as
+    A:B (a shard of a campaign, written with shard.npz for ``ftnav merge``)."""
+
+    first: int
+    count: int
+    shard: bool = False
+
+
+def _run_range(text: str) -> _Runs:
+    """``--runs``: N (runs 0..N-1) or a shard A:B (runs A..B-1, ``ftnav merge``)."""
+    if ":" not in text:
+        return _Runs(0, _positive(text))
+    a, _, b = text.partition(":")
+    first, end = _seed(a), _positive(b)
+    if end <= first:
+        raise argparse.ArgumentTypeError(f"shard {text!r}: B must be greater than A")
+    return _Runs(first, end - first, True)
+
+
 def _seconds(strict: bool):
     """argparse type: a finite number of seconds, > 0 (``strict``) or >= 0."""
 
@@ -260,7 +288,14 @@ def _parser() -> _Parser:
 
     r = command("run", help="run a scenario's methods over Monte Carlo runs")
     r.add_argument("scenario", help="built-in scenario name (see `ftnav list`) or a TOML path")
-    r.add_argument("--runs", type=_positive, default=100, help="Monte Carlo runs (default 100)")
+    r.add_argument(
+        "--runs",
+        type=_run_range,
+        default=_Runs(0, 100),
+        metavar="N|A:B",
+        help="Monte Carlo runs (default 100); A:B runs A..B-1 only and writes shard.npz "
+        "for 'ftnav merge' (a job array's shard)",
+    )
     r.add_argument("--seed", type=_seed, default=1, help="root random seed (default 1)")
     r.add_argument(
         "--out",
@@ -298,6 +333,15 @@ def _parser() -> _Parser:
         metavar="tcp://HOST:PORT",
         help="run the batches on this Dask scheduler's workers (pip install 'ftnav[cluster]'; "
         "docs/campaigns.md); the results do not depend on it",
+    )
+    g = command("merge", help="merge the shards of 'ftnav run --runs A:B' into one campaign")
+    g.add_argument("shards", nargs="+", type=_out_path, help="output folders of the shards")
+    g.add_argument("--out", type=_out_path, required=True, help="output folder of the campaign")
+    g.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    g.add_argument(
+        "--save-estimates",
+        action="store_true",
+        help="also write estimates.nc (NetCDF) with every estimate",
     )
     w = command("sweep", help="a Monte Carlo campaign at every point of a grid of settings")
     w.add_argument("scenario", help="built-in scenario name or a TOML path")
@@ -614,52 +658,70 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_run(args) -> int:
+    first_run, n_runs, shard = args.runs
     with _checking():
         sc = _resolve(args.scenario)
         out = args.out if args.out is not None else Path("results") / sc.name
-        output = _claim(out, folder=True, names=["metrics.json", "report.md"])
+        names = ["metrics.json", "report.md"] + ([SHARD] if shard else [])
+        output = _claim(out, folder=True, names=names)
         workers = default_workers() if args.workers is None else args.workers
         target = None
         if args.until is not None:
+            if shard:
+                raise UsageError("--until: a shard (--runs A:B) has a fixed set of runs")
             target = parse_target(args.until, [m.name for m in sc.methods])
             check_target(target, sc)
         elif args.max_runs is not None:
             raise UsageError("--max-runs: it bounds --until, which is not given")
-        max_runs = args.max_runs or 10 * args.runs
-        if max_runs < args.runs:
-            raise UsageError(f"--max-runs: {max_runs} is fewer than --runs {args.runs}")
-        most = args.runs if target is None else max_runs
+        max_runs = args.max_runs or 10 * n_runs
+        if max_runs < n_runs:
+            raise UsageError(f"--max-runs: {max_runs} is fewer than --runs {n_runs}")
+        most = n_runs if target is None else max_runs
         _check_memory(sc, most, save_estimates=args.save_estimates, workers=workers)
         _build_filters(sc)
+        header = None
+        if shard:
+            path = _scenario_path(args.scenario)
+            header = ShardHeader(
+                sc.name,
+                str(path.resolve()),
+                scenario_digest(path),
+                args.seed,
+                first_run,
+                n_runs,
+                tuple(m.name for m in sc.methods),
+            )
     integrated = _integrated(sc)
     kind = "integrated" if integrated else "linear"
     _compile_note(kind, args.quiet)
     # one unit per method and epoch (the fault-free twin runs in the same batch)
     total = len(sc.methods) * sc.steps
     t0 = time.perf_counter()
+    runs_text = f"{first_run}:{first_run + n_runs}" if shard else str(n_runs)
     with tqdm(
         total=None if target is not None else total,
         disable=True if args.quiet else None,
         unit="epoch",
-        desc=f"{sc.name} x{args.runs}" + (f" until {target.text}" if target else ""),
+        desc=f"{sc.name} x{runs_text}" + (f" until {target.text}" if target else ""),
         file=sys.stderr,
         mininterval=0.5,
     ) as bar:
         if target is None:
             result = run_scenario(
                 sc,
-                args.runs,
+                n_runs,
                 args.seed,
                 progress=bar.update,
                 workers=workers,
                 scheduler=args.scheduler,
+                first_run=first_run,
             )
         else:
             stopped = run_until(
                 sc,
                 args.seed,
                 target,
-                args.runs,
+                n_runs,
                 max_runs,
                 workers=workers,
                 progress=bar.update,
@@ -670,23 +732,75 @@ def _cmd_run(args) -> int:
     second = None
     if integrated and sc.test_profile is not None:
         # learned methods are also scored on a flight they were not trained on
-
-        sc2 = replace(
-            sc, name=f"{sc.name}@{sc.test_profile.name}", profile=sc.test_profile, test_profile=None
-        )
+        sc2 = _second_scenario(sc)
         with tqdm(
             total=len(sc2.methods) * sc2.steps,
             disable=True if args.quiet else None,
             unit="epoch",
-            desc=f"{sc2.name} x{runs}",
+            desc=f"{sc2.name} x{runs_text}",
             file=sys.stderr,
             mininterval=0.5,
         ) as bar:
-            result2 = run_scenario(sc2, runs, args.seed, progress=bar.update, workers=workers)
-        second = (result2, evaluate(result2))
+            second = run_scenario(
+                sc2, runs, args.seed, progress=bar.update, workers=workers, first_run=first_run
+            )
     elapsed = time.perf_counter() - t0
     mark_kernels_compiled(kind)
+    extra: dict[str, Any] = {}
+    stop_line = None
+    if target is not None:
+        i = stopped.interval
+        extra["stopping"] = {
+            "until": target.text,
+            "max_runs": max_runs,
+            "runs": runs,
+            "parts": stopped.parts,
+            "reached": stopped.reached,
+            "value": i.value,
+            "lo": i.lo,
+            "hi": i.hi,
+            "half_width": i.half_width,
+            "target_half_width": target.half_width(i),
+        }
+        stop_line = (
+            f"--until {target.text}: "
+            + ("reached" if stopped.reached else f"NOT reached within --max-runs {max_runs}")
+            + f" after {runs} runs in {stopped.parts} part(s): {i.value:.4g} "
+            f"[{i.lo:.4g}, {i.hi:.4g}], half-width {i.half_width:.3g} "
+            f"(target {target.half_width(i):.3g})"
+        )
+    if shard:
+        extra["shard"] = {"first_run": first_run, "runs": n_runs}
+    return _write_run(
+        args, out, output, result, second, elapsed, extra, stop_line, header, first_run
+    )
+
+
+def _second_scenario(sc):
+    """The scenario on its test flight (learned methods scored off their training flight)."""
+    return replace(
+        sc, name=f"{sc.name}@{sc.test_profile.name}", profile=sc.test_profile, test_profile=None
+    )
+
+
+def _write_run(
+    args,
+    out: Path,
+    output: Output,
+    result,
+    second_result,
+    elapsed: float | None,
+    extra: dict[str, Any],
+    stop_line: str | None,
+    header: ShardHeader | None,
+    first_run: int,
+) -> int:
+    """Score a campaign and write its folder (``run`` and ``merge``): metrics.json,
+    report.md, the figures, estimates.nc and a shard's shard.npz; print its tables."""
+    sc, runs = result.scenario, result.runs
+    integrated = _integrated(sc)
     metrics = evaluate(result)
+    second = None if second_result is None else (second_result, evaluate(second_result))
     claims = check_claims(result, metrics, second)
     with output.staged() as stage:
         figures = []
@@ -694,43 +808,30 @@ def _cmd_run(args) -> int:
             if integrated:
                 from ftnav.plot.integrated import save_integrated
 
-                second_run = second[0] if second is not None else None
-                figures = [p.name for p in save_integrated(result, stage, second_run)]
+                figures = [p.name for p in save_integrated(result, stage, second_result)]
             else:
                 from ftnav.plot.figures import save_all
 
                 figures = [p.name for p in save_all(result, stage)]
         doc = metrics_to_json(result, metrics, claims)
+        if first_run:
+            doc["first_run"] = first_run
         if second is not None:
             doc["second_trajectory"] = metrics_to_json(*second)
-        stop_line = None
-        if target is not None:
-            i = stopped.interval
-            doc["stopping"] = {
-                "until": target.text,
-                "max_runs": max_runs,
-                "runs": runs,
-                "parts": stopped.parts,
-                "reached": stopped.reached,
-                "value": i.value,
-                "lo": i.lo,
-                "hi": i.hi,
-                "half_width": i.half_width,
-                "target_half_width": target.half_width(i),
-            }
-            stop_line = (
-                f"--until {target.text}: "
-                + ("reached" if stopped.reached else f"NOT reached within --max-runs {max_runs}")
-                + f" after {runs} runs in {stopped.parts} part(s): {i.value:.4g} "
-                f"[{i.lo:.4g}, {i.hi:.4g}], half-width {i.half_width:.3g} "
-                f"(target {target.half_width(i):.3g})"
-            )
+        doc.update(extra)
         write_metrics(doc, stage / "metrics.json")
         (stage / "report.md").write_text(markdown_report(result, metrics, claims, figures))
         written = ["metrics.json", "report.md", *figures]
+        if header is not None:
+            write_shard(stage / SHARD, header, result, second_result)
+            written.append(SHARD)
         if args.save_estimates:
             written += [p.name for p in write_estimates(result, stage)]
-    print(f"{sc.name}: {runs} runs, seed {args.seed}, {len(sc.methods)} methods, {elapsed:.1f} s")
+    first = f"runs {first_run}:{first_run + runs}" if first_run else f"{runs} runs"
+    took = (
+        f"{elapsed:.1f} s" if elapsed is not None else f"merged from {len(extra['merged'])} shards"
+    )
+    print(f"{sc.name}: {first}, seed {result.seed}, {len(sc.methods)} methods, {took}")
     if stop_line is not None:
         print(stop_line)
     print(results_table(result, metrics))
@@ -744,13 +845,58 @@ def _cmd_run(args) -> int:
     for c in claims:
         if c.get("checked", True):
             verdict = {True: "holds", False: "DOES NOT HOLD", None: "undecided"}[c["holds"]]
-            extra = f" ({c['note']})" if c["holds"] is None and c.get("intervals") else ""
-            print(f"[{verdict}] {c['source']}: {c['claim']}{extra}")
+            note = f" ({c['note']})" if c["holds"] is None and c.get("intervals") else ""
+            print(f"[{verdict}] {c['source']}: {c['claim']}{note}")
         else:
             print(f"[not checked] {c['source']}: {c['claim']} ({c['note']})")
     print(f"Results written to {out}/: {', '.join(written)}")
     _integrity_warnings(m.integrity for m in metrics.values())
     return 0
+
+
+def _cmd_merge(args) -> int:
+    with _checking():
+        output = _claim(args.out, folder=True, names=["metrics.json", "report.md"])
+        loaded = []
+        for folder in args.shards:
+            path = folder / SHARD if folder.is_dir() else folder
+            if not path.exists():
+                raise UsageError(f"shards: {folder}: no {SHARD} (run with --runs A:B)")
+            try:
+                loaded.append((str(folder), *read_shard(path)))
+            except ValueError as e:
+                raise UsageError(f"shards: {e}") from None
+        try:
+            order = check_shards([(w, h) for w, h, _ in loaded])
+        except ValueError as e:
+            raise UsageError(f"shards: {e}") from None
+        where, h0, _ = loaded[order[0]]
+        path = Path(h0.scenario_path)
+        if not path.exists() or scenario_digest(path) != h0.scenario_sha256:
+            state = "changed since" if path.exists() else "gone since"
+            raise UsageError(f"shards: the scenario file {path} has {state} {where} was run")
+        sc = _resolve(str(path))
+    sc2 = _second_scenario(sc) if _integrated(sc) and sc.test_profile is not None else None
+
+    def joined(scenario, which: int):
+        parts = [
+            ScenarioResult(
+                scenario, loaded[i][1].runs, h0.seed, loaded[i][2][which], loaded[i][2][which + 1]
+            )
+            for i in order
+        ]
+        return join_results(parts)
+
+    result = joined(sc, 0)
+    second = joined(sc2, 2) if sc2 is not None and len(loaded[order[0]][2]) == 4 else None
+    first = h0.first_run
+    extra = {
+        "merged": [
+            {"shard": loaded[i][0], "first_run": loaded[i][1].first_run, "runs": loaded[i][1].runs}
+            for i in order
+        ]
+    }
+    return _write_run(args, args.out, output, result, second, None, extra, None, None, first)
 
 
 #: integrity findings printed before the rest is left to metrics.json
@@ -1032,6 +1178,7 @@ _COMMANDS = {
     "list": _cmd_list,
     "schema": _cmd_schema,
     "run": _cmd_run,
+    "merge": _cmd_merge,
     "sweep": _cmd_sweep,
     "trajectory": _cmd_trajectory,
     "train-detector": _cmd_train_detector,

@@ -181,6 +181,18 @@ def test_recovery_when_flag_never_clears():
     assert s.mean_recovery_s == pytest.approx((100.0 + 1.0) - 20.0)
 
 
+def test_a_fault_lasting_past_the_run_has_no_recovery():
+    # window [90, 150) in a run ending at 100: detected, but nothing to recover from
+    # (was t_end - t_off = -49 s, printed as a recovery time)
+    f = np.zeros((2, 100), dtype=bool)
+    f[:, 95:] = True
+    s = detection_stats(f, TIMES, [(90.0, 150.0), *WINDOWS], grace=10.0)
+    assert s.mean_delay_s == pytest.approx(6.0)  # first alarm at t = 96; [10, 20) missed
+    assert s.mean_recovery_s == pytest.approx(0.0)  # [10, 20)'s only: off at t = 20
+    alone = detection_stats(f, TIMES, [(90.0, 150.0)], grace=10.0)
+    assert alone.events == 2 and np.isnan(alone.mean_recovery_s)
+
+
 def test_no_windows_gives_nan_event_metrics():
     f = np.zeros((3, 100), dtype=bool)
     f[:, :2] = True

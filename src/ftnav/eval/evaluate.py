@@ -203,8 +203,16 @@ def detection_intervals(ev: DetectionEvents) -> dict[str, Interval]:
         "mean_delay_s": bootstrap_interval(delays),
         "median_delay_s": bootstrap_interval(delays, 0.5),
         "p95_delay_s": bootstrap_interval(delays, 0.95),
-        "mean_recovery_s": mean_interval(ev.recoveries.mean(1) if E else np.empty(0)),
+        "mean_recovery_s": mean_interval(_finite_mean(ev.recoveries)),
     }
+
+
+def _finite_mean(x: np.ndarray) -> np.ndarray:
+    """(B,) mean over the finite values of each run's row of ``x`` (NaN where none)."""
+    ok = np.isfinite(x)
+    n = ok.sum(1)
+    total = np.where(ok, x, 0.0).sum(1)
+    return np.divide(total, n, out=np.full(x.shape[0], np.nan), where=n > 0)
 
 
 def _compared(res: MethodResult) -> np.ndarray:

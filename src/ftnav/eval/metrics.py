@@ -281,7 +281,8 @@ class DetectionStats(NamedTuple):
     mean_recovery_s : float
         Mean over events of all runs of the time in s from ``t_off`` until the
         flag is first False at an epoch ``>= t_off``; if it never clears, the
-        time ``(times[-1] + dt) - t_off`` is used; ``nan`` if no events.
+        time ``(times[-1] + dt) - t_off`` is used; events that last to the end of
+        the run have no recovery and are left out; ``nan`` if no events remain.
     events : int
         Number of fault events times number of runs.
     """
@@ -326,7 +327,8 @@ class DetectionEvents(NamedTuple):
     clean_alarms : (B,) alarmed clean epochs of each run (:class:`DetectionStats`).
     clean_epochs : clean epochs of one run.
     delays : (B, E) detection delay in s of each run's E events, NaN where missed.
-    recoveries : (B, E) recovery time in s of each event (:class:`DetectionStats`).
+    recoveries : (B, E) recovery time in s of each event (:class:`DetectionStats`);
+        NaN for an event that lasts to the end of the run (nothing to recover from).
     dt : the epoch spacing in s.
     """
 
@@ -377,7 +379,9 @@ def detection_events(
         # Recovery: first epoch at/after t_off where the flag is False.
         after = times >= t_off
         cleared = ~flags[:, after]  # (B, Ka)
-        if cleared.shape[1] == 0:
+        if t_off >= t_end:  # the fault lasts to the end of the run: no recovery to time
+            rec = np.full(B, np.nan)
+        elif cleared.shape[1] == 0:
             rec = np.full(B, t_end - t_off)
         else:
             first_clear = np.argmax(cleared, axis=1)
@@ -449,6 +453,7 @@ def summarize_detection(ev: DetectionEvents) -> DetectionStats:
     else:
         mean_d = med_d = p95_d = float("nan")
     rec = np.ascontiguousarray(ev.recoveries.T)  # window by window, as pooled before
+    rec = rec[np.isfinite(rec)]  # a fault lasting to the end of the run has no recovery
     mean_rec = float(rec.mean()) if rec.size else float("nan")
     return DetectionStats(
         rate=rate,

@@ -1,0 +1,126 @@
+"""Shards of a campaign (issue 23 item 5): ``ftnav run --runs A:B`` and ``ftnav merge``.
+
+Oracle: the campaign run at once.  Run ``i`` depends on the root seed and ``i`` only,
+so shards merged must give the whole campaign's ``metrics.json`` exactly (every RMSE,
+ANEES, detection number, interval and claim), for a linear scenario through the CLI
+and for an integrated one (guard, local filters, VB noise) through the shard file.
+Merging shards that do not make one campaign is refused in one line, exit 2.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from seed000_copy import seed000_copy
+
+from ftnav.cli import main
+from ftnav.eval.evaluate import evaluate
+from ftnav.eval.montecarlo import ScenarioResult, join_results, run_scenario
+from ftnav.io.scenario_file import load_scenario
+from ftnav.io.shards import SHARD, ShardHeader, read_shard, write_shard
+from ftnav.scenarios import builtin_path
+
+KEEP = ("ckf", "fkf-inverse-trace-chi2", "fkf-inverse-trace-cusum")
+FAST = ["--no-figures", "--quiet", "--workers", "1"]
+
+
+@pytest.fixture(scope="module")
+def shards(tmp_path_factory):
+    root = tmp_path_factory.mktemp("shards")
+    sc = seed000_copy(root / "small.toml", KEEP, steps=400)
+    for runs, out in (("0:2", "a"), ("2:5", "b"), ("5", "whole")):
+        assert main(["run", str(sc), "--runs", runs, "--out", str(root / out), *FAST]) == 0
+    return root, sc
+
+
+def _doc(path):
+    return json.loads((path / "metrics.json").read_text())
+
+
+def test_shards_merged_equal_the_whole_run(shards):
+    root, _ = shards
+    assert (root / "a" / SHARD).exists() and not (root / "whole" / SHARD).exists()
+    merge = ["merge", str(root / "b"), str(root / "a"), "--out", str(root / "m"), "--no-figures"]
+    assert main(merge) == 0
+    merged, whole = _doc(root / "m"), _doc(root / "whole")
+    assert [s["first_run"] for s in merged.pop("merged")] == [0, 2]
+    assert merged == whole
+    assert (root / "m" / "report.md").read_text() == (root / "whole" / "report.md").read_text()
+
+
+@pytest.mark.parametrize(
+    ("folders", "says"),
+    [
+        (["a", "a"], "overlap"),
+        (["b"], None),  # one shard alone is a campaign of its runs (2..4)
+        (["a", "gap"], "are in no shard"),
+        (["a", "seed"], "another seed"),
+        (["a", "whole"], "no shard.npz"),
+    ],
+)
+def test_shards_that_are_not_one_campaign_are_refused(shards, folders, says, capsys):
+    root, sc = shards
+    extra = {"gap": ("3:5", []), "seed": ("2:3", ["--seed", "7"])}
+    for f in folders:
+        if f in extra and not (root / f).exists():
+            runs, more = extra[f]
+            main(["run", str(sc), "--runs", runs, "--out", str(root / f), *FAST, *more])
+    capsys.readouterr()
+    out = root / f"m-{'-'.join(folders)}"
+    code = main(["merge", *(str(root / f) for f in folders), "--out", str(out)])
+    err = capsys.readouterr().err
+    if says is None:
+        assert code == 0 and _doc(out)["first_run"] == 2 and _doc(out)["runs"] == 3
+        return
+    assert code == 2 and says in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_a_changed_scenario_file_is_refused(tmp_path, capsys):
+    sc = seed000_copy(tmp_path / "s.toml", KEEP[:1], steps=400)
+    assert main(["run", str(sc), "--runs", "0:1", "--out", str(tmp_path / "a"), *FAST]) == 0
+    sc.write_text(sc.read_text().replace("steps = 400", "steps = 401"))
+    capsys.readouterr()
+    assert main(["merge", str(tmp_path / "a"), "--out", str(tmp_path / "m")]) == 2
+    assert "has changed since" in capsys.readouterr().err
+
+
+def test_runs_a_to_b_must_be_a_range(tmp_path, capsys):
+    sc = seed000_copy(tmp_path / "s.toml", KEEP[:1], steps=400)
+    assert main(["run", str(sc), "--runs", "3:3", "--out", str(tmp_path / "a")]) == 2
+    assert "B must be greater than A" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists()
+
+
+def test_an_integrated_shard_file_round_trips_and_joins_to_the_whole(tmp_path):
+    sc = load_scenario(builtin_path("seed002"))
+    keep = tuple(m for m in sc.methods if m.name in ("ckf", "fkf-chi2", "dkf-vb"))
+    sc = replace(sc, steps=90, methods=keep)
+    names = tuple(m.name for m in keep)
+    parts = []
+    for first, runs in ((0, 1), (1, 2)):
+        path = tmp_path / f"{first}.npz"
+        header = ShardHeader(sc.name, "x", "0" * 64, 1, first, runs, names)
+        write_shard(path, header, run_scenario(sc, runs, 1, first_run=first))
+        got, (results, fault_free) = read_shard(path)
+        assert got == header
+        parts.append(ScenarioResult(sc, runs, 1, results, fault_free))
+    joined, whole = join_results(parts), run_scenario(sc, 3, 1)
+    for which in ("results", "fault_free"):
+        a, b = getattr(joined, which), getattr(whole, which)
+        assert list(a) == list(b)
+        for name in a:
+            for field, x, y in zip(a[name]._fields, a[name], b[name], strict=True):
+                if isinstance(y, tuple):
+                    assert len(x) == len(y), field
+                    for u, v in zip(x, y, strict=True):
+                        np.testing.assert_array_equal(u, v, err_msg=field)
+                elif y is None:
+                    assert x is None, field
+                else:
+                    np.testing.assert_array_equal(x, y, err_msg=field)
+    e1, e2 = evaluate(joined), evaluate(whole)
+    assert {n: m.rmse for n, m in e1.items()} == {n: m.rmse for n, m in e2.items()}
