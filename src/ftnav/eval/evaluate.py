@@ -212,7 +212,8 @@ def _finite_mean(x: np.ndarray) -> np.ndarray:
     ok = np.isfinite(x)
     n = ok.sum(1)
     total = np.where(ok, x, 0.0).sum(1)
-    return np.divide(total, n, out=np.full(x.shape[0], np.nan), where=n > 0)
+    out: np.ndarray = np.divide(total, n, out=np.full(x.shape[0], np.nan), where=n > 0)
+    return out
 
 
 def _compared(res: MethodResult) -> np.ndarray:
