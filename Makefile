@@ -7,7 +7,7 @@ RUNS   ?= 100
 SEED   ?= 1
 OUT    ?= results/seed000
 
-.PHONY: demo test test-all lint bench clean
+.PHONY: demo test test-all lint bench clean browser
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -17,9 +17,17 @@ $(VENV)/.installed: pyproject.toml
 
 demo: $(VENV)/.installed
 	$(VENV)/bin/ftnav run seed000 --runs $(RUNS) --seed $(SEED) --out $(OUT)
-	@echo "Results are in $(OUT)/ (metrics.json, figures *.png, report.md)"
+	@echo "Results are in $(OUT)/ (report.html, metrics.json, figures *.png, report.md)"
 
-test: $(VENV)/.installed
+# Debian's chromium for the report.html test (tests/cli/test_html_report.py); where it
+# cannot be installed (no root, no apt) the test is skipped and says why
+browser:
+	@command -v chromium >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+	  && (apt-get install -y -q chromium >/dev/null 2>&1 || \
+	      (apt-get update -q >/dev/null 2>&1 && apt-get install -y -q chromium >/dev/null 2>&1)) \
+	  || echo "make: chromium not installed: the report.html browser test will be skipped"; }
+
+test: $(VENV)/.installed browser
 	$(VENV)/bin/ruff check src tests benchmarks
 	$(VENV)/bin/ruff format --check src tests benchmarks
 	$(PY) -m mypy

@@ -100,10 +100,10 @@ from ftnav.io.solution_file import (
 from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
 from ftnav.model.imu import imu_preset
 from ftnav.parallel import default_workers
-from ftnav.pipeline import Outages, prepare_recording
+from ftnav.pipeline import Outages, prepare_recording, resolve_recording
 from ftnav.recordings import recording_names
 from ftnav.report.claims import check_claims
-from ftnav.report.recorded import recording_metrics, recording_table
+from ftnav.report.recorded import recording_metrics, recording_report, recording_table
 from ftnav.report.summary import detector_table, markdown_report, results_table
 from ftnav.scenarios import builtin_names, builtin_path
 from ftnav.sim.fault_family import fault_variants
@@ -618,7 +618,7 @@ def _cmd_sweep(args) -> int:
         points = grid(source, axes)
         sc = points[0][1]
         out = args.out if args.out is not None else Path("results") / f"{sc.name}-sweep"
-        output = _claim(out, folder=True, names=["sweep.nc", "report.md"])
+        output = _claim(out, folder=True, names=["sweep.nc", "report.md", "report.html"])
         workers = default_workers() if args.workers is None else args.workers
         _check_memory(sc, args.runs, workers=workers)
         for _, point in points:
@@ -651,6 +651,10 @@ def _cmd_sweep(args) -> int:
             figures = [p.name for p in save_sweep_figures(ds, stage)]
         (stage / "report.md").write_text(sweep_report(ds, command, figures))
         written = ["sweep.nc", "report.md", *figures]
+        title = f"ftnav sweep: {sc.name}"
+        table = ("sweep.nc", ds.to_dataframe().dropna(how="all").to_csv())
+        sources = [("Scenario swept", source)]
+        written.append(_write_html(stage, args, title, sources, args.seed, table))
     print(f"{sc.name}: {len(points)} points x {args.runs} runs, seed {args.seed}, {elapsed:.1f} s")
     print(sweep_table(ds))
     print(f"Results written to {out}/: {', '.join(written)}")
@@ -662,7 +666,7 @@ def _cmd_run(args) -> int:
     with _checking():
         sc = _resolve(args.scenario)
         out = args.out if args.out is not None else Path("results") / sc.name
-        names = ["metrics.json", "report.md"] + ([SHARD] if shard else [])
+        names = ["metrics.json", "report.md", "report.html"] + ([SHARD] if shard else [])
         output = _claim(out, folder=True, names=names)
         workers = default_workers() if args.workers is None else args.workers
         target = None
@@ -771,8 +775,9 @@ def _cmd_run(args) -> int:
         )
     if shard:
         extra["shard"] = {"first_run": first_run, "runs": n_runs}
+    source = _scenario_path(args.scenario)
     return _write_run(
-        args, out, output, result, second, elapsed, extra, stop_line, header, first_run
+        args, out, output, result, second, elapsed, extra, stop_line, header, first_run, source
     )
 
 
@@ -794,6 +799,7 @@ def _write_run(
     stop_line: str | None,
     header: ShardHeader | None,
     first_run: int,
+    source: Path,
 ) -> int:
     """Score a campaign and write its folder (``run`` and ``merge``): metrics.json,
     report.md, the figures, estimates.nc and a shard's shard.npz; print its tables."""
@@ -825,6 +831,8 @@ def _write_run(
         if header is not None:
             write_shard(stage / SHARD, header, result, second_result)
             written.append(SHARD)
+        title = f"ftnav run: {sc.name}"
+        written.append(_write_html(stage, args, title, [("Scenario as run", source)], result.seed))
         if args.save_estimates:
             written += [p.name for p in write_estimates(result, stage)]
     first = f"runs {first_run}:{first_run + runs}" if first_run else f"{runs} runs"
@@ -854,9 +862,46 @@ def _write_run(
     return 0
 
 
+def _write_html(
+    stage: Path,
+    args,
+    title: str,
+    sources: list[tuple[str, Path]],
+    seed: int | None,
+    data: tuple[str, str] | None = None,
+) -> str:
+    """``report.html`` beside ``report.md`` in ``stage`` (:mod:`ftnav.report.html`): the
+    report with its figures embedded, the files as run, metrics.json, version and
+    command."""
+    from ftnav.report.html import html_report
+
+    md = (stage / "report.md").read_text()
+    texts = []
+    for heading, path in sources:
+        try:
+            texts.append((f"{heading}: {path.name}", path.read_text()))
+        except (OSError, UnicodeDecodeError) as e:
+            texts.append((f"{heading}: {path.name}", f"(not readable now: {e})"))
+    metrics = stage / "metrics.json"
+    if data is None and metrics.exists():
+        data = ("metrics.json", metrics.read_text())
+    command = "ftnav " + " ".join(getattr(args, "argv", []))
+    footer = f"ftnav {__version__}" + ("" if seed is None else f" · root seed {seed}")
+    page = html_report(
+        md,
+        stage,
+        title=title,
+        sources=texts,
+        data=data,
+        footer=f"{footer} · `{command}`",
+    )
+    (stage / "report.html").write_text(page)
+    return "report.html"
+
+
 def _cmd_merge(args) -> int:
     with _checking():
-        output = _claim(args.out, folder=True, names=["metrics.json", "report.md"])
+        output = _claim(args.out, folder=True, names=["metrics.json", "report.md", "report.html"])
         loaded = []
         for folder in args.shards:
             path = folder / SHARD if folder.is_dir() else folder
@@ -896,7 +941,7 @@ def _cmd_merge(args) -> int:
             for i in order
         ]
     }
-    return _write_run(args, args.out, output, result, second, None, extra, None, None, first)
+    return _write_run(args, args.out, output, result, second, None, extra, None, None, first, path)
 
 
 #: integrity findings printed before the rest is left to metrics.json
@@ -940,7 +985,8 @@ def _cmd_process(args) -> int:
         )
         if args.smooth:
             solutions += [n.replace("solution", "smoothed", 1) for n in solutions]
-        fixed = ["metrics.json", "trace.nc", "track.geojson", "track.kml"]
+        fixed = ["metrics.json", "trace.nc", "track.geojson", "track.kml", "report.md"]
+        fixed.append("report.html")
         output = _claim(out, folder=True, names=[*solutions, *fixed])
     loaded = prepared.loaded
     for note in loaded.warnings:  # after every check: a refusal comes alone
@@ -972,9 +1018,19 @@ def _cmd_process(args) -> int:
             from ftnav.plot.recorded import save_recording_figures
 
             written += [p.name for p in save_recording_figures(loaded, result.traces, stage)]
-        written.append("metrics.json")
+        figures = [w for w in written if w.endswith(".png")]
+        written += ["metrics.json", "report.md", "report.html"]
         doc = recording_metrics(loaded, result.scores, result.elapsed_s, written)
         write_metrics(doc, stage / "metrics.json")
+        findings = [
+            line
+            for m in result.scores.values()
+            for line in (m.get("integrity") or {}).get("findings", ())
+        ]
+        (stage / "report.md").write_text(recording_report(loaded, result.scores, figures, findings))
+        source = resolve_recording(args.recording)
+        title = f"ftnav process: {rec.name}"
+        _write_html(stage, args, title, [("Recording as run", source)], None)
     print(
         f"{rec.name}: {rec.steps} epochs of {rec.dt:.4g} s from {rec.t_start:.3f} s, "
         f"{len(rec.methods)} methods"
@@ -1227,6 +1283,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         parser = _parser()
         args = parser.parse_args(argv)
+        args.argv = list(sys.argv[1:] if argv is None else argv)
         debug = args.debug
         if args.command is None:
             parser.print_help(sys.stderr)

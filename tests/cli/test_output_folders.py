@@ -183,12 +183,14 @@ def test_rerun_with_fewer_outputs_leaves_no_stale_file(inputs, tmp_path, capsys)
     assert {p.name for p in out.iterdir()} == {
         "metrics.json",
         "report.md",
+        "report.html",
         MANIFEST,
         "notes.txt",
         "mine.png",
     }
     assert (out / "notes.txt").read_text() == "my notes"
-    assert json.loads((out / MANIFEST).read_text())["files"] == ["metrics.json", "report.md"]
+    files = json.loads((out / MANIFEST).read_text())["files"]
+    assert sorted(files) == ["metrics.json", "report.html", "report.md"]
     assert "Results written to" in capsys.readouterr().out
 
 

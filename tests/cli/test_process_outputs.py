@@ -68,6 +68,7 @@ def test_the_folder_holds_what_metrics_json_lists(processed):
     on_disk = {p.name for p in out.iterdir() if not p.name.startswith(".")}
     assert set(doc["files"]) == on_disk
     expected = {"track.geojson", "track.kml", "trace.nc", "metrics.json"}
+    expected |= {"report.md", "report.html"}
     expected |= {"track.png", "errors.png", "innovations.png"}
     expected |= {f"solution-{m}.csv" for m in METHODS}
     assert on_disk == expected

@@ -161,3 +161,22 @@ def test_separation_of_an_empty_window_is_zero():
     assert (lam == 0).all() and (dof == 0).all()
     with pytest.raises(ValueError):
         sep.separation(np.zeros((2, 3, 4)), np.zeros((2, 3, 4, 4)), np.eye(2, 5))
+
+
+@pytest.mark.parametrize("shared_H", [True, False])
+def test_compiled_map_others_equals_the_numpy_form(shared_H):
+    # the compiled low-rank form and the einsum form are the same products summed in
+    # another order: equal to rounding, with runs masked out left as they were
+    rng = np.random.default_rng(5)
+    B, A, J, n, m = 5, 3, 4, 7, 3
+    L = rng.normal(size=(B, A, J, n, n))
+    p = sep.Pulls(rng.normal(size=(B, A, J, n)), L @ np.swapaxes(L, -1, -2))
+    K = rng.normal(size=(B, n, m)) * 0.3
+    H = rng.normal(size=(m, n)) if shared_H else rng.normal(size=(B, m, n))
+    use = np.array([True, False, True, True, False])
+    for aid in range(A):
+        got, want = sep.map_others(p, aid, K, H, use), sep.map_others_numpy(p, aid, K, H, use)
+        np.testing.assert_allclose(got.c, want.c, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(got.G, want.G, rtol=1e-12, atol=1e-12)
+        assert np.array_equal(got.G, np.swapaxes(got.G, -1, -2))
+        assert np.array_equal(got.c[~use], p.c[~use]) and np.array_equal(got.c[:, aid], p.c[:, aid])

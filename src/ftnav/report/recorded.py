@@ -9,7 +9,7 @@ import numpy as np
 
 from ftnav.io.recording_file import LoadedRecording
 
-__all__ = ["recording_metrics", "recording_table"]
+__all__ = ["recording_metrics", "recording_report", "recording_table"]
 
 
 def recording_metrics(
@@ -119,3 +119,35 @@ def truth_table(truth: dict[str, dict[str, Any]]) -> str:
             f"{_f(n.get('mean'), '.1f'):>9}  {_f(n.get('fraction_inside'), '.2f'):>12}"
         )
     return "\n".join(lines)
+
+
+def recording_report(
+    loaded: LoadedRecording,
+    scores: dict[str, dict[str, Any]],
+    figures: list[str],
+    findings: list[str],
+) -> str:
+    """``report.md`` of ``ftnav process``: what was processed, the table it prints, what
+    each method watched of itself, the figures (``report.html`` is made from it)."""
+    rec = loaded.recording
+    methods = ", ".join(m.name for m in rec.methods)
+    md = [
+        f"# ftnav process: {rec.name}",
+        "",
+        f"{rec.steps} filter epochs of {rec.dt:.4g} s from {rec.t_start:.3f} s "
+        f"(the recording's time base); methods {methods}; batch of "
+        f"{loaded.stream.batch} run(s) (one per interleaved outage schedule). "
+        "Scores against the recording's reference (metrics.json names it and its point); "
+        "'pred' is the prediction before each fix, what a user sees between fixes.",
+        "",
+        "```",
+        recording_table(scores),
+        "```",
+        "",
+    ]
+    if findings:
+        md += ["## What the methods watched of themselves", ""]
+        md += [f"- {line}" for line in findings] + [""]
+    if figures:
+        md += ["## Figures", ""] + [f"![{f}]({f})" for f in figures]
+    return "\n".join(md).rstrip("\n") + "\n"
