@@ -41,8 +41,12 @@ import numpy as np
 
 from ftnav.core.linalg import JitOptions
 
-#: compiled serially, cached, GIL released (as :mod:`ftnav.core.linalg`'s kernels)
-_JIT: JitOptions = dict(cache=True, nogil=True, error_model="numpy")
+#: compiled serially, cached, GIL released, sums reassociated (as
+#: :mod:`ftnav.core.linalg`'s kernels: each run's row alone, so bit-identical for any
+#: batch split)
+_JIT: JitOptions = dict(
+    cache=True, nogil=True, error_model="numpy", fastmath={"reassoc", "contract"}
+)
 
 __all__ = [
     "Pulls",
@@ -122,6 +126,7 @@ def _map_rows(
     S = np.empty((m, m))
     KS = np.empty((n, m))
     KHG = np.empty((n, n))
+    T = np.empty((n, n))
     for b in range(B):
         if not use[b]:
             continue
@@ -141,12 +146,12 @@ def _map_rows(
                     for r in range(m):
                         s += Kb[i, r] * Hc[r]
                     cv[i] -= s
-                for r in range(m):  # H Γ
-                    for k in range(n):
-                        s = 0.0
-                        for i in range(n):
-                            s += Hb[r, i] * g[i, k]
-                        HG[r, k] = s
+                HG[:] = 0.0  # H Γ, row by row of Γ (contiguous inner loops)
+                for r in range(m):
+                    for i in range(n):
+                        h = Hb[r, i]
+                        for k in range(n):
+                            HG[r, k] += h * g[i, k]
                 for r in range(m):  # H Γ Hᵀ
                     for q in range(m):
                         s = 0.0
@@ -155,25 +160,25 @@ def _map_rows(
                         S[r, q] = s
                 for i in range(n):  # K H Γ and K (H Γ Hᵀ)
                     for k in range(n):
-                        s = 0.0
-                        for r in range(m):
-                            s += Kb[i, r] * HG[r, k]
-                        KHG[i, k] = s
+                        KHG[i, k] = 0.0
+                    for r in range(m):
+                        w = Kb[i, r]
+                        for k in range(n):
+                            KHG[i, k] += w * HG[r, k]
                     for q in range(m):
                         s = 0.0
                         for r in range(m):
                             s += Kb[i, r] * S[r, q]
                         KS[i, q] = s
-                for i in range(n):
-                    for k in range(i, n):
+                for i in range(n):  # Γ − K H Γ − (K H Γ)ᵀ + K S Kᵀ
+                    for k in range(n):
                         s = 0.0
-                        t = 0.0
                         for q in range(m):
                             s += KS[i, q] * Kb[k, q]
-                            t += KS[k, q] * Kb[i, q]
-                        u = g[i, k] - KHG[i, k] - KHG[k, i] + s
-                        v = g[k, i] - KHG[k, i] - KHG[i, k] + t
-                        g[i, k] = g[k, i] = 0.5 * (u + v)
+                        T[i, k] = g[i, k] - KHG[i, k] - KHG[k, i] + s
+                for i in range(n):
+                    for k in range(i, n):
+                        g[i, k] = g[k, i] = 0.5 * (T[i, k] + T[k, i])
 
 
 def map_others_numpy(p: Pulls, aid: int, K: np.ndarray, H: np.ndarray, use: np.ndarray) -> Pulls:
