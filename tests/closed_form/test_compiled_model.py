@@ -3,7 +3,7 @@
 Oracles: :func:`continuous_model_reference` (the spec §8.3 blocks written with NumPy
 array operations) and :func:`series_reference` (the spec §8.4 series term by term).
 The compiled kernels build the same matrices element by element (``Φ`` by Horner), so
-they must agree to rounding on random INS solutions, both state sizes and both bias
+they must agree to rounding on random INS solutions, every state size and both bias
 frames.  The reference forms themselves are checked against finite differences of the
 mechanization (``tests/finite_difference``) and against Van Loan (``test_discretize``).
 """
@@ -36,7 +36,10 @@ VARIANTS = {
         gyro_psd=1e-12, gyro_markov_sigma=1e-6, accel_markov_sigma=1e-4, bias_frame="nav"
     ),
     "15-body": ErrorModelParams(states=15, gyro_bias_rw_psd=1e-14, accel_bias_rw_psd=1e-10),
+    "21-body": ErrorModelParams(states=21, gyro_bias_rw_psd=1e-14, accel_bias_rw_psd=1e-10),
 }
+#: the body rate of :func:`nav`'s solutions (the 21-state model's scale-factor columns)
+W_B = np.random.default_rng(1).standard_normal((7, 3)) * 0.3
 
 
 def nav(B=7, seed=0):
@@ -54,12 +57,13 @@ def nav(B=7, seed=0):
 @pytest.mark.parametrize("variant", VARIANTS)
 def test_compiled_continuous_model_equals_the_numpy_form(variant):
     p = VARIANTS[variant]
-    got, ref = continuous_model(*nav(), p), continuous_model_reference(*nav(), p)
+    got = continuous_model(*nav(), p, w_b=W_B)
+    ref = continuous_model_reference(*nav(), p, w_b=W_B)
     np.testing.assert_allclose(got.F, ref.F, rtol=1e-13, atol=1e-15 * np.abs(ref.F).max())
     np.testing.assert_array_equal(got.G, ref.G)
     np.testing.assert_array_equal(got.q, ref.q)
     # scalar (unbatched) inputs keep their shape
-    one = continuous_model(*(a[0] for a in nav()), p)
+    one = continuous_model(*(a[0] for a in nav()), p, w_b=W_B[0])
     assert one.F.shape == (p.n, p.n) and one.G.shape == (p.n, 12)
     np.testing.assert_allclose(one.F, ref.F[0], rtol=1e-13, atol=1e-15 * np.abs(ref.F).max())
 
@@ -68,9 +72,9 @@ def test_compiled_continuous_model_equals_the_numpy_form(variant):
 @pytest.mark.parametrize("order", [1, 2, 5])
 def test_compiled_discrete_model_equals_the_reference_series(variant, order):
     p = VARIANTS[variant]
-    m = continuous_model_reference(*nav(), p)
+    m = continuous_model_reference(*nav(), p, w_b=W_B)
     Phi_r, Q_r = series_reference(m.F, m.GQGt, 0.7, order)
-    Phi, Q = discrete_model(*nav(), p, 0.7, "series", order)
+    Phi, Q = discrete_model(*nav(), p, 0.7, "series", order, w_b=W_B)
     np.testing.assert_allclose(Phi, Phi_r, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(Q, Q_r, rtol=1e-12, atol=1e-13 * np.abs(Q_r).max())
     np.testing.assert_array_equal(Q, np.swapaxes(Q, -1, -2))

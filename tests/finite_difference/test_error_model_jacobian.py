@@ -185,3 +185,41 @@ def test_sign_error_is_detected(points):
     F_bad = F[0].copy()
     F_bad[3:6, 15:18] *= -1.0
     assert block_errors(F_bad, fd_jacobian(truths[0], True)).max() > 1.0
+
+
+def scale_factor_rates(truth, s):
+    """ẋ of the navigation errors (9,) for the IMU of scale factors ``s = [s_g, s_a]`` (6,)
+    and no other error: ``ω̃ = (I + S_g) ω``, ``f̃ = (I + S_a) f`` (the 21-state model)."""
+    L, lam, h, v, C, f_b, w_b = truth
+    Cd, vd, pd = mechanization_rates(L, h, v, C, f_b, w_b, radii)
+    Cd_t, vd_t, pd_t = mechanization_rates(
+        L, h, v, C, f_b * (1.0 + s[3:]), w_b * (1.0 + s[:3]), radii
+    )
+    phi_dot = -vee(Cd_t @ C.T + C @ Cd.T)  # D = I at φ = 0
+    return np.concatenate([phi_dot, vd_t - vd, pd_t - pd])
+
+
+def test_scale_factor_columns_match_finite_differences():
+    """The 21-state model's s_g, s_a columns (−C_b^n diag(ω_ib^b) on φ, C_b^n diag(f^b) on
+    δv, nothing on δp) against central differences of the exact mechanization."""
+    rng = np.random.default_rng(7)
+    params = ErrorModelParams(states=21)
+    for _ in range(10):
+        truth = random_truth(rng)
+        L, lam, h, v, C, f_b, w_b = truth
+        F = continuous_model(L, lam, h, v, f_b, C, params, w_b=w_b).F
+        J = np.empty((9, 6))
+        for j in range(6):
+            e = np.zeros(6)
+            e[j] = 1e-4
+            J[:, j] = (scale_factor_rates(truth, e) - scale_factor_rates(truth, -e)) / 2e-4
+        np.testing.assert_allclose(F[:9, 15:21], J, rtol=1e-7, atol=1e-9 * np.abs(J).max())
+        assert np.all(F[15:21] == 0.0)  # random constants
+        # the other columns are the 15-state model's
+        np.testing.assert_array_equal(
+            F[:15, :15], continuous_model(L, lam, h, v, f_b, C, ErrorModelParams(states=15)).F
+        )
+    with pytest.raises(ValueError, match="w_b"):
+        continuous_model(L, lam, h, v, f_b, C, params)
+    with pytest.raises(ValueError, match="bias_frame"):
+        ErrorModelParams(states=21, bias_frame="nav")

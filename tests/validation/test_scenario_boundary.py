@@ -418,5 +418,10 @@ def test_an_integer_choice_is_named_in_the_refusal(tmp_path):
     text = builtin_path("seed002").read_text().replace("states = 18", "states = 7", 1)
     path = tmp_path / "s.toml"
     path.write_text(text)
-    with pytest.raises(ScenarioError, match=r"expected one of: 18, 15\)$"):
+    with pytest.raises(ScenarioError, match=r"expected one of: 18, 15, 21\)$"):
         load_scenario(path)
+
+
+def test_scale_factor_states_need_the_body_frame():
+    err = _refused_integrated("[filter]", '[filter]\nstates = 21\nbias_frame = "nav"')
+    assert "filter.states" in err and "bias_frame 'body'" in err

@@ -68,7 +68,9 @@ class InsModelState(NamedTuple):
     shift: np.ndarray | None
     bias: np.ndarray | None = None
     """(rows, 6) the IMU biases fed back so far, gyro ε̂ (rad/s) then accelerometer ∇̂
-    (m/s²), body frame, subtracted from the increments (``bias_compensation``), or None."""
+    (m/s²), body frame, subtracted from the increments (``bias_compensation``); (rows,
+    12) with the 21-state model: then the gyro and accelerometer scale factors ŝ_g, ŝ_a
+    (the increments are divided by ``1 + ŝ``); or None."""
 
 
 def _rows(rows: np.ndarray, a: np.ndarray) -> np.ndarray:
@@ -83,6 +85,17 @@ def _pick(rows: np.ndarray, a: InsState, b: InsState) -> InsState:
 
 def _tile(a: np.ndarray, M: int) -> np.ndarray:
     return a if M == 1 else np.concatenate([a] * M, 0)
+
+
+def _common(H: np.ndarray, n: int) -> np.ndarray:
+    """An aid's ``H`` on the common states of the sensor contract (18 columns, spec §8.3
+    order; aids act on the 9 navigation states) as the model's first ``n`` columns:
+    the 15-state model keeps 15, the 21-state model's scale-factor columns are zero."""
+    if n <= H.shape[-1]:
+        return H[..., :n]
+    out = np.zeros(H.shape[:-1] + (n,))
+    out[..., : H.shape[-1]] = H
+    return out
 
 
 class InsModel:
@@ -154,7 +167,8 @@ class InsModel:
     def start(self, stream: InsStream, copies: int) -> InsModelState:
         """Every method's SINS starts at the stream's initial solution."""
         ins = InsState(*(_tile(a, copies) for a in stream.start))
-        bias = np.zeros((ins.q.shape[0], 6)) if self.compensate else None
+        width = 12 if self.error_model.n == 21 else 6
+        bias = np.zeros((ins.q.shape[0], width)) if self.compensate else None
         return InsModelState(ins, (None,) * len(self.aids), None, bias)
 
     def epoch(
@@ -171,10 +185,15 @@ class InsModel:
         sl = slice((k - 1) * self.spe, k * self.spe)
         dth = _tile(stream.imu.dtheta[:, sl], copies)
         dvel = _tile(stream.imu.dv[:, sl], copies)
-        if state.bias is not None:  # the biases fed back so far (module step 5)
-            dth = dth - state.bias[:, None, :3] * stream.imu.dt
-            dvel = dvel - state.bias[:, None, 3:] * stream.imu.dt
+        b = state.bias
+        if b is not None:  # the biases (and scale factors) fed back so far (module step 5)
+            dth = dth - b[:, None, 0:3] * stream.imu.dt
+            dvel = dvel - b[:, None, 3:6] * stream.imu.dt
+            if b.shape[1] == 12:
+                dth = dth / (1.0 + b[:, None, 6:9])
+                dvel = dvel / (1.0 + b[:, None, 9:12])
         f_b = dvel.sum(1) / self.dt
+        w_b = dth.sum(1) / self.dt if self.error_model.n == 21 else None
         C_bn = attitude.quat_to_dcm(ins.q)
         Phi, Q = discrete_model(
             ins.p[:, 0],
@@ -187,6 +206,7 @@ class InsModel:
             self.dt,
             self.discretization,
             5,
+            w_b=w_b,
         )
         ins, _ = integrate(
             ins, dth, dvel, stream.imu.dt, algorithm=self.algorithm, output_every=self.every
@@ -216,7 +236,7 @@ class InsModel:
             lin = sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw, nan=1.0))
             ok = _tile(aid.available[:, k - 1], copies) & lin.valid & np.isfinite(lin.z).all(-1)
             zi = lin.z
-            Hi = np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1))
+            Hi = np.nan_to_num(np.concatenate([_common(lin.H, n), lin.H_private], -1))
             psi, last = self.psi[i], previous[i]
             if psi is not None:  # measurement differencing of a Markov error (GNSS)
                 this = (zi, Hi, ok)
@@ -263,7 +283,7 @@ class InsModel:
             zi = lin.z + np.einsum("bij,bj->bi", lin.H[..., :N_NAV], d)
             ok &= np.isfinite(zi).all(-1)
             z[i][r] = np.where(ok[:, None], zi, np.nan)
-            H[i][r] = np.nan_to_num(np.concatenate([lin.H[..., :n], lin.H_private], -1))
+            H[i][r] = np.nan_to_num(np.concatenate([_common(lin.H, n), lin.H_private], -1))
             avail[r, i] = ok
 
     def navigation(self, state: InsModelState) -> InsState:
@@ -297,9 +317,10 @@ class InsModel:
 
     def _bias_states(self, d: np.ndarray) -> np.ndarray:
         """(rows, 6) gyro and accelerometer biases of the fed-back states ``d``: 15
-        states ``[ε, ∇]``; 18 states ``ε_b + ε_r`` and ``∇`` (:mod:`ftnav.nav.error_model`)."""
-        if d.shape[1] == 15:
-            return d[:, 9:15]
+        states ``[ε, ∇]``; 18 states ``ε_b + ε_r`` and ``∇``; 21 states (rows, 12) ``[ε, ∇,
+        s_g, s_a]`` (:mod:`ftnav.nav.error_model`)."""
+        if d.shape[1] in (15, 21):
+            return d[:, 9:]
         return np.concatenate([d[:, 9:12] + d[:, 12:15], d[:, 15:18]], 1)
 
     def output(

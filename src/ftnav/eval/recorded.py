@@ -315,7 +315,7 @@ def _biases(rec: Recording, tr: Trace, truth: Truth, run: int) -> dict[str, Any]
         gyro, accel = x[9:12], x[12:15]
         gyro_sd, accel_sd = sd[9:12], sd[12:15]
     if tr.bias is not None:  # compensated: the states hold the residual, fed back already
-        gyro, accel = tr.bias[run, -1, :3], tr.bias[run, -1, 3:]
+        gyro, accel = tr.bias[run, -1, 0:3], tr.bias[run, -1, 3:6]
     gyro = gyro + truth.removed_gyro_bias
     out: dict[str, Any] = {}
     for key, value, sigma, known, nominal, unit, scale in (

@@ -211,7 +211,7 @@ class FilterFile(BaseModel):
     duration_s: float = Field(gt=0.0)
     correction: Literal["feedback", "output"] = "feedback"
     discretization: Literal["series", "van-loan"] = "series"
-    states: Literal[18, 15] = 18
+    states: Literal[18, 15, 21] = 18
     bias_frame: Literal["body", "nav"] = "body"
     bias_compensation: bool = Field(
         default=False,
@@ -303,32 +303,38 @@ def filter_model(
       by random walks of PSD ``2σ²/T`` of the Markov part, the rate at which a
       first-order Markov process of σ, T wanders over times short against T (the
       random walk's variance grows without bound over longer times: conservative).
+    * 21 states: the 15, and the gyro and accelerometer scale factors as random
+      constants of σ ``gyro_scale_sd``, ``accel_scale_sd`` (KF-GINS's model).
 
-    Scale-factor and misalignment errors have no state in either model; they are
-    named in ``notes`` (their effect grows with the angular rate and specific force).
+    Misalignment errors have no state in any model, nor scale factors in the 15- and
+    18-state models; they are named in ``notes`` (their effect grows with the angular
+    rate and specific force).
     """
     notes = []
+    scale = states == 21
     g_const = np.hypot(imu.gyro_bias_sd, imu.gyro_bias)
     # accelerometer scale factor and misalignment under the ~1 g specific force of flight:
     # axis i reads s_i f_i + Σ_j M_ij f_j, of variance at most g² max(σ_s,i, σ_m,i)²
     # whatever the attitude; it moves as the attitude and manoeuvres turn f_b
-    a_equiv = _G * np.maximum(imu.accel_scale_sd, imu.accel_misalignment_sd)
+    a_sf = np.zeros(3) if scale else np.asarray(imu.accel_scale_sd)
+    a_equiv = _G * np.maximum(a_sf, imu.accel_misalignment_sd)
     a_const = np.hypot(imu.accel_bias_sd, imu.accel_bias)
     a_markov = np.hypot(imu.accel_markov_sd, a_equiv)
     if np.any(a_equiv > 0):
         notes.append(
-            f"no state for the accelerometer scale factor and misalignment: under "
+            f"no state for the accelerometer {'' if scale else 'scale factor and '}"
+            f"misalignment: under "
             f"the ~1 g specific force they act as a bias of up to {_ug(a_equiv)} that "
             f"changes with the attitude, added to the accelerometer Markov term "
             f"(τ {np.max(imu.accel_markov_tau):g} s)"
         )
-    if np.any(np.asarray(imu.gyro_scale_sd) > 0) or np.any(
+    if (not scale and np.any(np.asarray(imu.gyro_scale_sd) > 0)) or np.any(
         np.asarray(imu.gyro_misalignment_sd) > 0
     ):
+        what = "misalignment" if scale else "scale factor and misalignment"
         notes.append(
-            "no state for the gyro scale factor and misalignment: their drift, "
-            "proportional to the angular rate, is unmodelled (small at cruise, "
-            "up to σ·rate in turns)"
+            f"no state for the gyro {what}: its drift, proportional to the angular "
+            "rate, is unmodelled (small at cruise, up to σ·rate in turns)"
         )
     if states == 18:
         accel_sigma = np.hypot(a_const, a_markov)
@@ -365,9 +371,11 @@ def filter_model(
             gyro_bias_rw_psd=tuple(g_rw),
             accel_bias_rw_psd=tuple(a_rw),
             bias_frame=bias_frame,
-            states=15,
+            states=21 if scale else 15,
         )
         bias = np.concatenate([np.hypot(g_const, imu.gyro_markov_sd), np.hypot(a_const, a_markov)])
+        if scale:
+            bias = np.concatenate([bias, imu.gyro_scale_sd, imu.accel_scale_sd])
     return FilterModel(params, bias, tuple(notes))
 
 
@@ -703,6 +711,12 @@ def parse_ins_scenario(
             "filter.bias_compensation",
             "needs correction 'feedback' and bias_frame 'body' (the biases are fed back "
             "and subtracted in the body frame)",
+            origin,
+        )
+    if fl.states == 21 and fl.bias_frame != "body":
+        raise _err(
+            "filter.states",
+            "21 needs bias_frame 'body' (a scale factor acts on a body axis)",
             origin,
         )
     model = filter_model(assumed, fl.states, fl.bias_frame)

@@ -319,7 +319,14 @@ class AlignmentFile(BaseModel):
 
 class RecordingFilterFile(BaseModel):
     model_config = STRICT
-    states: Literal[15, 18] = 15
+    states: Literal[15, 18, 21] = Field(
+        default=15,
+        description=(
+            "error states: 15 (biases as random constants or walks), 18 (spec §8.3: "
+            "Markov biases) or 21 (the 15 and the gyro and accelerometer scale factors, "
+            "KF-GINS's model; their σ from imu.errors gyro_scale / accel_scale)"
+        ),
+    )
     correction: Literal["feedback", "output"] = "feedback"
     bias_compensation: bool = Field(
         default=True,

@@ -181,7 +181,8 @@ _KML_COLORS = ("ffb4771f", "ff0e7fff", "ff2ca02c", "ff2827d6", "ffbd6794", "ff4b
 
 def error_state_units(names: Sequence[str]) -> list[str]:
     """The unit of each error state of :data:`ftnav.nav.error_model.STATES_18` /
-    ``STATES_15`` (spec §8.3; ``docs/conventions.md``); ``"1"`` for a name it does not know."""
+    ``STATES_15`` / ``STATES_21`` (spec §8.3; ``docs/conventions.md``); ``"1"`` for a
+    scale factor (``sg_*``, ``sa_*``) and a name it does not know."""
     out = []
     for s in names:
         if s.startswith("phi_") or s in ("dL", "dlam"):

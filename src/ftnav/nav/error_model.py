@@ -10,6 +10,7 @@ States (spec §8.3)::
          ε_bx, ε_by, ε_bz, ε_rx, ε_ry, ε_rz, ∇_x, ∇_y, ∇_z]
     15: [φ_E, φ_N, φ_U, δv_E, δv_N, δv_U, δL, δλ, δh,
          ε_x, ε_y, ε_z, ∇_x, ∇_y, ∇_z]
+    21: the 15 states, then [s_gx, s_gy, s_gz, s_ax, s_ay, s_az]
 
 18 states: ε_b gyro random-constant drift, ε_r gyro first-order Gauss-Markov drift
 (σ_g, T_g), ∇ accelerometer first-order Gauss-Markov bias (σ_a, T_a).
@@ -20,6 +21,13 @@ gyro bias and ∇ one accelerometer bias, each modelled as a **random walk**
 default to 0, i.e. a pure random constant exactly as in PSINS ``etm.m`` (zero rows
 of F).  The Markov parameters are not used by the 15-state model; a positive
 random-walk PSD lets a 15-state filter absorb slowly varying (Markov) drift.
+
+21 states (the 15 and the gyro and accelerometer scale-factor errors, as KF-GINS's
+21-state filter): the IMU reads ``ω̃ = (I + S_g) ω + ε``, ``f̃ = (I + S_a) f + ∇``
+with ``S = diag(s)``, so the compensated output's error is ``ε + S_g ω_ib^b`` and
+``∇ + S_a f^b``: the φ rows gain ``−C_b^n diag(ω_ib^b)`` on s_g and the δv rows
+``C_b^n diag(f^b)`` on s_a.  The scale factors are random constants (no driving
+noise); the model needs the body rate ``w_b`` and the body frame.
 
 Continuous model ``ẋ = F x + G w`` with ``w = [w_g, w_v, w_3, w_4]`` (12 white
 noises, PSDs ``q``): ``w_g`` gyro angle random walk (φ rows, ``−C_b^n``), ``w_v``
@@ -58,6 +66,7 @@ from ftnav.types import ArrayLike, BatchMatrix, BatchScalar, BatchVector, Matrix
 __all__ = [
     "STATES_18",
     "STATES_15",
+    "STATES_21",
     "ErrorModelParams",
     "ContinuousModel",
     "NavState",
@@ -87,6 +96,8 @@ STATES_18 = (
 )  #: state names of the 18-state model, in order (spec §8.3)
 STATES_15 = STATES_18[:9] + ("eps_x", "eps_y", "eps_z", "nabla_x", "nabla_y", "nabla_z")
 #: state names of the 15-state model, in order
+STATES_21 = STATES_15 + ("sg_x", "sg_y", "sg_z", "sa_x", "sa_y", "sa_z")
+#: state names of the 21-state model (15 + gyro and accelerometer scale factors), in order
 
 Vec3 = tuple[float, float, float]
 
@@ -120,10 +131,11 @@ class ErrorModelParams:
     accel_markov_sigma : (3,) m/s², steady-state σ of the Markov bias ∇.
     accel_markov_tau : (3,) s, correlation time ``T_a`` of ∇ (> 0).
     accel_psd : (3,) m²/s³, accelerometer white-noise (VRW²) PSD ``q_v``; default 0.
-    gyro_bias_rw_psd : (3,) rad²/s³, 15-state only: random-walk PSD of ε (0: constant).
-    accel_bias_rw_psd : (3,) m²/s⁵, 15-state only: random-walk PSD of ∇ (0: constant).
-    bias_frame : ``"body"`` (default, ``C_b^n`` mapping) or ``"nav"`` (``C_b^n = I``).
-    states : 18 or 15.
+    gyro_bias_rw_psd : (3,) rad²/s³, 15 and 21 states: random-walk PSD of ε (0: constant).
+    accel_bias_rw_psd : (3,) m²/s⁵, 15 and 21 states: random-walk PSD of ∇ (0: constant).
+    bias_frame : ``"body"`` (default, ``C_b^n`` mapping) or ``"nav"`` (``C_b^n = I``;
+        not with 21 states: a scale factor acts on a body axis).
+    states : 18, 15 or 21.
     """
 
     gyro_psd: Vec3 = (0.0, 0.0, 0.0)
@@ -135,7 +147,7 @@ class ErrorModelParams:
     gyro_bias_rw_psd: Vec3 = (0.0, 0.0, 0.0)
     accel_bias_rw_psd: Vec3 = (0.0, 0.0, 0.0)
     bias_frame: Literal["body", "nav"] = "body"
-    states: Literal[18, 15] = 18
+    states: Literal[18, 15, 21] = 18
 
     def __post_init__(self) -> None:
         for name in (
@@ -151,8 +163,12 @@ class ErrorModelParams:
             object.__setattr__(self, name, _axes(name, getattr(self, name), positive=True))
         if self.bias_frame not in ("body", "nav"):
             raise ValueError(f"bias_frame must be 'body' or 'nav', got {self.bias_frame!r}")
-        if self.states not in (18, 15):
-            raise ValueError(f"states must be 18 or 15, got {self.states!r}")
+        if self.states not in (18, 15, 21):
+            raise ValueError(f"states must be 18, 15 or 21, got {self.states!r}")
+        if self.states == 21 and self.bias_frame != "body":
+            raise ValueError(
+                "states = 21 needs bias_frame 'body': a scale factor acts on a body axis"
+            )
 
     @property
     def n(self) -> int:
@@ -161,8 +177,8 @@ class ErrorModelParams:
 
     @property
     def names(self) -> tuple[str, ...]:
-        """State names in order (:data:`STATES_18` or :data:`STATES_15`)."""
-        return STATES_18 if self.states == 18 else STATES_15
+        """State names in order (:data:`STATES_18`, :data:`STATES_15` or :data:`STATES_21`)."""
+        return {18: STATES_18, 15: STATES_15, 21: STATES_21}[self.states]
 
     @property
     def noise_psd(self) -> Vector:
@@ -293,6 +309,8 @@ def continuous_model(
     f_b: BatchVector,
     C_bn: BatchMatrix,
     params: ErrorModelParams,
+    *,
+    w_b: BatchVector | None = None,
 ) -> ContinuousModel:
     """Continuous SINS error model ``(F, G, q)`` linearized at an INS solution (spec §8.3).
 
@@ -315,6 +333,8 @@ def continuous_model(
     f_b : (..., 3) body specific force, m/s²; ``f^n = C_b^n f^b``.
     C_bn : (..., 3, 3) attitude ``C_b^n``.
     params : ErrorModelParams.
+    w_b : (..., 3) body angular rate ω_ib^b (bias-compensated gyro output), rad/s;
+        needed by the 21-state model (its scale-factor columns), unused otherwise.
 
     Returns
     -------
@@ -326,6 +346,7 @@ def continuous_model(
     F, G = np.zeros((M, n, n)), np.zeros((M, n, 12))
     _model_rows(
         *_flat_inputs(L, h, v, f_b, C, M),
+        _body_rate(w_b, batch, params, M),
         params.bias_frame == "body",
         n,
         np.asarray(params.gyro_markov_tau, float),
@@ -334,6 +355,20 @@ def continuous_model(
         G,
     )
     return ContinuousModel(F.reshape(batch + (n, n)), G.reshape(batch + (n, 12)), params.noise_psd)
+
+
+def _body_rate(
+    w_b: BatchVector | None, batch: tuple[int, ...], params: ErrorModelParams, M: int
+) -> BatchVector:
+    """``w_b`` flattened to (M, 3); zeros where the model does not use it."""
+    if w_b is None:
+        if params.n == 21:
+            raise ValueError("w_b: the 21-state model needs the body angular rate")
+        return np.zeros((M, 3))
+    w = np.asarray(w_b, dtype=float)
+    if w.shape[-1:] != (3,):
+        raise ValueError(f"w_b must be (..., 3), got {w.shape}")
+    return np.ascontiguousarray(np.broadcast_to(w, batch + (3,))).reshape(M, 3)
 
 
 def _flat_inputs(
@@ -368,6 +403,7 @@ def _model_row(
     v: Vector,
     f_b: Vector,
     C: Matrix,
+    w_b: Vector,
     body: bool,
     n: int,
     tau_g: Vector,
@@ -441,6 +477,9 @@ def _model_row(
                 F[3 + i, 15 + j] = Cb[i, j]
             else:
                 F[3 + i, 12 + j] = Cb[i, j]
+            if n == 21:  # scale factors: −C_b^n diag(ω_ib^b), C_b^n diag(f^b)
+                F[i, 15 + j] = -Cb[i, j] * w_b[j]
+                F[3 + i, 18 + j] = Cb[i, j] * f_b[j]
         if n == 18:
             F[12 + i, 12 + i] = -1.0 / tau_g[i]
             F[15 + i, 15 + i] = -1.0 / tau_a[i]
@@ -458,6 +497,7 @@ def _model_rows(
     v: BatchVector,
     f_b: BatchVector,
     C: BatchMatrix,
+    w_b: BatchVector,
     body: bool,
     n: int,
     tau_g: Vector,
@@ -466,7 +506,7 @@ def _model_rows(
     G: BatchMatrix,
 ) -> None:  # pragma: no cover
     for b in range(L.shape[0]):
-        _model_row(L[b], h[b], v[b], f_b[b], C[b], body, n, tau_g, tau_a, F[b], G[b])
+        _model_row(L[b], h[b], v[b], f_b[b], C[b], w_b[b], body, n, tau_g, tau_a, F[b], G[b])
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -476,6 +516,7 @@ def _discrete_rows(
     v: BatchVector,
     f_b: BatchVector,
     C: BatchMatrix,
+    w_b: BatchVector,
     body: bool,
     n: int,
     tau_g: Vector,
@@ -492,7 +533,7 @@ def _discrete_rows(
     for b in range(L.shape[0]):
         F[:, :] = 0.0
         G[:, :] = 0.0
-        _model_row(L[b], h[b], v[b], f_b[b], C[b], body, n, tau_g, tau_a, F, G)
+        _model_row(L[b], h[b], v[b], f_b[b], C[b], w_b[b], body, n, tau_g, tau_a, F, G)
         for i in range(n):
             for j in range(i + 1):
                 acc = 0.0
@@ -511,10 +552,13 @@ def continuous_model_reference(
     f_b: BatchVector,
     C_bn: BatchMatrix,
     params: ErrorModelParams,
+    *,
+    w_b: BatchVector | None = None,
 ) -> ContinuousModel:
     """Plain NumPy form of :func:`continuous_model` (the compiled kernel's test oracle)."""
     L, h, v, f_b, C, batch = _nav_inputs(L, h, v_enu, f_b, C_bn)
     n = params.n
+    w = _body_rate(w_b, batch, params, int(np.prod(batch))).reshape(batch + (3,))
     f_n = (C @ f_b[..., None])[..., 0]
     Cb = C if params.bias_frame == "body" else np.broadcast_to(np.eye(3), batch + (3, 3))
     F = np.zeros(batch + (n, n))
@@ -535,6 +579,9 @@ def continuous_model_reference(
         F[..., 3:6, 12:15] = Cb
         G[..., 9:12, 6:9] = np.eye(3)
         G[..., 12:15, 9:12] = np.eye(3)
+    if n == 21:
+        F[..., 0:3, 15:18] = -Cb * w[..., None, :]
+        F[..., 3:6, 18:21] = Cb * f_b[..., None, :]
     return ContinuousModel(F, G, params.noise_psd)
 
 
@@ -552,6 +599,8 @@ def discrete_model(
     T: float,
     method: Method = "van-loan",
     order: int = 5,
+    *,
+    w_b: BatchVector | None = None,
 ) -> tuple[BatchMatrix, BatchMatrix]:
     """Discrete SINS error model ``(Φ_k, Q_k)`` over a step T (spec §8.3, §8.4).
 
@@ -560,7 +609,7 @@ def discrete_model(
 
     Parameters
     ----------
-    L, lam, h, v_enu, f_b, C_bn, params : as in :func:`continuous_model`.
+    L, lam, h, v_enu, f_b, C_bn, params, w_b : as in :func:`continuous_model`.
     T : float, step in seconds (> 0).
     method : ``"van-loan"`` or ``"series"``.
     order : int, series order (``method="series"`` only).
@@ -576,7 +625,7 @@ def discrete_model(
     if not np.isfinite(T) or T <= 0.0:
         raise ValueError(f"T must be positive and finite, got {T!r}")
     if method == "van-loan":
-        m = continuous_model(L, lam, h, v_enu, f_b, C_bn, params)
+        m = continuous_model(L, lam, h, v_enu, f_b, C_bn, params, w_b=w_b)
         return van_loan(m.F, m.GQGt, T)
     if int(order) != order or order < 1:
         raise ValueError(f"order must be an integer ≥ 1, got {order}")
@@ -585,6 +634,7 @@ def discrete_model(
     Phi, Q = np.empty((M, n, n)), np.empty((M, n, n))
     _discrete_rows(
         *_flat_inputs(L, h, v, f_b, C, M),
+        _body_rate(w_b, batch, params, M),
         params.bias_frame == "body",
         n,
         np.asarray(params.gyro_markov_tau, float),

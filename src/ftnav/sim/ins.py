@@ -118,13 +118,13 @@ def simulate_ins(scenario: InsScenario, runs: range, seed: int) -> SimulatedIns:
             window = (t_imu >= f.start) & (t_imu < f.end)
             dtheta[:, window] += np.asarray(f.magnitude) * traj.dt
     truth = epoch_truth(traj, n, K)
-    n_states = sc.initial_sigma.shape[0]  # 18 or 15: the first 9 draws are the same
+    n_states = sc.initial_sigma.shape[0]  # 18, 15 or 21: the first 9 draws are the same
     init = (
         np.stack(
             [
                 np.random.default_rng(
                     np.random.SeedSequence(seed, spawn_key=(r, _INIT_STREAM))
-                ).standard_normal(18)[:n_states]
+                ).standard_normal(max(18, n_states))[:n_states]
                 for r in runs
             ]
         )
