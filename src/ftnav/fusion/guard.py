@@ -18,6 +18,10 @@ and decides the method's isolation from its detector's flags:
    large for its covariance (a slow fault still on), or, for an alarm of the separation
    detector, the window that raised it; and every other aid that sees what it moves
    must accept the rolled-back estimate (a wrong rollback would make them disagree).
+   A pull merely too large for its covariance counts only where another aid sees the
+   estimate: a sole source's pulls are as large as the model's optimism makes them on
+   real noise (the drive's GNSS alone: a GLR false alarm in a turn rolled 4 m of its
+   pulls back, and the coast from there reached 1 km).
    The estimate is then,
    to first order, the filter that never took the aid's measurements of that window.
    One aid at a time: no rollback while another aid is isolated (the pulls of one aid
@@ -38,7 +42,10 @@ and decides the method's isolation from its detector's flags:
    giving its innovation a χ² equal to its dimension) and its update at once
    (``relaxed``).  A detector that still alarms after ``override`` consecutive passes
    of the guard's tests is overruled until its own flag clears; the guard watches that
-   aid with its own χ² meanwhile.
+   aid with its own χ² meanwhile.  (The passes it counts are those with the detector
+   quiet, so with ``n_off < override`` the aid is re-admitted first and the override
+   never fires; counting every pass re-admitted the neuron centre's TAN of ``seed001``
+   while its +40 m fault lasted, so it was left so.)
 3. **Sole source.**  When, isolated, the filter's predicted variance of the aid's
    measurement has grown ``growth`` times since the aid last informed it, the rest of
    the system does not hold that quantity (a GNSS that is the only position aid): the
@@ -46,7 +53,19 @@ and decides the method's isolation from its detector's flags:
    detector tests against the unallowed covariance), and an aid that returns so (after
    an outage) within the allowance is taken at once.  A fault of such an aid longer
    than the coasting can tell apart from drift comes back through the allowance: never
-   silently.
+   silently.  Where the model is optimistic (a MEMS INS in a turn) the coast outgrows
+   any allowance, so a sole source is also judged by its own **increments**: between
+   two measurements ``Δk`` epochs apart a healthy aid's innovation moves from its last
+   residual by its two noises and the estimate's drift over those epochs,
+   ``2R + κ² Δk² H(Φ − I)P(Φ − I)ᵀHᵀ`` — what the drift accumulated before does not
+   enter.  A hold that began without a rollback and without a jump (a *steady* hold:
+   an alarm nothing explained) ends, relaxed, after ``n_off`` consistent increments
+   once the aid is the sole source; a jump (a step, a frozen output of a moving vehicle,
+   a noise increase) ends the steady hold, and the sum of the hold's jumps re-arms it
+   when it cancels (the fault's end undid its onset).  Only where no other aid
+   measures (the aid is the only one of the estimate): another aid that holds the
+   quantity's rate (an odometer, NHC, GNSS velocities) keeps the coasting honest, and
+   there a ramp of the aid must stay out (``slowramp``).
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
@@ -109,6 +128,16 @@ class GuardState(NamedTuple):
     pending : an alternative (a rollback) exists.
     passes, passes_alt : consecutive re-admission tests passed while held, against the
         estimate and against the alternative.
+    steady : the hold may end on the aid's own consistency (module docstring, 3): set
+        at an isolation without a rollback whose onset's increment was consistent,
+        cleared by the first inconsistent increment.
+    steps : consecutive consistent increments of a steady hold.
+    since : epochs since the aid's last measurement (-1: none yet).
+    last : per aid, (B, m) its residual at its last measurement: against the posterior
+        when the estimate used it, else its innovation.
+    jump, jump_cov : per aid, the sum (B, m) of a hold's inconsistent increments (its
+        jumps) and the sum (B, m, m) of their covariances: a steady hold is re-armed when
+        the jumps cancel (the fault's end undid its onset).
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -122,6 +151,12 @@ class GuardState(NamedTuple):
     passes_alt: np.ndarray
     overruled: np.ndarray
     age: int
+    steady: np.ndarray | None = None
+    steps: np.ndarray | None = None
+    since: np.ndarray | None = None
+    last: tuple[np.ndarray, ...] = ()
+    jump: tuple[np.ndarray, ...] = ()
+    jump_cov: tuple[np.ndarray, ...] = ()
 
 
 class GuardOutput(NamedTuple):
@@ -159,6 +194,7 @@ class _AidTest(NamedTuple):
     T: np.ndarray  # (B, J, m, m) their covariance, H Γ Hᵀ
     ratio: np.ndarray  # (B,) separation alarm statistic over its threshold (0: none)
     window: np.ndarray  # (B,) int, the window of the largest ratio
+    drift: np.ndarray | None = None  # (B, m, m) H (Φ − I) P (Φ − I)ᵀ Hᵀ, held aids only
 
 
 class GuardTest(NamedTuple):
@@ -343,7 +379,24 @@ class Guard:
         alt = tuple(sep.init_pulls(B, len(g), 0 if self.rollback else -1, n) for g, n in pairs)
         anchor = tuple(np.zeros((B, self.sizes[g], self.sizes[g])) for g in self.group_of)
         zb, zi = np.zeros((B, N), bool), np.zeros((B, N), int)
-        return GuardState(pulls, alt, anchor, zb, zb.copy(), zi, zi.copy(), zb.copy(), 0)
+        last = tuple(np.zeros((B, m)) for m in self.dims)
+        return GuardState(
+            pulls,
+            alt,
+            anchor,
+            zb,
+            zb.copy(),
+            zi,
+            zi.copy(),
+            zb.copy(),
+            0,
+            zb.copy(),
+            zi.copy(),
+            zi.copy() - 1,
+            last,
+            tuple(np.zeros((B, m)) for m in self.dims),
+            tuple(np.zeros((B, m, m)) for m in self.dims),
+        )
 
     @staticmethod
     def _matrices(H: np.ndarray, R: np.ndarray, B: int) -> tuple[np.ndarray, np.ndarray]:
@@ -398,9 +451,15 @@ class Guard:
             K, A = _gain(P, Ha, Ra)
             nis = np.where(use, _chi2(nu, A + Ra), 0.0)
             ratio = np.zeros(B)
+            drift = None
+            if self.rollback:  # one epoch's drift of the measured quantity
+                HF = Ha @ (np.broadcast_to(F[g], P.shape) - np.eye(P.shape[-1]))
+                drift = kf.symmetrize(HF @ P @ kf.mT(HF))
             if not self.rollback:
                 out.append(
-                    _AidTest(nu, A, Ra, nis, *self._no_windows(B, m), ratio, ratio.astype(int))
+                    _AidTest(
+                        nu, A, Ra, nis, *self._no_windows(B, m), ratio, ratio.astype(int), drift
+                    )
                 )
                 continue
             cw, Gw = sep.windows(pulls[g], s)
@@ -415,7 +474,7 @@ class Guard:
                 lam, dof = sep.separation_of(e_d, T_d)
                 r = np.where(use[:, None], lam / _thresholds(self.pfa_d, dof), 0.0)
                 ratio, window = r.max(1), r.argmax(1)
-            out.append(_AidTest(nu, A, Ra, nis, e, T, ratio, window))
+            out.append(_AidTest(nu, A, Ra, nis, e, T, ratio, window, drift))
         return GuardTest(pulls, alt, tuple(out), tuple(p.P for p in priors), tuple(Hs))
 
     def _no_windows(self, B: int, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -482,8 +541,27 @@ class Guard:
         passes = np.where(override, self.n_off, passes)
         overruled = overruled | override
         undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
-        release = state.hold & ((passes >= self.n_off) | undone)
-        relaxed = release & ~undone & ~strict
+        good, inc, since, last = self._increments(state, test, usable)
+        steady = np.zeros((B, N), bool) if state.steady is None else state.steady
+        steps = np.zeros((B, N), int) if state.steps is None else state.steps
+        steps = np.where(tested & steady, np.where(good, steps + 1, 0), steps)
+        steady = steady & ~(tested & ~good)
+        jump, jump_cov = self._jumps(state, inc, tested & ~good)
+        for a in range(N):  # the jumps cancel: the aid is back where it was
+            fail = tested[:, a] & ~good[:, a]
+            if not fail.any():
+                continue
+            C = np.where(fail[:, None, None], jump_cov[a], np.eye(self.dims[a]))
+            back = fail & (_chi2(jump[a], C) <= self.T1[a])
+            steady[:, a] |= back & self.rollback & ~self._witness_present(a, usable, state)
+            steps[:, a] = np.where(back, 0, steps[:, a])
+        # a sole source isolated on an alarm nothing explained (no rollback), whose own
+        # increments have stayed consistent since, no other aid measuring: the model,
+        # not the aid, drifted
+        alone = np.stack([~self._witness_present(a, usable, state) for a in range(N)], 1)
+        settled = state.hold & steady & unobs & alone & (steps >= self.n_off) & ~undone
+        release = state.hold & ((passes >= self.n_off) | undone | settled)
+        relaxed = (release & ~undone & ~strict) | settled
         # a re-admission the detector does not agree with yet overrules it until it clears
         overruled = overruled | (release & det_flag)
         # single fault at a time (module docstring, 1 and 4)
@@ -539,6 +617,10 @@ class Guard:
             before_ = _chi2(np.broadcast_to(t.nu[:, None], t.e.shape), S_w)
             fits = (after_ <= self.T1[a]) & (before_ - after_ > self.T1[a])
             fits &= (t.nis > self.T1[a])[:, None]
+            # a pull merely too large for its covariance is no evidence where no other aid
+            # sees the estimate: a sole source's pulls are as large as the model's
+            # optimism makes them (real noise), and removing them is an outage
+            sig &= self._witness_present(a, usable, state)[:, None]
             explain = new & (fits.any(1) | sig.any(1))
             best = np.argmin(np.where(fits, after_, np.inf), 1)
             w = np.where(fits.any(1), best, np.argmax(r, 1))
@@ -553,6 +635,22 @@ class Guard:
         reset = rising | release
         passes = np.where(reset, 0, passes)
         passes_alt = np.where(reset, 0, passes_alt)
+        # the onset's own increment: a jump (a step, a frozen output) is a fault of the aid
+        steady = np.where(reset, rising & ~choose & good & alone & self.rollback, steady)
+        steps = np.where(reset, 0, steps)
+        onset = rising & ~good & (since == 0)  # its jump starts the hold's sum
+        jump = tuple(
+            np.where(onset[:, a, None], inc[a][0], np.where(reset[:, a, None], 0.0, jump[a]))
+            for a in range(N)
+        )
+        jump_cov = tuple(
+            np.where(
+                onset[:, a, None, None],
+                inc[a][1],
+                np.where(reset[:, a, None, None], 0.0, jump_cov[a]),
+            )
+            for a in range(N)
+        )
         pending = np.where(reset, doubt, state.pending)
         new_state = state._replace(
             pulls=test.pulls,
@@ -562,9 +660,68 @@ class Guard:
             passes=passes,
             passes_alt=passes_alt,
             overruled=overruled,
+            steady=steady,
+            steps=steps,
+            since=since,
+            last=last,
+            jump=jump,
+            jump_cov=jump_cov,
         )
         out = GuardOutput(ratio, flags, alarm, choose, undone, unobs, relaxed | welcome)
         return new_state, out, flags, windows
+
+    def _jumps(
+        self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
+    ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
+        """The hold's jump sums with this epoch's inconsistent increments added."""
+        B, N = fail.shape
+        j0 = state.jump or tuple(np.zeros((B, m)) for m in self.dims)
+        c0 = state.jump_cov or tuple(np.zeros((B, m, m)) for m in self.dims)
+        jump = tuple(np.where(fail[:, a, None], j0[a] + inc[a][0], j0[a]) for a in range(N))
+        cov = tuple(np.where(fail[:, a, None, None], c0[a] + inc[a][1], c0[a]) for a in range(N))
+        return jump, cov
+
+    def _increments(
+        self, state: GuardState, test: GuardTest, usable: np.ndarray
+    ) -> tuple[
+        np.ndarray,
+        tuple[tuple[np.ndarray, np.ndarray], ...],
+        np.ndarray,
+        tuple[np.ndarray, ...],
+    ]:
+        """Each aid's increment test (module docstring, 3): whether its measurement moved
+        since its last one as the estimate did.
+
+        ``Δk`` epochs after its last measurement, the innovation of a healthy aid differs
+        from its residual then (against the posterior the estimate went on from, or its
+        innovation while held) by its two noises and the estimate's drift over those
+        epochs: ``ν_k − r_prev`` with covariance ``2R + κ² Δk² H(Φ − I)P(Φ − I)ᵀHᵀ``
+        (one epoch's drift of the measured quantity, linear over a few epochs).  A jump,
+        the frozen output of a moving vehicle or a noise increase fails it; a drift of
+        the estimate that the covariance did not foresee does not.  Returns ``good``
+        (B, N; False where untested), each aid's increment and its covariance, the new
+        ``since`` and ``last`` (the held aids' innovations; :meth:`record` sets the used
+        aids' residuals).
+        """
+        B, N = usable.shape
+        good = np.zeros((B, N), bool)
+        inc = []
+        since = np.full((B, N), -1) if state.since is None else state.since.copy()
+        last = list(state.last) if state.last else [np.zeros((B, m)) for m in self.dims]
+        k2 = self.config.kappa**2
+        for a, t in enumerate(test.aids):
+            check = usable[:, a] & (since[:, a] >= 0)
+            d = np.where(check[:, None], t.nu - last[a], 0.0)
+            S = 2.0 * t.R
+            if check.any() and t.drift is not None:
+                dk = (since[:, a] + 1).astype(float)
+                S = S + k2 * (dk**2)[:, None, None] * t.drift
+                good[:, a] = check & (_chi2(d, S) <= self.T1[a])
+            inc.append((d, np.where(check[:, None, None], S, 0.0)))
+            now = usable[:, a]
+            last[a] = np.where(now[:, None], t.nu, last[a])
+            since[:, a] = np.where(now, 0, np.where(since[:, a] >= 0, since[:, a] + 1, -1))
+        return good, tuple(inc), since, tuple(last)
 
     def _alternative(
         self,
@@ -598,6 +755,14 @@ class Guard:
             q_b = _chi2(tj.nu - kf.mv(test.H[j], c_alt), S_j)
             ok &= ~w | (q_b <= np.maximum(self.T1[j], q_a))
         return np.asarray(ok, bool)
+
+    def _witness_present(self, a: int, usable: np.ndarray, state: GuardState) -> np.ndarray:
+        """(B,) whether another aid of ``a``'s group has a measurement and is not isolated."""
+        out = np.zeros(usable.shape[0], bool)
+        for j in self.groups[self.group_of[a]]:
+            if j != a:
+                out |= usable[:, j] & ~state.hold[:, j]
+        return out
 
     def _witnessed(
         self, a: int, w: np.ndarray, test: GuardTest, state: GuardState, usable: np.ndarray
@@ -695,6 +860,7 @@ class Guard:
         before, after, out = g.before, g.after, g.output
         pulls, alts = list(after.pulls), list(after.alternative)
         anchor = list(after.anchor)
+        last = list(after.last)
         amends = []
         rising = out.hold & ~before.hold
         released = before.hold & ~after.hold
@@ -765,6 +931,13 @@ class Guard:
                         p = sep.with_own(p, s, d, D)
                     x, P = x + d, kf.symmetrize(P_in - D)
                     where |= rel
+            if self.rollback:  # the used aids' residuals against the posterior
+                for a in grp:
+                    used = usable[:, a] & ~out.hold[:, a]
+                    if used.any():
+                        Ha = self._matrices(H[a], R[a], B)[0]
+                        r = np.nan_to_num(z[a]) - kf.mv(Ha, x)
+                        last[a] = np.where(used[:, None], r, last[a])
             # the aids that informed the estimate now: its coasting without them is
             # measured from this epoch's prior (with a rollback's covariance)
             P_from = priors[gi][1] + dP_back
@@ -781,6 +954,10 @@ class Guard:
             close = age == 0 and self.nc > 0  # a coarse block's span is over
             pulls = [sep.rotate(p, self.nc, close) for p in pulls]
         new = after._replace(
-            pulls=tuple(pulls), alternative=tuple(alts), anchor=tuple(anchor), age=age
+            pulls=tuple(pulls),
+            alternative=tuple(alts),
+            anchor=tuple(anchor),
+            age=age,
+            last=tuple(last),
         )
         return new, tuple(amends)
