@@ -63,6 +63,23 @@ def test_a_guard_without_flags_changes_nothing(settings):
     assert traces["off"].guard is None
 
 
+def _one_aid_step(guard, state, x, P, F, Q, z, H, R, flagged: bool):
+    """One epoch of a one-aid filter under the guard, the detector's flag ``flagged``:
+    the new state, the posterior before the guard's amend, the guard's epoch, the amend."""
+    B = x.shape[0]
+    prior = kf.predict(x, P, F, Q)
+    flag = np.full((B, 1), flagged)
+    det = DetectorOutput(np.zeros((B, 1)), np.ones((B, 1)), flag, flag)
+    usable = np.ones((B, 1), bool)
+    g = guard.begin(state, [prior], [F], [z], [H], [R], usable, det)
+    use = usable[:, 0] & ~g.flags[:, 0]
+    up = kf.update(*prior, z, H, R)
+    x = np.where(use[:, None], up.x, prior.x)
+    P = np.where(use[:, None, None], up.P, prior.P)
+    state, (amend,) = guard.finish(g, [prior], [z], [H], [R], usable)
+    return state, x, P, g, amend
+
+
 def _one_aid_run(flag_at: int, steps: int = 60):
     """A sole position aid on a constant-velocity model, its fix ramping from epoch 20
     until ``flag_at``, where it jumps back (the ramp ended: the filter followed it); the
@@ -79,17 +96,8 @@ def _one_aid_run(flag_at: int, steps: int = 60):
     x, P = np.zeros((B, n)), np.broadcast_to(np.eye(n) * 10.0, (B, n, n)).copy()
     posts, amended = [], None
     for k in range(1, steps + 1):
-        prior = kf.predict(x, P, F, Q)
         z = rng.normal(size=(B, 1)) + (0.5 * max(0, k - 20) if k < flag_at else 0.0)
-        flag = np.full((B, 1), k >= flag_at)
-        det = DetectorOutput(np.zeros((B, 1)), np.ones((B, 1)), flag, flag)
-        usable = np.ones((B, 1), bool)
-        g = guard.begin(state, [prior], [F], [z], [H], [R], usable, det)
-        use = usable[:, 0] & ~g.flags[:, 0]
-        up = kf.update(*prior, z, H, R)
-        x = np.where(use[:, None], up.x, prior.x)
-        P = np.where(use[:, None, None], up.P, prior.P)
-        state, (amend,) = guard.finish(g, [prior], [z], [H], [R], usable)
+        state, x, P, _, amend = _one_aid_step(guard, state, x, P, F, Q, z, H, R, k >= flag_at)
         if amend.where.any():
             amended = (k, x.copy(), P.copy(), amend)
             x = np.where(amend.where[:, None], x - amend.dx, x)
@@ -146,17 +154,8 @@ def _sole_source(offset, flagged, steps: int = 90, seed: int = 5, settings=None)
     for k in range(1, steps + 1):
         a = 0.05 if 35 <= k < 50 else 0.0
         truth = truth @ F.T + np.array([0.5 * a, a])
-        prior = kf.predict(x, P, F, Q)
         z = truth[:, :1] + rng.normal(size=(B, 1)) + offset(k)
-        flag = np.full((B, 1), flagged(k))
-        det = DetectorOutput(np.zeros((B, 1)), np.ones((B, 1)), flag, flag)
-        usable = np.ones((B, 1), bool)
-        g = guard.begin(state, [prior], [F], [z], [H], [R], usable, det)
-        use = usable[:, 0] & ~g.flags[:, 0]
-        up = kf.update(*prior, z, H, R)
-        x = np.where(use[:, None], up.x, prior.x)
-        P = np.where(use[:, None, None], up.P, prior.P)
-        state, (amend,) = guard.finish(g, [prior], [z], [H], [R], usable)
+        state, x, P, g, amend = _one_aid_step(guard, state, x, P, F, Q, z, H, R, flagged(k))
         x = np.where(amend.where[:, None], x - amend.dx, x)
         P = np.where(amend.where[:, None, None], P + amend.dP, P)
         held.append(g.flags[:, 0].copy())
