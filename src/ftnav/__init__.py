@@ -2,7 +2,8 @@
 
 import os as _os
 
-__version__ = "0.1.0"
+from ftnav.version import __version__
+
 __all__ = ["__version__", "process_recording", "run_scenario"]
 
 

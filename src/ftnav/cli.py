@@ -61,7 +61,6 @@ from typing import Any, NamedTuple
 import numpy as np
 from tqdm import tqdm
 
-from ftnav import __version__
 from ftnav.engine.driver import Diverged
 from ftnav.eval import resources
 from ftnav.eval.evaluate import evaluate, metrics_to_json
@@ -117,6 +116,7 @@ from ftnav.training.detector import (
 )
 from ftnav.training.fusion import FusionTraining, check_training, fusion_table, train_fusion
 from ftnav.training.ins_fusion import ins_configurations, train_ins_fusion
+from ftnav.version import __version__
 
 __all__ = ["MANIFEST", "main"]
 

@@ -35,7 +35,6 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ftnav import __version__
 from ftnav.eval.evaluate import MethodMetrics, evaluate
 from ftnav.eval.intervals import CONFIDENCE, Interval
 from ftnav.eval.montecarlo import run_scenario
@@ -43,6 +42,7 @@ from ftnav.io.common import ScenarioError, read_toml
 from ftnav.io.ins_scenario_file import parse_ins_scenario
 from ftnav.io.scenario_file import parse_scenario
 from ftnav.model.scenario import InsScenario, Scenario
+from ftnav.version import __version__
 
 __all__ = ["SweepAxis", "SweepError", "SweepResult", "parse_set", "run_sweep", "sweep_dataset"]
 

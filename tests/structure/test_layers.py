@@ -22,7 +22,7 @@ PACKAGE = SRC / "ftnav"
 #: Lowest first.  A part imports only parts of lower layers (same-layer parts are
 #: independent of each other).
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("parallel",),  # standard library only; ``import ftnav`` uses it in a starting worker
+    ("parallel", "version"),  # standard library only; ``import ftnav`` uses both
     ("__init__", "types", "scenarios", "recordings"),
     ("core",),
     ("nav",),

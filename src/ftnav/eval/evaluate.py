@@ -28,7 +28,6 @@ from typing import Any, TypedDict
 
 import numpy as np
 
-from ftnav import __version__
 from ftnav.eval.integrity import MethodWatch, WatchSettings, watch
 from ftnav.eval.intervals import (
     Interval,
@@ -47,6 +46,7 @@ from ftnav.eval.metrics import (
 )
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
 from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS, Evaluation
+from ftnav.version import __version__
 
 __all__ = [
     "FaultFreeMetrics",

@@ -56,8 +56,8 @@ from typing import IO, Any
 import numpy as np
 from numpy.lib import format as npy_format
 
-import ftnav
 from ftnav.io.common import ScenarioError, read_input
+from ftnav.version import __version__
 
 __all__ = [
     "FORMAT",
@@ -402,7 +402,7 @@ def save_model(
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "kind": kind,
-        "ftnav_version": ftnav.__version__,
+        "ftnav_version": __version__,
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "compatibility": _to_plain(compatibility, "compatibility"),
         "settings": _to_plain(settings, "settings"),

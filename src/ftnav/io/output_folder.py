@@ -47,9 +47,9 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from ftnav import __version__
 from ftnav.io.model_file import FORMAT, METADATA_MEMBER
 from ftnav.parallel import signals_held
+from ftnav.version import __version__
 
 try:  # POSIX
     import fcntl

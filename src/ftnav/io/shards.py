@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
-from ftnav import __version__
 from ftnav.engine.driver import GuardTrace
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult
+from ftnav.version import __version__
 
 __all__ = ["SHARD", "ShardHeader", "scenario_digest", "write_shard", "read_shard", "check_shards"]
 
