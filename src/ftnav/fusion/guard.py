@@ -151,12 +151,12 @@ class GuardState(NamedTuple):
     passes_alt: np.ndarray
     overruled: np.ndarray
     age: int
-    steady: np.ndarray | None = None
-    steps: np.ndarray | None = None
-    since: np.ndarray | None = None
-    last: tuple[np.ndarray, ...] = ()
-    jump: tuple[np.ndarray, ...] = ()
-    jump_cov: tuple[np.ndarray, ...] = ()
+    steady: np.ndarray
+    steps: np.ndarray
+    since: np.ndarray
+    last: tuple[np.ndarray, ...]
+    jump: tuple[np.ndarray, ...]
+    jump_cov: tuple[np.ndarray, ...]
 
 
 class GuardOutput(NamedTuple):
@@ -194,7 +194,6 @@ class _AidTest(NamedTuple):
     T: np.ndarray  # (B, J, m, m) their covariance, H Γ Hᵀ
     ratio: np.ndarray  # (B,) separation alarm statistic over its threshold (0: none)
     window: np.ndarray  # (B,) int, the window of the largest ratio
-    drift: np.ndarray | None = None  # (B, m, m) H (Φ − I) P (Φ − I)ᵀ Hᵀ, held aids only
 
 
 class GuardTest(NamedTuple):
@@ -205,6 +204,7 @@ class GuardTest(NamedTuple):
     aids: tuple[_AidTest, ...]
     P: tuple[np.ndarray, ...]  # each group's prior covariance
     H: tuple[np.ndarray, ...]  # each aid's (B, m, n)
+    F: tuple[np.ndarray, ...]  # each group's transition over the epoch
 
 
 class Guarded(NamedTuple):
@@ -379,7 +379,6 @@ class Guard:
         alt = tuple(sep.init_pulls(B, len(g), 0 if self.rollback else -1, n) for g, n in pairs)
         anchor = tuple(np.zeros((B, self.sizes[g], self.sizes[g])) for g in self.group_of)
         zb, zi = np.zeros((B, N), bool), np.zeros((B, N), int)
-        last = tuple(np.zeros((B, m)) for m in self.dims)
         return GuardState(
             pulls,
             alt,
@@ -393,7 +392,7 @@ class Guard:
             zb.copy(),
             zi.copy(),
             zi.copy() - 1,
-            last,
+            tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.zeros((B, m, m)) for m in self.dims),
         )
@@ -451,15 +450,9 @@ class Guard:
             K, A = _gain(P, Ha, Ra)
             nis = np.where(use, _chi2(nu, A + Ra), 0.0)
             ratio = np.zeros(B)
-            drift = None
-            if self.rollback:  # one epoch's drift of the measured quantity
-                HF = Ha @ (np.broadcast_to(F[g], P.shape) - np.eye(P.shape[-1]))
-                drift = kf.symmetrize(HF @ P @ kf.mT(HF))
             if not self.rollback:
                 out.append(
-                    _AidTest(
-                        nu, A, Ra, nis, *self._no_windows(B, m), ratio, ratio.astype(int), drift
-                    )
+                    _AidTest(nu, A, Ra, nis, *self._no_windows(B, m), ratio, ratio.astype(int))
                 )
                 continue
             cw, Gw = sep.windows(pulls[g], s)
@@ -474,8 +467,8 @@ class Guard:
                 lam, dof = sep.separation_of(e_d, T_d)
                 r = np.where(use[:, None], lam / _thresholds(self.pfa_d, dof), 0.0)
                 ratio, window = r.max(1), r.argmax(1)
-            out.append(_AidTest(nu, A, Ra, nis, e, T, ratio, window, drift))
-        return GuardTest(pulls, alt, tuple(out), tuple(p.P for p in priors), tuple(Hs))
+            out.append(_AidTest(nu, A, Ra, nis, e, T, ratio, window))
+        return GuardTest(pulls, alt, tuple(out), tuple(p.P for p in priors), tuple(Hs), tuple(F))
 
     def _no_windows(self, B: int, m: int) -> tuple[np.ndarray, np.ndarray]:
         """Empty windows: no pull to roll back."""
@@ -541,9 +534,12 @@ class Guard:
         passes = np.where(override, self.n_off, passes)
         overruled = overruled | override
         undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
-        good, inc, since, last = self._increments(state, test, usable)
-        steady = np.zeros((B, N), bool) if state.steady is None else state.steady
-        steps = np.zeros((B, N), int) if state.steps is None else state.steps
+        # no other aid of the estimate measures now (a sole source in the strict sense)
+        alone = np.stack([~self._witness_present(a, usable, state) for a in range(N)], 1)
+        # the increments matter where an aid is held or may be isolated now
+        need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
+        good, inc, since, last = self._increments(state, test, usable, need)
+        steady, steps = state.steady, state.steps
         steps = np.where(tested & steady, np.where(good, steps + 1, 0), steps)
         steady = steady & ~(tested & ~good)
         jump, jump_cov = self._jumps(state, inc, tested & ~good)
@@ -553,12 +549,11 @@ class Guard:
                 continue
             C = np.where(fail[:, None, None], jump_cov[a], np.eye(self.dims[a]))
             back = fail & (_chi2(jump[a], C) <= self.T1[a])
-            steady[:, a] |= back & self.rollback & ~self._witness_present(a, usable, state)
+            steady[:, a] |= back & self.rollback & alone[:, a]
             steps[:, a] = np.where(back, 0, steps[:, a])
         # a sole source isolated on an alarm nothing explained (no rollback), whose own
         # increments have stayed consistent since, no other aid measuring: the model,
         # not the aid, drifted
-        alone = np.stack([~self._witness_present(a, usable, state) for a in range(N)], 1)
         settled = state.hold & steady & unobs & alone & (steps >= self.n_off) & ~undone
         release = state.hold & ((passes >= self.n_off) | undone | settled)
         relaxed = (release & ~undone & ~strict) | settled
@@ -620,7 +615,7 @@ class Guard:
             # a pull merely too large for its covariance is no evidence where no other aid
             # sees the estimate: a sole source's pulls are as large as the model's
             # optimism makes them (real noise), and removing them is an outage
-            sig &= self._witness_present(a, usable, state)[:, None]
+            sig &= ~alone[:, a, None]
             explain = new & (fits.any(1) | sig.any(1))
             best = np.argmin(np.where(fits, after_, np.inf), 1)
             w = np.where(fits.any(1), best, np.argmax(r, 1))
@@ -674,15 +669,14 @@ class Guard:
         self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
     ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]:
         """The hold's jump sums with this epoch's inconsistent increments added."""
-        B, N = fail.shape
-        j0 = state.jump or tuple(np.zeros((B, m)) for m in self.dims)
-        c0 = state.jump_cov or tuple(np.zeros((B, m, m)) for m in self.dims)
+        N = fail.shape[1]
+        j0, c0 = state.jump, state.jump_cov
         jump = tuple(np.where(fail[:, a, None], j0[a] + inc[a][0], j0[a]) for a in range(N))
         cov = tuple(np.where(fail[:, a, None, None], c0[a] + inc[a][1], c0[a]) for a in range(N))
         return jump, cov
 
     def _increments(
-        self, state: GuardState, test: GuardTest, usable: np.ndarray
+        self, state: GuardState, test: GuardTest, usable: np.ndarray, need: np.ndarray | None
     ) -> tuple[
         np.ndarray,
         tuple[tuple[np.ndarray, np.ndarray], ...],
@@ -701,22 +695,27 @@ class Guard:
         the estimate that the covariance did not foresee does not.  Returns ``good``
         (B, N; False where untested), each aid's increment and its covariance, the new
         ``since`` and ``last`` (the held aids' innovations; :meth:`record` sets the used
-        aids' residuals).
+        aids' residuals).  The test itself is made only where ``need`` (B, N) holds
+        (none: nowhere); ``good`` is False elsewhere.
         """
         B, N = usable.shape
         good = np.zeros((B, N), bool)
         inc = []
-        since = np.full((B, N), -1) if state.since is None else state.since.copy()
-        last = list(state.last) if state.last else [np.zeros((B, m)) for m in self.dims]
+        since = state.since.copy()
+        last = list(state.last)
         k2 = self.config.kappa**2
         for a, t in enumerate(test.aids):
             check = usable[:, a] & (since[:, a] >= 0)
             d = np.where(check[:, None], t.nu - last[a], 0.0)
             S = 2.0 * t.R
-            if check.any() and t.drift is not None:
+            if need is not None and (check & need[:, a]).any():
+                g = self.group_of[a]
+                P = test.P[g]
+                HF = test.H[a] @ (np.broadcast_to(test.F[g], P.shape) - np.eye(P.shape[-1]))
+                drift = kf.symmetrize(HF @ P @ kf.mT(HF))  # one epoch's drift of it
                 dk = (since[:, a] + 1).astype(float)
-                S = S + k2 * (dk**2)[:, None, None] * t.drift
-                good[:, a] = check & (_chi2(d, S) <= self.T1[a])
+                S = S + k2 * (dk**2)[:, None, None] * drift
+                good[:, a] = check & need[:, a] & (_chi2(d, S) <= self.T1[a])
             inc.append((d, np.where(check[:, None, None], S, 0.0)))
             now = usable[:, a]
             last[a] = np.where(now[:, None], t.nu, last[a])
