@@ -15,6 +15,12 @@ guard's settings are the defaults of :class:`ftnav.fusion.config.GuardSettings`.
   aid must be re-admitted within 10 s of the end and the error after it within 1.5 ×
   ``ckf``'s over the same epochs.
 * 15 s GNSS outages every 60 s: the returning fixes re-admitted within 10 s.
+* GNSS positions alone under a 5 m step, a 0.2 m/s ramp (60 s) and a frozen receiver
+  (30 s): the only aid is held out for at most its patience after its last jump, coasting
+  on its own increments meanwhile (was 34 km, 42 km: a MEMS coast of 60 s, then a
+  re-admission that never held); re-admitted within the patience + 1 s of the fault's
+  end, the error after it never above the fault's size or ``ckf``'s (which follows the
+  fault), and within 1.5 × ``ckf``'s from 5 s after the patience.
 
 Each check runs the χ² and the GLR method (``fkf-chi2``, ``fkf-glr``).
 """
@@ -25,6 +31,7 @@ import numpy as np
 import pytest
 from recording_runs import drive_copy, process
 
+from ftnav.fusion.config import GuardSettings
 from ftnav.io.recording_file import load_recording
 from ftnav.model.scenario import Fault
 from ftnav.nav.earth import enu_metres
@@ -121,3 +128,28 @@ def test_after_every_15_s_outage_the_gnss_is_readmitted_within_10_s(drive):
         flags = _flags(loaded, traces[name])
         for _, end in schedule:
             assert _readmitted_after(times, flags, end) <= 10.0, (name, end)
+
+
+@pytest.mark.parametrize(
+    ("kind", "length", "metres"), [("bias", 60.0, 5.0), ("ramp", 60.0, 12.0), ("stuck", 30.0, 0.0)]
+)
+def test_gnss_alone_a_fault_of_the_only_aid_is_coasted_and_recovered(
+    tmp_path, kind, length, metres
+):
+    path = _short(tmp_path, ("ckf", "fkf-chi2"))
+    t0 = load_recording(path, methods=["ckf"]).recording.t_start
+    magnitude = np.array([0.0, metres, 0.0, 0.0, 0.0, 0.0])
+    fault = Fault("gnss", kind, t0 + T_FAULT, t0 + T_FAULT + length, magnitude)
+    loaded, traces, _ = process(path, aids=["gnss"], faults=[fault])
+    times = loaded.recording.times
+    t_end = T_FAULT + length
+    patience = GuardSettings().patience_s
+    t_ref, ckf = _horizontal(loaded, traces["ckf"])
+    _, err = _horizontal(loaded, traces["fkf-chi2"])
+    back = _readmitted_after(times, _flags(loaded, traces["fkf-chi2"]), t_end)
+    assert back <= patience + 1.0, back
+    rms = lambda e, at: float(np.sqrt(np.mean(e[at] ** 2)))  # noqa: E731
+    after, late = t_ref >= t_end, t_ref >= t_end + patience + 5.0
+    # never worse than following the fault: its size, or ckf's (a frozen output's jump)
+    assert rms(err, after) <= max(metres, rms(ckf, after)), (rms(err, after), rms(ckf, after))
+    assert rms(err, late) <= 1.5 * rms(ckf, late), (rms(err, late), rms(ckf, late))

@@ -13,7 +13,7 @@ from typing import Any
 
 from ftnav.engine.driver import NavigationModel
 from ftnav.engine.ins import InsModel, InsModelState
-from ftnav.engine.linear import LinearModel
+from ftnav.engine.linear import LinearModel, Repeats
 from ftnav.engine.smoother import SmoothedTrace, smooth, smoothed_trace
 from ftnav.model.system import LinearSystem
 
@@ -25,7 +25,7 @@ def navigation_model(scenario: Any, system: LinearSystem | None = None) -> Navig
     integrated scenario or a recording."""
     system = scenario.system() if system is None else system
     if scenario.kind == "linear":
-        linear: NavigationModel[None] = LinearModel(system)
+        linear: NavigationModel[Repeats] = LinearModel(system)
         return linear
     ins: NavigationModel[InsModelState] = InsModel(
         system,

@@ -163,8 +163,12 @@ def _part(epoch: Epoch, rows: slice) -> Epoch:
     lin = epoch.lin
     if lin is not None:
         lin = Linearization(lin.Phi[rows], lin.Q[rows], tuple(h[rows] for h in lin.H))
+    rep = epoch.repeated
     return epoch._replace(
-        z=tuple(z[rows] for z in epoch.z), available=epoch.available[rows], lin=lin
+        z=tuple(z[rows] for z in epoch.z),
+        available=epoch.available[rows],
+        lin=lin,
+        repeated=None if rep is None else rep[rows],
     )
 
 

@@ -40,7 +40,7 @@ import numpy as np
 
 from ftnav.core import kalman as kf
 from ftnav.engine.driver import N_NAV, LocalCopies
-from ftnav.model.streams import InsStream
+from ftnav.model.streams import InsStream, repeated
 from ftnav.model.system import Epoch, Linearization, LinearSystem
 from ftnav.nav import attitude
 from ftnav.nav.error_model import ErrorModelParams, discrete_model
@@ -66,6 +66,8 @@ class InsModelState(NamedTuple):
     ins: InsState
     previous: Previous
     shift: np.ndarray | None
+    repeated: tuple[np.ndarray, ...] = ()
+    """per aid, (B, K) its output repeats its previous one bit for bit (a frozen aid)."""
     bias: np.ndarray | None = None
     """(rows, 6) the IMU biases fed back so far, gyro ε̂ (rad/s) then accelerometer ∇̂
     (m/s²), body frame, subtracted from the increments (``bias_compensation``); (rows,
@@ -169,7 +171,8 @@ class InsModel:
         ins = InsState(*(_tile(a, copies) for a in stream.start))
         width = 12 if self.error_model.n == 21 else 6
         bias = np.zeros((ins.q.shape[0], width)) if self.compensate else None
-        return InsModelState(ins, (None,) * len(self.aids), None, bias)
+        rep = tuple(repeated(aid.raw, aid.available) for aid in stream.aids)
+        return InsModelState(ins, (None,) * len(self.aids), None, rep, bias)
 
     def epoch(
         self,
@@ -214,7 +217,9 @@ class InsModel:
         z, H, avail, previous = self._measure(state, stream, k, copies, ins, Phi)
         if local_copies is not None and local_copies.rows.any():
             self._at_local_copies(stream, k, copies, ins, Phi, local_copies, z, H, avail)
-        epoch = Epoch(k, tuple(z), avail, stream.labels[k - 1], Linearization(Phi, Q, tuple(H)))
+        rep = np.stack([_tile(r[:, k - 1], copies) for r in state.repeated], 1) & avail
+        lin = Linearization(Phi, Q, tuple(H))
+        epoch = Epoch(k, tuple(z), avail, stream.labels[k - 1], lin, rep)
         return state._replace(ins=ins, previous=previous), epoch
 
     def _measure(
@@ -313,7 +318,7 @@ class InsModel:
         if any(p is not None for p in self.psi):
             n = self.system.n_common
             shift = np.concatenate([d, np.zeros((d.shape[0], n - d.shape[1]))], 1)
-        return InsModelState(ins, state.previous, shift, bias)
+        return state._replace(ins=ins, shift=shift, bias=bias)
 
     def _bias_states(self, d: np.ndarray) -> np.ndarray:
         """(rows, 6) gyro and accelerometer biases of the fed-back states ``d``: 15

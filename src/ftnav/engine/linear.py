@@ -12,10 +12,14 @@ from typing import Any
 
 import numpy as np
 
-from ftnav.model.streams import MeasurementStream
+from ftnav.model.streams import MeasurementStream, repeated
 from ftnav.model.system import Epoch, Linearization, LinearSystem, TimeVarying
 
 __all__ = ["LinearModel"]
+
+#: the linear model's state between epochs: each sensor's (B, K) repeated outputs (None
+#: where a caller steps the model without :meth:`LinearModel.start`: not known then)
+Repeats = tuple[np.ndarray, ...] | None
 
 
 class LinearModel:
@@ -39,29 +43,30 @@ class LinearModel:
         if transitions is not None:  # the private blocks and every H stay constant
             self._H = tuple(system.local_H(i) for i in range(system.n_sensors))
 
-    def start(self, stream: MeasurementStream, copies: int) -> None:
+    def start(self, stream: MeasurementStream, copies: int) -> Repeats:
+        """Each sensor's (B, K) repeated outputs (a frozen sensor's signature)."""
+        return tuple(repeated(z, stream.available[:, :, i]) for i, z in enumerate(stream.z))
+
+    def navigation(self, state: Repeats) -> None:
         return None
 
-    def navigation(self, state: None) -> None:
+    def correct(self, state: Repeats, fused: np.ndarray, rows: np.ndarray | None = None) -> Repeats:
+        return state
+
+    def compensated_bias(self, state: Repeats) -> None:
         return None
 
-    def correct(self, state: None, fused: np.ndarray, rows: np.ndarray | None = None) -> None:
-        return None
-
-    def compensated_bias(self, state: None) -> None:
-        return None
-
-    def output(self, state: None, fused: np.ndarray, rows: np.ndarray | None = None) -> None:
+    def output(self, state: Repeats, fused: np.ndarray, rows: np.ndarray | None = None) -> None:
         return None
 
     def epoch(
         self,
-        state: None,
+        state: Repeats,
         stream: MeasurementStream,
         k: int,
         copies: int,
         local_copies: Any = None,
-    ) -> tuple[None, Epoch]:
+    ) -> tuple[Repeats, Epoch]:
         """The stream's epoch k (1-based) for ``copies`` methods (all see the same rows)."""
         lin = None
         if self.transitions is not None:
@@ -72,4 +77,6 @@ class LinearModel:
             Q = np.broadcast_to(self.transitions.Q[k - 1], (B,) + self.transitions.Q.shape[1:])
             lin = Linearization(Phi, Q, tuple(np.broadcast_to(H, (B,) + H.shape) for H in self._H))
         z = tuple(zi[:, k - 1] for zi in stream.z)
-        return None, Epoch(k, z, stream.available[:, k - 1], stream.labels[k - 1], lin)
+        avail = stream.available[:, k - 1]
+        rep = None if state is None else np.stack([r[:, k - 1] for r in state], 1)
+        return state, Epoch(k, z, avail, stream.labels[k - 1], lin, rep)

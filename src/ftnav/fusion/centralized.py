@@ -166,7 +166,15 @@ class CentralizedFilter:
         if self.guard is not None:
             assert state.guard is not None
             guarded = self.guard.begin(
-                state.guard, [prior], [F], epoch.z, Hs, R_now, usable, det_out
+                state.guard,
+                [prior],
+                [F],
+                epoch.z,
+                Hs,
+                R_now,
+                usable,
+                det_out,
+                repeated=epoch.repeated,
             )
             det_out = guarded.detection
         use = usable if det_out is None else usable & ~det_out.flag

@@ -213,7 +213,9 @@ class GuardSettings(Settings):
     that reports it unobservable without the aid; ``n_off`` re-admission tests in a row
     (default the detector's ``n_off``, else 5), ``confirm`` those that undo a rollback;
     ``override`` passes after which the guard re-admits against a detector still
-    alarming.
+    alarming; ``patience_s`` the longest a sole source is held after its last jump once
+    its increments are consistent again (past it, the jump is taken as the aid's new
+    value, as the plain filter takes it; the jump back cancels it).
     """
 
     window_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 600.0
@@ -225,6 +227,7 @@ class GuardSettings(Settings):
     n_off: Count | None = None
     confirm: Count = 20
     override: Count = 50
+    patience_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 10.0
 
     @model_validator(mode="after")
     def _check(self) -> GuardSettings:

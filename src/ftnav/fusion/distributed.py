@@ -214,7 +214,15 @@ class DistributedFilter:
         if self.guard is not None:
             assert state.guard is not None
             guarded = self.guard.begin(
-                state.guard, [prior_g], [F], epoch.z, Hs, R_now, meas.usable, det_out
+                state.guard,
+                [prior_g],
+                [F],
+                epoch.z,
+                Hs,
+                R_now,
+                meas.usable,
+                det_out,
+                repeated=epoch.repeated,
             )
             det_out = guarded.detection
         use = meas.usable if det_out is None else meas.usable & ~det_out.flag

@@ -399,7 +399,12 @@ class FederatedFilter:
             assert state.guard is not None
             gin = self._guard_inputs(state, epoch, loc, prior_g, F)
             guarded = self.guard.begin(
-                state.guard, *gin, meas.usable, det_out, keep=self.policy.flags
+                state.guard,
+                *gin,
+                meas.usable,
+                det_out,
+                keep=self.policy.flags,
+                repeated=epoch.repeated,
             )
             det_out, flag = guarded.detection, guarded.flags
             if self.local_guard:  # each local takes its own aid's rollback

@@ -65,7 +65,18 @@ and decides the method's isolation from its detector's flags:
    when it cancels (the fault's end undid its onset).  Only where no other aid
    measures (the aid is the only one of the estimate): another aid that holds the
    quantity's rate (an odometer, NHC, GNSS velocities) keeps the coasting honest, and
-   there a ramp of the aid must stay out (``slowramp``).
+   there a ramp of the aid must stay out (``slowramp``).  Where no other aid measures at
+   all, held or not (a held healthy aid must not leave a faulty one the field): once
+   ``n_off`` increments in a row were consistent, each consistent increment updates the
+   estimate as a measurement of its drift (``Δk H(Φ − I)``, noise 2R: after a step the
+   aid moves as the vehicle does, and the coast keeps the vehicle's velocity); an output
+   repeated bit for bit (``repeated``: a frozen receiver, which at a crawl passes the
+   increment test) counts as inconsistent; and ``patience_s`` after the hold's last jump
+   the jump is *taken* (the plain filter's choice: the estimate moves by the hold's jump
+   sum in the measured quantity, ``Hᵀ(HHᵀ)⁻¹``, the rest of the innovation relaxed), the
+   only way back when the jump was the end of a fault the filter had followed (an IMU
+   cannot see a constant velocity offset); the taken jump stays in the sum, so the jump
+   back at a step's end cancels it.
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
@@ -138,6 +149,10 @@ class GuardState(NamedTuple):
     jump, jump_cov : per aid, the sum (B, m) of a hold's inconsistent increments (its
         jumps) and the sum (B, m, m) of their covariances: a steady hold is re-armed when
         the jumps cancel (the fault's end undid its onset).
+    calm : epochs since the hold's last inconsistent increment (or its onset); set to
+        the patience when the jumps cancel.
+    taken : per aid, (B, m) the part of the jump sum the estimate has taken (a sole
+        source's jump past its patience), cleared with the sum.
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -157,6 +172,8 @@ class GuardState(NamedTuple):
     last: tuple[np.ndarray, ...]
     jump: tuple[np.ndarray, ...]
     jump_cov: tuple[np.ndarray, ...]
+    calm: np.ndarray
+    taken: tuple[np.ndarray, ...]
 
 
 class GuardOutput(NamedTuple):
@@ -217,6 +234,10 @@ class Guarded(NamedTuple):
     flags : (B, N) the aids the method isolates this epoch.
     detection : the detector's output with the final flags (and separation alarms).
     windows : (B, N) the window each rollback removes.
+    rate : (B, N) the held sole sources whose increment informs the estimate's rate now
+        (module docstring, 3).
+    taken : (B, N) the relaxed re-admissions that take a sole source's jump (its
+        covariance is inflated in the measured quantity only, not along the drift).
     """
 
     before: GuardState
@@ -226,6 +247,8 @@ class Guarded(NamedTuple):
     flags: np.ndarray
     detection: DetectorOutput
     windows: np.ndarray
+    rate: np.ndarray
+    taken: np.ndarray
 
 
 class Amend(NamedTuple):
@@ -354,6 +377,7 @@ class Guard:
         span = self.L * self.nb  # epochs of a coarse block: the fine blocks' span
         self.nc = max(0, int(math.ceil(config.window_s / dt / span)) - 1)
         self.J = self.nb + 1 + (self.nc + 1 if self.nc else 0)
+        self.patience = max(1, int(math.ceil(config.patience_s / dt)))
         self.pfa = float(config.false_alarm_probability)
         self.T1 = np.array([_threshold(self.pfa, m) for m in self.dims])
         self.detector = detector
@@ -395,6 +419,8 @@ class Guard:
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.zeros((B, m, m)) for m in self.dims),
+            zi.copy(),
+            tuple(np.zeros((B, m)) for m in self.dims),
         )
 
     @staticmethod
@@ -483,13 +509,15 @@ class Guard:
         detection: DetectorOutput | None,
         usable: np.ndarray,
         keep: Callable[[np.ndarray], np.ndarray] | None = None,
-    ) -> tuple[GuardState, GuardOutput, np.ndarray, np.ndarray]:
+        repeated: np.ndarray | None = None,
+    ) -> tuple[GuardState, GuardOutput, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The epoch's flags (B, N): the aids the method isolates this epoch.
 
         Rising edges (a separation alarm, or the detector's flag; ``keep`` is the
         method's common-mode rule on them) start a hold, with the rollback window chosen
         (module docstring, 1); held aids are re-admitted after their passes, from the
-        next epoch on.  Returns the new state, the output, the flags and the windows.
+        next epoch on.  Returns the new state, the output, the flags, the windows and the
+        held sole sources whose consistent increment informs the estimate's rate.
         """
         c = self.config
         B, N = usable.shape
@@ -536,11 +564,18 @@ class Guard:
         undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
         # no other aid of the estimate measures now (a sole source in the strict sense)
         alone = np.stack([~self._witness_present(a, usable, state) for a in range(N)], 1)
+        # no other aid of the estimate measures at all, held or not (the only aid now): a
+        # held healthy aid must not leave a faulty one the field
+        only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
         # the increments matter where an aid is held or may be isolated now
         need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
         good, inc, since, last = self._increments(state, test, usable, need)
+        if repeated is not None:  # a repeated output is no evidence of a moving aid
+            good &= ~repeated
         steady, steps = state.steady, state.steps
-        steps = np.where(tested & steady, np.where(good, steps + 1, 0), steps)
+        calm = np.where(state.hold, np.where(tested & ~good, 0, state.calm + 1), state.calm)
+        # consistent increments in a row of every hold (a steady one's: its steps)
+        steps = np.where(tested, np.where(good, steps + 1, 0), steps)
         steady = steady & ~(tested & ~good)
         jump, jump_cov = self._jumps(state, inc, tested & ~good)
         for a in range(N):  # the jumps cancel: the aid is back where it was
@@ -551,10 +586,16 @@ class Guard:
             back = fail & (_chi2(jump[a], C) <= self.T1[a])
             steady[:, a] |= back & self.rollback & alone[:, a]
             steps[:, a] = np.where(back, 0, steps[:, a])
+            calm[:, a] = np.where(back, self.patience, calm[:, a])
         # a sole source isolated on an alarm nothing explained (no rollback), whose own
         # increments have stayed consistent since, no other aid measuring: the model,
         # not the aid, drifted
         settled = state.hold & steady & unobs & alone & (steps >= self.n_off) & ~undone
+        # a sole source consistent again for the patience since its last jump: the jump
+        # is its new value (the plain filter's choice; a coast does not outlast it)
+        expired = state.hold & only & (steps >= self.n_off) & (calm >= self.patience)
+        settled |= expired & ~undone & self.rollback
+        taken = settled & ~steady  # a jump's hold: the jump is taken, not a drift
         release = state.hold & ((passes >= self.n_off) | undone | settled)
         relaxed = (release & ~undone & ~strict) | settled
         # a re-admission the detector does not agree with yet overrules it until it clears
@@ -633,16 +674,30 @@ class Guard:
         # the onset's own increment: a jump (a step, a frozen output) is a fault of the aid
         steady = np.where(reset, rising & ~choose & good & alone & self.rollback, steady)
         steps = np.where(reset, 0, steps)
-        onset = rising & ~good & (since == 0)  # its jump starts the hold's sum
+        # the onset's jump joins the hold's sum; the sum outlives a re-admission that
+        # took the aid with its jump (the allowance: the estimate followed the step), so
+        # the jump back cancels it, and is cleared when the jumps cancelled
+        onset = rising & ~good & (since == 0)
+        calm = np.where(rising, 0, calm)
+        for a in range(N):  # an onset jump that cancels the sum: the aid is back
+            if not onset[:, a].any():
+                continue
+            J, C = jump[a] + inc[a][0], jump_cov[a] + inc[a][1]
+            valid = onset[:, a] & (jump[a] != 0).any(-1)
+            valid &= np.linalg.eigvalsh(C).min(-1) > 0
+            C = np.where(valid[:, None, None], C, np.eye(self.dims[a]))
+            back = valid & (_chi2(J, C) <= self.T1[a])
+            calm[:, a] = np.where(back & only[:, a], self.patience, calm[:, a])
+        clear = release & settled & ~taken  # a jump taken stays in the sum
         jump = tuple(
-            np.where(onset[:, a, None], inc[a][0], np.where(reset[:, a, None], 0.0, jump[a]))
+            np.where(clear[:, a, None], 0.0, jump[a] + np.where(onset[:, a, None], inc[a][0], 0.0))
             for a in range(N)
         )
         jump_cov = tuple(
             np.where(
-                onset[:, a, None, None],
-                inc[a][1],
-                np.where(reset[:, a, None, None], 0.0, jump_cov[a]),
+                clear[:, a, None, None],
+                0.0,
+                jump_cov[a] + np.where(onset[:, a, None, None], inc[a][1], 0.0),
             )
             for a in range(N)
         )
@@ -661,9 +716,26 @@ class Guard:
             last=last,
             jump=jump,
             jump_cov=jump_cov,
+            calm=calm,
+            taken=tuple(
+                np.where(
+                    clear[:, a, None],
+                    0.0,
+                    np.where((taken & release)[:, a, None], jump[a], state.taken[a]),
+                )
+                for a in range(N)
+            ),
         )
         out = GuardOutput(ratio, flags, alarm, choose, undone, unobs, relaxed | welcome)
-        return new_state, out, flags, windows
+        # a held sole source whose increment is consistent (after a step: the aid moves
+        # as the vehicle does, offset) still tells the estimate's rate
+        # once ``n_off`` of them in a row were consistent, and never an output repeated
+        # bit for bit (a frozen receiver's increment looks like a stop at a crawl, and
+        # would hold the estimate still)
+        fresh = np.ones((B, N), bool) if repeated is None else ~repeated
+        rate = state.hold & hold & usable & only & good & fresh & (steps >= self.n_off)
+        rate &= (state.since >= 0) & self.rollback
+        return new_state, out, flags, windows, rate, taken & release
 
     def _jumps(
         self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
@@ -755,12 +827,15 @@ class Guard:
             ok &= ~w | (q_b <= np.maximum(self.T1[j], q_a))
         return np.asarray(ok, bool)
 
-    def _witness_present(self, a: int, usable: np.ndarray, state: GuardState) -> np.ndarray:
-        """(B,) whether another aid of ``a``'s group has a measurement and is not isolated."""
+    def _witness_present(
+        self, a: int, usable: np.ndarray, state: GuardState | None = None
+    ) -> np.ndarray:
+        """(B,) whether another aid of ``a``'s group has a measurement and is not isolated
+        (with ``state``; without: whether another aid has a measurement)."""
         out = np.zeros(usable.shape[0], bool)
         for j in self.groups[self.group_of[a]]:
             if j != a:
-                out |= usable[:, j] & ~state.hold[:, j]
+                out |= usable[:, j] & (True if state is None else ~state.hold[:, j])
         return out
 
     def _witnessed(
@@ -812,16 +887,23 @@ class Guard:
         usable: np.ndarray,
         detection: DetectorOutput | None,
         keep: Callable[[np.ndarray], np.ndarray] | None = None,
+        repeated: np.ndarray | None = None,
     ) -> Guarded:
-        """:meth:`test` and :meth:`decide` in one: the epoch's flags before the update."""
+        """:meth:`test` and :meth:`decide` in one: the epoch's flags before the update.
+
+        ``repeated`` (B, N): the aids whose output repeats its previous one bit for bit
+        (the epoch's :attr:`~ftnav.model.system.Epoch.repeated`), or None.
+        """
         test = self.test(state, priors, F, z, H, R, usable)
-        after, out, flags, windows = self.decide(state, test, detection, usable, keep)
+        after, out, flags, windows, rate, taken = self.decide(
+            state, test, detection, usable, keep, repeated
+        )
         B, N = usable.shape
         if detection is None:
             detection = DetectorOutput(out.statistic, np.ones((B, N)), out.alarm, flags)
         else:
             detection = detection._replace(raw=detection.raw | out.alarm, flag=flags)
-        return Guarded(state, after, test, out, flags, detection, windows)
+        return Guarded(state, after, test, out, flags, detection, windows, rate, taken)
 
     def finish(
         self,
@@ -915,6 +997,20 @@ class Guard:
                 rel = out.relaxed[:, a] & usable[:, a]
                 if rel.any():
                     Ha, Ra = self._matrices(H[a], R[a], B)
+                    jumped = g.taken[:, a]
+                    if jumped.any():
+                        # a sole source's jump taken: the estimate moves by it in the
+                        # measured quantity only (Hᵀ(HHᵀ)⁻¹), with its covariance; the
+                        # rest of the innovation is the coast's drift (below)
+                        M = kf.mT(np.linalg.solve(Ha @ kf.mT(Ha), Ha))
+                        J = np.where(jumped[:, None], after.jump[a] - before.taken[a], 0.0)
+                        C = np.where(jumped[:, None, None], after.jump_cov[a], 0.0)
+                        shift = kf.mv(M, J)
+                        spread = kf.symmetrize(M @ C @ kf.mT(M))
+                        x, P = x + shift, kf.symmetrize(P + spread)
+                        dx -= shift
+                        dP += spread
+                        where |= jumped
                     A = kf.symmetrize(Ha @ P @ kf.mT(Ha))
                     nu = np.where(rel[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
                     gam = np.where(rel, inflation(nu, A, Ra), 0.0)
@@ -930,6 +1026,27 @@ class Guard:
                         p = sep.with_own(p, s, d, D)
                     x, P = x + d, kf.symmetrize(P_in - D)
                     where |= rel
+            for s, a in enumerate(grp):
+                # a held sole source's consistent increment: ``ν − r_prev`` measures the
+                # estimate's drift since the aid's last measurement, ``Δk H(Φ − I)`` of
+                # the present error to first order, with noise 2R
+                on = g.rate[:, a]
+                if on.any():
+                    Ha, Ra = self._matrices(H[a], R[a], B)
+                    dk = (before.since[:, a] + 1).astype(float)
+                    Fi = np.broadcast_to(g.test.F[gi], P.shape) - np.eye(n)
+                    Hd = dk[:, None, None] * (Ha @ Fi)
+                    nu = np.nan_to_num(z[a]) - kf.mv(Ha, x) - before.last[a]
+                    nu = np.where(on[:, None], nu, 0.0)
+                    K, A_d = _gain(P, Hd, 2.0 * Ra)
+                    d = np.where(on[:, None], kf.mv(K, nu), 0.0)
+                    D = np.where(on[:, None, None], reduction(K, A_d, 2.0 * Ra), 0.0)
+                    dx -= d
+                    dP -= D
+                    p = sep.with_own(p, s, d, D)
+                    x, P = x + d, kf.symmetrize(P - D)
+                    where |= on
+                    last[a] = np.where(on[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), last[a])
             if self.rollback:  # the used aids' residuals against the posterior
                 for a in grp:
                     used = usable[:, a] & ~out.hold[:, a]

@@ -272,7 +272,17 @@ class NeuralFusion:
                 # and drifts with the fault (module docstring of the seed001 tests), so
                 # the guard re-tests the aid against the neuron output's common states
                 bases = [with_common(priors[i], *ref) for i in range(N)]
-            guarded = self.guard.begin(state.guard, bases, Fs, epoch.z, Hs, R, meas.usable, det_out)
+            guarded = self.guard.begin(
+                state.guard,
+                bases,
+                Fs,
+                epoch.z,
+                Hs,
+                R,
+                meas.usable,
+                det_out,
+                repeated=epoch.repeated,
+            )
             det_out = guarded.detection
             guard_state, amends = self.guard.finish(guarded, bases, epoch.z, Hs, R, meas.usable)
             for i, a in enumerate(amends):  # a relaxed re-admission's update, inflation:

@@ -156,6 +156,7 @@ class ZeroResetFilter:
                 meas.usable,
                 det_out,
                 keep=self.policy.flags,
+                repeated=epoch.repeated,
             )
             det_out = guarded.detection
             flag = guarded.flags

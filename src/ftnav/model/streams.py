@@ -24,6 +24,7 @@ import numpy as np
 from ftnav.nav.mechanization import InsState
 
 __all__ = [
+    "repeated",
     "scheduled",
     "AidStream",
     "ImuStream",
@@ -143,3 +144,21 @@ def scheduled(stream: MeasurementStream | InsStream, steps: int) -> np.ndarray:
     if isinstance(stream, MeasurementStream):
         return np.asarray(stream.available[:, :steps], bool)
     return np.stack([np.asarray(a.available[:, :steps], bool) for a in stream.aids], -1)
+
+
+def repeated(values: np.ndarray, available: np.ndarray) -> np.ndarray:
+    """(B, K) True where an available output equals, bit for bit, its run's previous
+    available output: a frozen sensor's signature (a real output's noise never repeats
+    to the last bit; a quantized one may at a standstill, where nothing is lost by
+    saying so).
+
+    ``values`` (B, K, ...) the outputs, ``available`` (B, K) bool.
+    """
+    B, K = available.shape
+    v = values.reshape(B, K, -1)
+    idx = np.where(available, np.arange(K), -1)
+    last = np.maximum.accumulate(idx, axis=1)
+    prev = np.concatenate([np.full((B, 1), -1), last[:, :-1]], 1)
+    before = np.take_along_axis(v, np.maximum(prev, 0)[..., None], 1)
+    out: np.ndarray = available & (prev >= 0) & (before == v).all(-1)
+    return out

@@ -142,6 +142,8 @@ class Epoch(NamedTuple):
     labels : (N,) or (B, N) bool, labelled fault windows of a simulated stream (read
         by the ``oracle`` detector only; all False for a recorded stream).
     lin : the epoch's per-run matrices of a linearized system, None for a constant one.
+    repeated : (B, N) bool, the sensor's output repeats its previous one bit for bit
+        (:func:`ftnav.model.streams.repeated`), or None (not known).
     """
 
     k: int
@@ -149,6 +151,7 @@ class Epoch(NamedTuple):
     available: np.ndarray
     labels: np.ndarray
     lin: Linearization | None = None
+    repeated: np.ndarray | None = None
 
 
 @dataclass(frozen=True, slots=True)
