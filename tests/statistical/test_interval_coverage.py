@@ -99,6 +99,18 @@ def test_ratio_intervals_cover_the_ratio_of_paired_means():
     assert _miss([ratio_interval(x, y) for x, y in zip(a, d, strict=True)], 2.0) <= TOLERANCE
 
 
+def test_a_ratio_constant_over_the_runs_has_a_point_interval():
+    """Closed form: two methods identical in every run (the β-invariance of a reset every
+    epoch, spec §1.6) or proportional: Fieller's discriminant is 0, so the interval is the
+    ratio itself, not unbounded (its rounding made ``seed000``'s reset-1 claim undecided)."""
+    rng = np.random.default_rng(3)
+    for r in (1.0, 0.7, 3.0):
+        for _ in range(50):
+            d = rng.chisquare(10, B) / 10
+            ci = ratio_interval(r * d, d)
+            assert ci.lo == pytest.approx(r, rel=1e-6) and ci.hi == pytest.approx(r, rel=1e-6)
+
+
 def test_ratio_intervals_under_strong_skew_are_short_with_few_runs():
     """The limit stated in :mod:`ftnav.eval.intervals`: with ``u_b ~ χ²(4)/4`` (a fault
     whose effect varies a lot between runs) 20 runs cover about 92 %, not 95 % (no

@@ -152,6 +152,8 @@ def ratio_interval(
         A = dm * dm - q2 * c[1, 1]
         b = am * dm - q2 * c[0, 1]
         disc = b * b - A * (am * am - q2 * c[0, 0])
+        if -1e-12 * b * b <= disc < 0.0:  # a ratio constant over the runs: 0, but rounded
+            disc = 0.0
         if A > 0 and disc >= 0:
             lo, hi = (b - math.sqrt(disc)) / A, (b + math.sqrt(disc)) / A
     if not root:
