@@ -20,7 +20,8 @@ guard's settings are the defaults of :class:`ftnav.fusion.config.GuardSettings`.
   on its own increments meanwhile (was 34 km, 42 km: a MEMS coast of 60 s, then a
   re-admission that never held); re-admitted within the patience + 1 s of the fault's
   end, the error after it never above the fault's size or ``ckf``'s (which follows the
-  fault), and within 1.5 × ``ckf``'s from 5 s after the patience.
+  fault), and within 1.5 × ``ckf``'s from 5 s after the patience; a jump taken is a
+  warning of the self-watch.
 
 Each check runs the χ² and the GLR method (``fkf-chi2``, ``fkf-glr``).
 """
@@ -140,10 +141,14 @@ def test_gnss_alone_a_fault_of_the_only_aid_is_coasted_and_recovered(
     t0 = load_recording(path, methods=["ckf"]).recording.t_start
     magnitude = np.array([0.0, metres, 0.0, 0.0, 0.0, 0.0])
     fault = Fault("gnss", kind, t0 + T_FAULT, t0 + T_FAULT + length, magnitude)
-    loaded, traces, _ = process(path, aids=["gnss"], faults=[fault])
+    loaded, traces, scores = process(path, aids=["gnss"], faults=[fault])
     times = loaded.recording.times
     t_end = T_FAULT + length
     patience = GuardSettings().patience_s
+    # a jump taken is said (a frozen output's coast is not one)
+    watch = scores["fkf-chi2"]["integrity"]
+    said = [f for f in watch["findings"] if "taken back with its jump" in f]
+    assert (watch["aids"]["gnss"]["taken"] > 0) == (kind != "stuck") == bool(said), watch
     t_ref, ckf = _horizontal(loaded, traces["ckf"])
     _, err = _horizontal(loaded, traces["fkf-chi2"])
     back = _readmitted_after(times, _flags(loaded, traces["fkf-chi2"]), t_end)

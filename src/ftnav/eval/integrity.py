@@ -81,6 +81,8 @@ class AidWatch(NamedTuple):
     isolated : fraction of the finite measurements the guard held.
     isolations : times the aid was isolated, summed over the runs.
     rollbacks, undone, relaxed : counts over the runs.
+    taken : re-admissions that took the aid's jump as its new value (the only aid
+        measuring, held past its patience), counted over the runs.
     unobservable_s : seconds isolated with the aid's quantity unheld, summed over runs.
     """
 
@@ -96,6 +98,7 @@ class AidWatch(NamedTuple):
     rollbacks: int
     undone: int
     relaxed: int
+    taken: int
     unobservable_s: float
 
 
@@ -229,7 +232,7 @@ def watch(
         over, first = _inconsistent(times, q, av & judged[None], m, w, settings.probability)
         availability = float(av.sum() / max(sc.sum(), 1))
         used_frac = float(us.sum() / max(n_av, 1))
-        held = rollbacks = undone = relaxed = isolations = 0
+        held = rollbacks = undone = relaxed = taken = isolations = 0
         unobs_s = 0.0
         toggling = 0
         if guard is not None:
@@ -242,6 +245,7 @@ def watch(
             rollbacks = int(guard.rollback[..., i].sum())
             undone = int(guard.undone[..., i].sum())
             relaxed = int(guard.relaxed[..., i].sum())
+            taken = int(guard.taken[..., i].sum())
             unobs_s = float(guard.unobservable[..., i].sum() * dt)
         aw = AidWatch(
             sensor,
@@ -256,6 +260,7 @@ def watch(
             rollbacks,
             undone,
             relaxed,
+            taken,
             unobs_s,
         )
         aids.append(aw)
@@ -287,6 +292,16 @@ def watch(
                 f"more in {toggling} of {B} run(s), its NIS large while isolated: a noise "
                 f"increase looks like this, which an adaptive noise (noise = 'vb') takes "
                 f"without losing the aid"
+            )
+        if taken and guard is not None:
+            t_k = _first(times, guard.taken[..., i])
+            n_taken = int(guard.taken[..., i].any(1).sum())
+            in_runs = f" in {n_taken} of {B} runs" if B > 1 else ""
+            findings.append(
+                f"methods[{name}]: aid {sensor!r}, the only aid measuring, jumped and was "
+                f"taken back with its jump as its new value after the guard's patience "
+                f"(first at t = {t_k:.1f} s{in_runs}; {taken} time(s)): a step of it that "
+                f"lasts is followed from there, as the plain filter follows it"
             )
         if unobs_s > 0 and guard is not None:
             t_u = _first(times, guard.unobservable[..., i])

@@ -189,6 +189,8 @@ class GuardOutput(NamedTuple):
     undone : re-admitted with its rollback undone (the aid was right).
     unobservable : isolated, the aid's quantity drifts unheld (module docstring, 3).
     relaxed : re-admitted with the covariance inflated to cover its innovation.
+    taken : re-admitted with its jump taken as its new value (the only aid measuring,
+        past its patience: module docstring, 3); a relaxed re-admission as well.
     """
 
     statistic: np.ndarray
@@ -198,6 +200,7 @@ class GuardOutput(NamedTuple):
     undone: np.ndarray
     unobservable: np.ndarray
     relaxed: np.ndarray
+    taken: np.ndarray
 
 
 class _AidTest(NamedTuple):
@@ -236,8 +239,6 @@ class Guarded(NamedTuple):
     windows : (B, N) the window each rollback removes.
     rate : (B, N) the held sole sources whose increment informs the estimate's rate now
         (module docstring, 3).
-    taken : (B, N) the relaxed re-admissions that take a sole source's jump (its
-        covariance is inflated in the measured quantity only, not along the drift).
     """
 
     before: GuardState
@@ -248,7 +249,6 @@ class Guarded(NamedTuple):
     detection: DetectorOutput
     windows: np.ndarray
     rate: np.ndarray
-    taken: np.ndarray
 
 
 class Amend(NamedTuple):
@@ -510,7 +510,7 @@ class Guard:
         usable: np.ndarray,
         keep: Callable[[np.ndarray], np.ndarray] | None = None,
         repeated: np.ndarray | None = None,
-    ) -> tuple[GuardState, GuardOutput, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    ) -> tuple[GuardState, GuardOutput, np.ndarray, np.ndarray, np.ndarray]:
         """The epoch's flags (B, N): the aids the method isolates this epoch.
 
         Rising edges (a separation alarm, or the detector's flag; ``keep`` is the
@@ -726,7 +726,9 @@ class Guard:
                 for a in range(N)
             ),
         )
-        out = GuardOutput(ratio, flags, alarm, choose, undone, unobs, relaxed | welcome)
+        out = GuardOutput(
+            ratio, flags, alarm, choose, undone, unobs, relaxed | welcome, taken & release
+        )
         # a held sole source whose increment is consistent (after a step: the aid moves
         # as the vehicle does, offset) still tells the estimate's rate
         # once ``n_off`` of them in a row were consistent, and never an output repeated
@@ -735,7 +737,7 @@ class Guard:
         fresh = np.ones((B, N), bool) if repeated is None else ~repeated
         rate = state.hold & hold & usable & only & good & fresh & (steps >= self.n_off)
         rate &= (state.since >= 0) & self.rollback
-        return new_state, out, flags, windows, rate, taken & release
+        return new_state, out, flags, windows, rate
 
     def _jumps(
         self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
@@ -895,7 +897,7 @@ class Guard:
         (the epoch's :attr:`~ftnav.model.system.Epoch.repeated`), or None.
         """
         test = self.test(state, priors, F, z, H, R, usable)
-        after, out, flags, windows, rate, taken = self.decide(
+        after, out, flags, windows, rate = self.decide(
             state, test, detection, usable, keep, repeated
         )
         B, N = usable.shape
@@ -903,7 +905,7 @@ class Guard:
             detection = DetectorOutput(out.statistic, np.ones((B, N)), out.alarm, flags)
         else:
             detection = detection._replace(raw=detection.raw | out.alarm, flag=flags)
-        return Guarded(state, after, test, out, flags, detection, windows, rate, taken)
+        return Guarded(state, after, test, out, flags, detection, windows, rate)
 
     def finish(
         self,
@@ -997,7 +999,7 @@ class Guard:
                 rel = out.relaxed[:, a] & usable[:, a]
                 if rel.any():
                     Ha, Ra = self._matrices(H[a], R[a], B)
-                    jumped = g.taken[:, a]
+                    jumped = out.taken[:, a]
                     if jumped.any():
                         # a sole source's jump taken: the estimate moves by it in the
                         # measured quantity only (Hᵀ(HHᵀ)⁻¹), with its covariance; the
