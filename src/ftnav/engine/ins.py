@@ -171,7 +171,13 @@ class InsModel:
         ins = InsState(*(_tile(a, copies) for a in stream.start))
         width = 12 if self.error_model.n == 21 else 6
         bias = np.zeros((ins.q.shape[0], width)) if self.compensate else None
-        rep = tuple(repeated(aid.raw, aid.available) for aid in stream.aids)
+        # a pseudo-measurement's output (a vehicle constraint's 0) repeats by design
+        rep = tuple(
+            np.zeros(aid.available.shape, bool)
+            if getattr(sensor, "pseudo", False)
+            else repeated(aid.raw, aid.available)
+            for sensor, aid in zip(self.aids, stream.aids, strict=True)
+        )
         return InsModelState(ins, (None,) * len(self.aids), None, rep, bias)
 
     def epoch(

@@ -118,7 +118,12 @@ class Linearized(NamedTuple):
 
 @runtime_checkable
 class AidingSensor(Protocol):
-    """What the fusion code needs from an aiding sensor (module docstring)."""
+    """What the fusion code needs from an aiding sensor (module docstring).
+
+    Optional: a class attribute ``pseudo = True`` marks a pseudo-measurement whose
+    output is constant by design (the vehicle constraints): the engine then does not
+    read its repeats as a frozen sensor (:attr:`ftnav.model.system.Epoch.repeated`).
+    """
 
     @property
     def name(self) -> str: ...

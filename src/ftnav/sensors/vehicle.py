@@ -65,6 +65,9 @@ class _Constraint:
 
     z_per_error: ClassVar[int] = -1
     components: ClassVar[tuple[str, ...]] = ()
+    #: a pseudo-measurement: its recorded output is 0 by design, so a repeat of it is no
+    #: frozen sensor (:func:`ftnav.model.streams.repeated`; the engine reads this)
+    pseudo: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         check_common(self)
