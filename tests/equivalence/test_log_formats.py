@@ -321,20 +321,30 @@ def test_kfgins_text_gives_the_builtin_solution(tmp_path, builtin_given, start):
 # --- the .pos forms on the reader alone ------------------------------------------------
 
 
-def _same_pos(a, b, atol_m: float = 1e-6) -> None:
-    np.testing.assert_array_equal(a.t, b.t)
-    np.testing.assert_array_equal(a.quality, b.quality)
-    np.testing.assert_allclose(a.lat_deg, b.lat_deg, rtol=0, atol=atol_m / 111e3)
-    np.testing.assert_allclose(a.lon_deg, b.lon_deg, rtol=0, atol=atol_m / 85e3)
-    np.testing.assert_allclose(a.height_m, b.height_m, rtol=0, atol=atol_m)
-    np.testing.assert_allclose(a.sigma_neu, b.sigma_neu, rtol=0, atol=1e-9)
+def _pos_differences(a, b, atol_m: float = 1e-6) -> list[str]:
+    """The fields of two read ``.pos`` files that differ beyond ``atol_m`` (time and
+    quality exactly; σ to 1e-9 m); empty when they are the same fixes."""
+    if a.t.shape != b.t.shape:
+        return [f"shape {a.t.shape} != {b.t.shape}"]
+    tol = {
+        "lat_deg": atol_m / 111e3,
+        "lon_deg": atol_m / 85e3,
+        "height_m": atol_m,
+        "sigma_neu": 1e-9,
+    }
+    out = [f for f in ("t", "quality") if not np.array_equal(getattr(a, f), getattr(b, f))]
+    return out + [
+        f
+        for f, atol in tol.items()
+        if not np.allclose(getattr(a, f), getattr(b, f), 0, atol, equal_nan=True)
+    ]
 
 
 def test_pos_time_forms_and_systems_read_as_one_gpst(tmp_path):
     """GPS week and seconds, UTC (GPST − 18 s in 2025) and JST (UTC + 9 h) all read as
     the calendar GPST, to the bit."""
     ref = read_rtklib_pos(POS)
-    _same_pos(read_rtklib_pos(_pos_week(tmp_path)), ref, 0.0)
+    assert not _pos_differences(read_rtklib_pos(_pos_week(tmp_path)), ref, 0.0)
     head, _, rows = _pos_parts()
     for system, shift in (("UTC", -18), ("JST", 9 * 3600 - 18)):
         out = [*head[:-1], head[-1].replace("GPST", system)]
@@ -343,7 +353,7 @@ def test_pos_time_forms_and_systems_read_as_one_gpst(tmp_path):
             date, clock = str(day).split("T")
             out.append(" ".join([date.replace("-", "/"), clock, *f[2:]]))
         (tmp_path / f"{system}.pos").write_text("\n".join(out) + "\n")
-        _same_pos(read_rtklib_pos(tmp_path / f"{system}.pos"), ref, 0.0)
+        assert not _pos_differences(read_rtklib_pos(tmp_path / f"{system}.pos"), ref, 0.0)
 
 
 def test_pos_position_forms_read_as_the_llh(tmp_path):
@@ -351,12 +361,12 @@ def test_pos_position_forms_read_as_the_llh(tmp_path):
     ECEF, and lat/lon in d m s: the same fixes, σ and velocities."""
     ref = read_rtklib_pos(POS)
     ecef = read_rtklib_pos(_pos_ecef(tmp_path))
-    _same_pos(ecef, ref, 1e-6)
+    assert not _pos_differences(ecef, ref, 1e-6)
     np.testing.assert_allclose(ecef.v_neu, ref.v_neu, rtol=0, atol=1e-12)
     np.testing.assert_allclose(ecef.sigma_v_neu, ref.sigma_v_neu, rtol=0, atol=1e-9)
     for base in ("llh", "ecef"):
         enu = read_rtklib_pos(_pos_enu(tmp_path, base))
-        _same_pos(enu, ref, 1e-6)
+        assert not _pos_differences(enu, ref, 1e-6)
         assert np.isnan(enu.v_neu).all()
     head, _, rows = _pos_parts()
     out = [*head[:-1], head[-1].replace("latitude(deg)", "latitude(d'\")")]
@@ -370,7 +380,7 @@ def test_pos_position_forms_read_as_the_llh(tmp_path):
             dms += [("-" if deg < 0 else "") + f"{d:d}", f"{m:02d}", repr(s)]
         out.append(" ".join([f[0], f[1], *dms, *f[4:]]))
     (tmp_path / "dms.pos").write_text("\n".join(out) + "\n")
-    _same_pos(read_rtklib_pos(tmp_path / "dms.pos"), ref, 1e-6)
+    assert not _pos_differences(read_rtklib_pos(tmp_path / "dms.pos"), ref, 1e-6)
 
 
 # --- a CSV truth ------------------------------------------------------------------------
