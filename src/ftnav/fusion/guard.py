@@ -582,8 +582,7 @@ class Guard:
             fail = tested[:, a] & ~good[:, a]
             if not fail.any():
                 continue
-            C = np.where(fail[:, None, None], jump_cov[a], np.eye(self.dims[a]))
-            back = fail & (_chi2(jump[a], C) <= self.T1[a])
+            back = self._cancelled(a, jump[a], jump_cov[a], fail)
             steady[:, a] |= back & self.rollback & alone[:, a]
             steps[:, a] = np.where(back, 0, steps[:, a])
             calm[:, a] = np.where(back, self.patience, calm[:, a])
@@ -682,11 +681,8 @@ class Guard:
         for a in range(N):  # an onset jump that cancels the sum: the aid is back
             if not onset[:, a].any():
                 continue
-            J, C = jump[a] + inc[a][0], jump_cov[a] + inc[a][1]
-            valid = onset[:, a] & (jump[a] != 0).any(-1)
-            valid &= np.linalg.eigvalsh(C).min(-1) > 0
-            C = np.where(valid[:, None, None], C, np.eye(self.dims[a]))
-            back = valid & (_chi2(J, C) <= self.T1[a])
+            carried = onset[:, a] & (jump[a] != 0).any(-1)
+            back = self._cancelled(a, jump[a] + inc[a][0], jump_cov[a] + inc[a][1], carried)
             calm[:, a] = np.where(back & only[:, a], self.patience, calm[:, a])
         clear = release & settled & ~taken  # a jump taken stays in the sum
         jump = tuple(
@@ -721,23 +717,27 @@ class Guard:
                 np.where(
                     clear[:, a, None],
                     0.0,
-                    np.where((taken & release)[:, a, None], jump[a], state.taken[a]),
+                    np.where(taken[:, a, None], jump[a], state.taken[a]),
                 )
                 for a in range(N)
             ),
         )
-        out = GuardOutput(
-            ratio, flags, alarm, choose, undone, unobs, relaxed | welcome, taken & release
-        )
-        # a held sole source whose increment is consistent (after a step: the aid moves
-        # as the vehicle does, offset) still tells the estimate's rate
-        # once ``n_off`` of them in a row were consistent, and never an output repeated
-        # bit for bit (a frozen receiver's increment looks like a stop at a crawl, and
-        # would hold the estimate still)
+        out = GuardOutput(ratio, flags, alarm, choose, undone, unobs, relaxed | welcome, taken)
+        # a held only aid's consistent increment (after a step the aid moves as the
+        # vehicle does, offset) still tells the estimate's rate, once ``n_off`` in a row
+        # were consistent; never a repeated output's (a frozen receiver looks like a stop
+        # at a crawl, and would hold the estimate still)
         fresh = np.ones((B, N), bool) if repeated is None else ~repeated
         rate = state.hold & hold & usable & only & good & fresh & (steps >= self.n_off)
         rate &= (state.since >= 0) & self.rollback
         return new_state, out, flags, windows, rate
+
+    def _cancelled(self, a: int, J: np.ndarray, C: np.ndarray, where: np.ndarray) -> np.ndarray:
+        """(B,) where ``where``: whether aid ``a``'s jump sum ``J`` is zero within its
+        covariance ``C`` (the jumps cancel: the aid is back where it was)."""
+        valid = where & _pd_rows(np.where(where[:, None, None], C, np.eye(self.dims[a])))
+        C = np.where(valid[:, None, None], C, np.eye(self.dims[a]))
+        return np.asarray(valid & (_chi2(J, C) <= self.T1[a]))
 
     def _jumps(
         self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
@@ -1048,10 +1048,9 @@ class Guard:
                     p = sep.with_own(p, s, d, D)
                     x, P = x + d, kf.symmetrize(P - D)
                     where |= on
-                    last[a] = np.where(on[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), last[a])
             if self.rollback:  # the used aids' residuals against the posterior
                 for a in grp:
-                    used = usable[:, a] & ~out.hold[:, a]
+                    used = (usable[:, a] & ~out.hold[:, a]) | g.rate[:, a]
                     if used.any():
                         Ha = self._matrices(H[a], R[a], B)[0]
                         r = np.nan_to_num(z[a]) - kf.mv(Ha, x)
