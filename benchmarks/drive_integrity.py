@@ -3,7 +3,8 @@
 The vendored rtklibexplorer car drive (``rtklib-drive``: MEMS IMU 100 Hz, RTK GNSS),
 scored at the RTK fixes (Q = 1) at the antenna.  Faults are injected into the recorded
 GNSS positions 100 s after the start for 60 s (the frozen receiver for 30 s), north:
-a 0.05 and a 0.2 m/s ramp, a 5 m step, a frozen output; plus 15 s GNSS outages every
+a 0.05 and a 0.2 m/s ramp, a 5 m step, a frozen output, the noise 10 times its σ
+(a ``noise-scale`` fault: white noise added to the recording); plus 15 s GNSS outages every
 60 s from 40 s; each case with every aid of the file (GNSS positions and velocities,
 NHC, ZUPT) and with the GNSS positions alone (``--aids gnss``: the only position and the
 only aid).  Printed per case and method:
@@ -33,7 +34,7 @@ from ftnav.nav.earth import enu_metres
 METHODS = ["ckf", "fkf-chi2", "fkf-glr"]
 START, LENGTH = 100.0, 60.0
 
-#: (name, fault of the GNSS positions north: (kind, start, end, metres) s after the
+#: (name, fault of the GNSS positions north: (kind, start, end, metres or factor) s after the
 #: start, outages (length, every, start))
 CASES: list[
     tuple[str, tuple[str, float, float, float] | None, tuple[float, float, float] | None]
@@ -43,6 +44,7 @@ CASES: list[
     ("ramp 0.2 m/s, 60 s", ("ramp", START, START + LENGTH, 0.2 * LENGTH), None),
     ("step 5 m, 60 s", ("bias", START, START + LENGTH, 5.0), None),
     ("frozen, 30 s", ("stuck", START, START + 30.0, 0.0), None),
+    ("noise x10, 60 s", ("noise-scale", START, START + LENGTH, 10.0), None),
     ("15 s outages every 60 s", None, (15.0, 60.0, 40.0)),
 ]
 

@@ -452,7 +452,8 @@ def _parser() -> _Parser:
         default=[],
         metavar="SENSOR:KIND:START:END[:MAGNITUDE]",
         help="inject a fault into a recorded aid (repeatable); START, END on the recording's "
-        "time base; a bias or ramp MAGNITUDE in metres on the north position",
+        "time base; a bias or ramp MAGNITUDE in metres on the north position; a noise-scale "
+        "MAGNITUDE the factor (>= 1) on the aid's noise σ",
     )
     r.add_argument(
         "--smooth",

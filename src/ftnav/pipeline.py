@@ -44,6 +44,7 @@ from ftnav.engine.driver import Trace, run
 from ftnav.engine.smoother import smooth, smoothed_trace
 from ftnav.eval.montecarlo import build_filters
 from ftnav.eval.recorded import Reference, score_recording
+from ftnav.io.common import MAX_NOISE_FACTOR
 from ftnav.io.ins_scenario_file import ScenarioWarning
 from ftnav.io.recording_file import (
     LoadedRecording,
@@ -54,6 +55,7 @@ from ftnav.io.recording_file import (
 from ftnav.io.solution_file import SOLUTION_COLUMNS, solution_table, trace_dataset
 from ftnav.model.scenario import Fault, FaultKind, Recording
 from ftnav.model.streams import scheduled
+from ftnav.recorded.stream import RECORDING_FAULT_KINDS
 from ftnav.recordings import recording_names, recording_path
 
 __all__ = [
@@ -70,7 +72,7 @@ __all__ = [
 ]
 
 #: fault kinds a recorded GNSS aid can be given
-RECORDING_FAULTS = ("bias", "ramp", "outage", "stuck")
+RECORDING_FAULTS = RECORDING_FAULT_KINDS
 #: largest fault magnitude (m): a position offset of a GNSS fix beyond it is not a fault
 #: of a receiver on Earth, and squared it overflows the filter's arithmetic
 MAX_FAULT_M = 1e5
@@ -106,8 +108,10 @@ def resolve_recording(spec: str | Path) -> Path:
 def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fault:
     """``SENSOR:KIND:START:END[:MAGNITUDE]`` as a fault of a recorded GNSS aid: START and
     END on the recording's time base (s), a bias or ramp MAGNITUDE in metres on the north
-    position.  ``aids`` maps the recording's aid names to their types
-    (:func:`ftnav.io.recording_file.recording_aids`); errors name ``field``."""
+    position, a ``noise-scale`` MAGNITUDE the factor ≥ 1 on the noise σ of every row the
+    aid measures (white noise added to the recording:
+    :func:`ftnav.recorded.stream.gnss_raw`).  ``aids`` maps the recording's aid names to
+    their types (:func:`ftnav.io.recording_file.recording_aids`); errors name ``field``."""
     parts = text.split(":")
     if len(parts) not in (4, 5):
         raise ProcessingError(f"{field}: expected SENSOR:KIND:START:END[:MAGNITUDE], got {text!r}")
@@ -134,6 +138,13 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
         raise ProcessingError(f"{field}: END must be after START, both finite ({text!r})")
     if kind in ("bias", "ramp") and len(parts) != 5:
         raise ProcessingError(f"{field}: a {kind} needs a MAGNITUDE in metres ({text!r})")
+    if kind == "noise-scale":
+        if len(parts) != 5 or not 1.0 <= mag <= MAX_NOISE_FACTOR:
+            raise ProcessingError(
+                f"{field}: a noise-scale needs a MAGNITUDE, the factor on the noise σ, in "
+                f"[1, {MAX_NOISE_FACTOR:g}] (a recording's noise can only grow) ({text!r})"
+            )
+        return Fault(sensor, "noise-scale", start, end, np.full(6, mag))
     if abs(mag) > MAX_FAULT_M:
         raise ProcessingError(
             f"{field}: MAGNITUDE {mag:g} m is beyond ±{MAX_FAULT_M:g} m, off the Earth ({text!r})"

@@ -158,3 +158,45 @@ def test_gnss_alone_a_fault_of_the_only_aid_is_coasted_and_recovered(
     # never worse than following the fault: its size, or ckf's (a frozen output's jump)
     assert rms(err, after) <= max(metres, rms(ckf, after)), (rms(err, after), rms(ckf, after))
     assert rms(err, late) <= 1.5 * rms(ckf, late), (rms(err, late), rms(ckf, late))
+
+
+def _noise(t0, factor):
+    """A noise-scale fault of the GNSS positions from T_FAULT for LENGTH s."""
+    return Fault("gnss", "noise-scale", t0 + T_FAULT, t0 + T_FAULT + LENGTH, np.full(6, factor))
+
+
+def test_after_a_noise_increase_the_gnss_is_readmitted_and_the_error_recovers(tmp_path):
+    """Every aid, the GNSS position noise 10 times its σ (0.5 m) for 60 s: the χ² and GLR
+    methods isolate it, re-admit it within 10 s of the end (measured 1.1 and 1.1 s), and
+    the χ² method is back to ``ckf``'s error (measured 0.059 against 0.057 m on the whole
+    drive; the GLR's own false alarms keep it 2.3 times ``ckf``'s fault-free, docs)."""
+    path = _short(tmp_path, ("ckf",) + TESTED)
+    t0 = load_recording(path, methods=["ckf"]).recording.t_start
+    loaded, traces, _ = process(path, faults=[_noise(t0, 10.0)])
+    times = loaded.recording.times
+    t_end = T_FAULT + LENGTH
+    t_ref, ckf = _horizontal(loaded, traces["ckf"])
+    after = t_ref >= t_end
+    rms = lambda e: float(np.sqrt(np.mean(e[after] ** 2)))  # noqa: E731
+    for name in TESTED:
+        flags = _flags(loaded, traces[name])
+        assert flags[(times >= T_FAULT) & (times < t_end)].mean() > 0.5, name  # isolated
+        assert _readmitted_after(times, flags, t_end) <= 10.0, name
+    _, err = _horizontal(loaded, traces["fkf-chi2"])
+    assert rms(err) <= 1.5 * rms(ckf), (rms(err), rms(ckf))
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known (docs/integrity.md §5): a noisy only aid is held and the MEMS INS coasts "
+    "(148 m at the end of 60 s of 10x noise; 100x locks the GNSS out for good), where "
+    "ckf and VB adaptation use it",
+)
+def test_gnss_alone_a_noise_increase_of_the_only_aid_costs_no_more_than_ckf(tmp_path):
+    path = _short(tmp_path, ("ckf", "fkf-chi2"))
+    t0 = load_recording(path, methods=["ckf"]).recording.t_start
+    loaded, traces, _ = process(path, aids=["gnss"], faults=[_noise(t0, 10.0)])
+    t_ref, ckf = _horizontal(loaded, traces["ckf"])
+    _, err = _horizontal(loaded, traces["fkf-chi2"])
+    during = t_ref >= T_FAULT
+    assert np.sqrt(np.mean(err[during] ** 2)) <= 1.5 * np.sqrt(np.mean(ckf[during] ** 2))

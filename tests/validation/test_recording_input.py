@@ -11,6 +11,7 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from ftnav.cli import main
@@ -160,7 +161,12 @@ def test_malformed_recordings_are_refused(tmp_path, capsys, kw, pattern):
     ("argv", "pattern"),
     [
         (["--fault", "nhc:bias:1752003300:1752003310:5"], r"^--fault: 'nhc' is not a GNSS aid"),
-        (["--fault", "gnss:noise-scale:1752003300:1752003310:5"], r"^--fault: kind 'noise-scale'"),
+        (["--fault", "gnss:noise-ramp:1752003300:1752003310:5"], r"^--fault: kind 'noise-ramp'"),
+        (
+            ["--fault", "gnss:noise-scale:1752003300:1752003310:0.5"],
+            r"^--fault: a noise-scale needs a MAGNITUDE, the factor on the noise σ, in \[1, ",
+        ),
+        (["--fault", "gnss:noise-scale:1752003300:1752003310"], r"^--fault: a noise-scale needs"),
         (["--fault", "gnss:bias:1752003300:1752003310"], r"^--fault: a bias needs a MAGNITUDE"),
         (["--fault", "gnss:bias:1:2:5"], r"^--fault: \[1\.000, 2\.000\) s is outside"),
         (["--outage-length", "-3"], r"^--outage-length: must be > 0"),
@@ -217,3 +223,15 @@ def test_detectors_that_cannot_run_on_real_noise_are_refused(tmp_path, capsys, d
     assert err.startswith(f"{field}: "), err
     assert "cannot run on real noise" in err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_fault_without_a_recorded_form_is_refused_from_python(tmp_path):
+    """A ``Fault`` object given to ``process_recording`` is checked as a ``--fault`` is: a
+    noise ramp (or an IMU fault) has no recorded form and used to be ignored silently."""
+    from ftnav import process_recording
+    from ftnav.io.common import ScenarioError
+    from ftnav.model.scenario import Fault
+
+    fault = Fault("gnss", "noise-ramp", 1752003300.0, 1752003310.0, np.full(6, 5.0))
+    with pytest.raises(ScenarioError, match=r"faults\[0\]\.kind: 'noise-ramp' has no recorded"):
+        process_recording(_write(tmp_path), methods=["ckf"], faults=[fault])

@@ -75,6 +75,7 @@ from ftnav.recorded.plausibility import (
     static_rate_verdict,
 )
 from ftnav.recorded.stream import (
+    RECORDING_FAULT_KINDS,
     Alignment,
     GnssLog,
     align,
@@ -1282,7 +1283,7 @@ def _aids(
             )
             assert isinstance(sensor, Gnss)  # the table's type is gnss
             notes += _gnss_checks(a, sensor, params, from_file, sel, field, origin)
-            raw, labels = gnss_raw(sel, faults, name)
+            raw, labels = gnss_raw(sel, faults, name, _assumed_sigma(sensor, sel))
             # the values a position (velocity) aid does not measure are no part of its
             # epochs: a file without velocity does not leave every epoch out
             other = {"position": slice(3, 6), "velocity": slice(0, 3)}.get(sensor.rows)
@@ -1312,6 +1313,17 @@ def _aids(
                 counts[name] = dict(ready.counts)
         specs.append(AidSpec(sensor))
     return specs, streams, counts, notes
+
+
+def _assumed_sigma(sensor: Gnss, log: GnssLog) -> np.ndarray:
+    """(K, 6) the σ the filter assumes for each of the receiver's six values (E, N, U m,
+    m/s): the epoch's own σ where the aid reads it from the file, else its R."""
+    full = np.sqrt(np.diag(replace(sensor, rows="position-velocity").R))
+    sigma = np.broadcast_to(full, (log.t.size, 6)).copy()
+    if sensor.per_epoch_sigma and log.sigma is not None:
+        own = np.isfinite(log.sigma) & (log.sigma > 0)
+        sigma[own] = log.sigma[own]
+    return sigma
 
 
 def _column_reader(base: Path, field: str, origin: str) -> ColumnReader:
@@ -1526,6 +1538,12 @@ def load_recording(
     """
     parsed = parse_recording(source)
     origin, base = str(parsed.path), parsed.path.parent
+    for i, x in enumerate(faults):
+        if x.kind not in RECORDING_FAULT_KINDS:
+            raise ScenarioError(
+                f"faults[{i}].kind",
+                f"{x.kind!r} has no recorded form (recordings: {', '.join(RECORDING_FAULT_KINDS)})",
+            )
     f = _keep_aids(parsed.file, aids)
     imu_err = imu_errors(f.imu.errors, "imu.errors", origin)
     log, cleaning, partial, nav = _read_imu(f.imu, base, origin)

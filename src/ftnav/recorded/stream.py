@@ -25,6 +25,7 @@ first GNSS fix within the IMU log, and removes no gyro bias.
 from __future__ import annotations
 
 import math
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -40,7 +41,12 @@ from ftnav.nav.earth import OMEGA_IE, omega_ie_n, radii
 from ftnav.nav.mechanization import InsState
 from ftnav.recorded.imu import ImuLog, increments
 
+#: the faults a recorded GNSS aid can be given (:func:`gnss_raw`); the others (a noise
+#: ramp, an IMU fault) have no recorded form
+RECORDING_FAULT_KINDS: tuple[str, ...] = ("bias", "ramp", "noise-scale", "outage", "stuck")
+
 __all__ = [
+    "RECORDING_FAULT_KINDS",
     "Alignment",
     "GnssLog",
     "GridPlacement",
@@ -342,16 +348,35 @@ def retime_velocity(log: GnssLog, offset: float) -> GnssLog:
     return log._replace(v=v)
 
 
-def gnss_raw(gnss: GnssLog, faults: Sequence[Fault], name: str) -> tuple[np.ndarray, np.ndarray]:
+def gnss_raw(
+    gnss: GnssLog, faults: Sequence[Fault], name: str, sigma: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The receiver's ``[L, λ, h, v_E, v_N, v_U]`` (K, 6) with the injected faults, and
-    the fault labels (K,).  A fault's magnitude is in metres E, N, U, m/s E, N, U."""
+    the fault labels (K,).  A fault's magnitude is in metres E, N, U, m/s E, N, U.
+
+    A ``noise-scale`` fault of factor ``s`` makes the noise σ of each value ``s`` times
+    ``sigma`` (K, 6), the σ the filter assumes (E, N, U m, m/s): the recording already
+    holds noise of that σ, so independent white Gaussian noise of σ ``sigma·√(s² − 1)``
+    is added (overlapping windows: the product of their factors).  The draws come from
+    a generator seeded by the aid's name and its noise windows, so a run is reproducible
+    and two aids' noise is independent.
+    """
     effect = fault_effect(faults, name, gnss.t, 6)
+    extra = np.sqrt(np.maximum(effect.scale**2 - 1.0, 0.0))
+    offset = effect.offset
+    if np.any(extra > 0):
+        if sigma is None:
+            raise ValueError(f"{name}: a noise-scale fault needs the aid's σ")
+        windows = [(f.start, f.end) for f in faults if f.sensor == name and f.kind == "noise-scale"]
+        seed = zlib.crc32(f"{name}:{windows!r}".encode())
+        draws = np.random.default_rng(seed).standard_normal((gnss.t.size, 6))
+        offset = offset + draws * np.broadcast_to(sigma, offset.shape) * extra
     RM, RN = radii(gnss.p[:, 0], gnss.p[:, 2])
     p = gnss.p.copy()
-    p[:, 0] += effect.offset[:, 1] / RM
-    p[:, 1] += effect.offset[:, 0] / (RN * np.cos(gnss.p[:, 0]))
-    p[:, 2] += effect.offset[:, 2]
-    raw = np.concatenate([p, gnss.v + effect.offset[:, 3:]], 1)
+    p[:, 0] += offset[:, 1] / RM
+    p[:, 1] += offset[:, 0] / (RN * np.cos(gnss.p[:, 0]))
+    p[:, 2] += offset[:, 2]
+    raw = np.concatenate([p, gnss.v + offset[:, 3:]], 1)
     raw = hold_stuck(raw[None], effect)[0]
     raw[effect.outage] = np.nan
     return raw, effect.label
