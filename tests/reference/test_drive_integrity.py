@@ -193,17 +193,31 @@ def test_after_a_noise_increase_the_gnss_is_readmitted_and_the_error_recovers(tm
     assert rms(err) <= 1.5 * rms(ckf), (rms(err), rms(ckf))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known (docs/integrity.md §5): a noisy only aid is held and the MEMS INS coasts "
-    "(148 m at the end of 60 s of 10x noise; 100x locks the GNSS out for good), where "
-    "ckf and VB adaptation use it",
-)
-def test_gnss_alone_a_noise_increase_of_the_only_aid_costs_no_more_than_ckf(tmp_path):
+@pytest.mark.parametrize("factor", [10.0, 100.0])
+def test_gnss_alone_a_noise_increase_of_the_only_aid_is_used_not_coasted(tmp_path, factor):
+    """GNSS positions alone, their noise 10 and 100 times its σ (0.5 and 5 m) for 60 s.
+    The aid is held, but used with the noise its increments show: coasting the MEMS INS
+    instead reached 148 m in the 10x minute and locked the aid out for good at 100x
+    (215 km).  During the fault never worse than 1.5 x ``ckf`` (which uses the noisy
+    fixes); re-admitted within 10 s of its end; after it within 1.5 x ``ckf`` at 10x
+    (measured 0.063 against 0.061 m on the whole drive) and 2.5 x at 100x (0.18 against
+    0.10 m: the last noisy fixes leave it 3 m off for the 1.1 s until re-admission)."""
     path = _short(tmp_path, ("ckf", "fkf-chi2"))
     t0 = load_recording(path, methods=["ckf"]).recording.t_start
-    loaded, traces, _ = process(path, aids=["gnss"], faults=[_noise(t0, 10.0)])
+    loaded, traces, scores = process(path, aids=["gnss"], faults=[_noise(t0, factor)])
+    times = loaded.recording.times
+    t_end = T_FAULT + LENGTH
     t_ref, ckf = _horizontal(loaded, traces["ckf"])
     _, err = _horizontal(loaded, traces["fkf-chi2"])
-    during = t_ref >= T_FAULT
-    assert np.sqrt(np.mean(err[during] ** 2)) <= 1.5 * np.sqrt(np.mean(ckf[during] ** 2))
+    rms = lambda e, at: float(np.sqrt(np.mean(e[at] ** 2)))  # noqa: E731
+    during, after = (t_ref >= T_FAULT) & (t_ref < t_end), t_ref >= t_end
+    assert rms(err, during) <= 1.5 * rms(ckf, during), (rms(err, during), rms(ckf, during))
+    assert _readmitted_after(times, _flags(loaded, traces["fkf-chi2"]), t_end) <= 10.0
+    bar = 1.5 if factor <= 10.0 else 2.5
+    assert rms(err, after) <= bar * rms(ckf, after), (rms(err, after), rms(ckf, after))
+    # the self-watch says the aid was used for its noise while held
+    watch = scores["fkf-chi2"]["integrity"]
+    fixes = loaded.recording.times[loaded.reference_index]
+    in_window = int(((fixes >= T_FAULT) & (fixes < t_end)).sum())
+    assert watch["aids"]["gnss"]["noisy"] > 0.5 * in_window, (watch["aids"]["gnss"], in_window)
+    assert any("used with the noise it showed" in f for f in watch["findings"]), watch

@@ -84,6 +84,8 @@ class AidWatch(NamedTuple):
     taken : re-admissions that took the aid's jump as its new value (the only aid
         measuring, held past its patience), counted over the runs.
     unobservable_s : seconds isolated with the aid's quantity unheld, summed over runs.
+    noisy : measurements held but used with the noise they showed (the only aid
+        measuring, its noise above its R), counted over the runs.
     """
 
     name: str
@@ -100,6 +102,7 @@ class AidWatch(NamedTuple):
     relaxed: int
     taken: int
     unobservable_s: float
+    noisy: int = 0
 
 
 class MethodWatch(NamedTuple):
@@ -234,6 +237,7 @@ def watch(
         used_frac = float(us.sum() / max(n_av, 1))
         held = rollbacks = undone = relaxed = taken = isolations = 0
         unobs_s = 0.0
+        noisy = 0
         toggling = 0
         if guard is not None:
             hold = guard.hold[..., i]
@@ -247,6 +251,7 @@ def watch(
             relaxed = int(guard.relaxed[..., i].sum())
             taken = int(guard.taken[..., i].sum())
             unobs_s = float(guard.unobservable[..., i].sum() * dt)
+            noisy = int(guard.noisy[..., i].sum())
         aw = AidWatch(
             sensor,
             availability,
@@ -262,6 +267,7 @@ def watch(
             relaxed,
             taken,
             unobs_s,
+            noisy,
         )
         aids.append(aw)
         runs = f" in {aw.runs_inconsistent} of {B} runs" if B > 1 else ""
@@ -302,6 +308,16 @@ def watch(
                 f"taken back with its jump as its new value after the guard's patience "
                 f"(first at t = {t_k:.1f} s{in_runs}; {taken} time(s)): a step of it that "
                 f"lasts is followed from there, as the plain filter follows it"
+            )
+        if noisy and guard is not None:
+            t_n = _first(times, guard.noisy[..., i])
+            n_noisy = int(guard.noisy[..., i].any(1).sum())
+            in_runs = f" in {n_noisy} of {B} runs" if B > 1 else ""
+            findings.append(
+                f"methods[{name}]: aid {sensor!r}, the only aid measuring, was held for a "
+                f"noise far above its R and used with the noise it showed (from t = "
+                f"{t_n:.1f} s{in_runs}; {noisy} measurement(s)): the solution is as noisy as "
+                f"the aid there; an adaptive noise (noise = 'vb') takes this without the hold"
             )
         if unobs_s > 0 and guard is not None:
             t_u = _first(times, guard.unobservable[..., i])

@@ -153,6 +153,8 @@ class GuardState(NamedTuple):
         the patience when the jumps cancel.
     taken : per aid, (B, m) the part of the jump sum the estimate has taken (a sole
         source's jump past its patience), cleared with the sum.
+    spread : per aid, (B, W, m) its last :data:`NOISE_WINDOW` increments (NaN: none, or
+        a repeated output's), oldest first: the noise it shows (module docstring, 3).
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -174,6 +176,7 @@ class GuardState(NamedTuple):
     jump_cov: tuple[np.ndarray, ...]
     calm: np.ndarray
     taken: tuple[np.ndarray, ...]
+    spread: tuple[np.ndarray, ...]
 
 
 class GuardOutput(NamedTuple):
@@ -191,6 +194,8 @@ class GuardOutput(NamedTuple):
     relaxed : re-admitted with the covariance inflated to cover its innovation.
     taken : re-admitted with its jump taken as its new value (the only aid measuring,
         past its patience: module docstring, 3); a relaxed re-admission as well.
+    noisy : held, the only aid measuring, and used with the noise its increments show
+        in place of its R (module docstring, 3).
     """
 
     statistic: np.ndarray
@@ -201,6 +206,7 @@ class GuardOutput(NamedTuple):
     unobservable: np.ndarray
     relaxed: np.ndarray
     taken: np.ndarray
+    noisy: np.ndarray
 
 
 class _AidTest(NamedTuple):
@@ -239,6 +245,8 @@ class Guarded(NamedTuple):
     windows : (B, N) the window each rollback removes.
     rate : (B, N) the held sole sources whose increment informs the estimate's rate now
         (module docstring, 3).
+    noise : per aid, (B, m, m) the noise a held only aid is used with now where
+        ``output.noisy`` (its R elsewhere).
     """
 
     before: GuardState
@@ -249,6 +257,7 @@ class Guarded(NamedTuple):
     detection: DetectorOutput
     windows: np.ndarray
     rate: np.ndarray
+    noise: tuple[np.ndarray, ...]
 
 
 class Amend(NamedTuple):
@@ -258,6 +267,15 @@ class Amend(NamedTuple):
     dP: np.ndarray
     where: np.ndarray
 
+
+#: increments a held only aid's noise is measured over (module docstring, 3)
+NOISE_WINDOW = 16
+#: a held only aid whose increments show a noise variance this many times its R (its σ
+#: twice the declared) is used with that noise instead of coasted without it
+NOISE_RATIO = 4.0
+#: 1 / Φ⁻¹(3/4): the standard deviation of a normal sample from its median absolute
+#: deviation
+MAD_SIGMA = 1.482602218505602
 
 #: a witness refuses a rollback it finds 100× less likely than none (twice the log
 #: ratio above χ²₁'s 0.99 quantile): a rollback changes the estimate, so it needs the
@@ -274,6 +292,27 @@ def _thresholds(pfa: float, dof: np.ndarray) -> np.ndarray:
     table = np.array([_threshold(pfa, d) for d in range(int(dof.max(initial=0)) + 1)])
     out: np.ndarray = table[dof]
     return out
+
+
+def _median(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The median over axis 1 of (B, W, m) ignoring NaN, and the count of values (B, m);
+    NaN where there is none."""
+    n = np.isfinite(x).sum(1)
+    xs = np.sort(x, 1)  # NaN last
+    lo = np.clip((n - 1) // 2, 0, x.shape[1] - 1)[:, None]
+    hi = np.clip(n // 2, 0, x.shape[1] - 1)[:, None]
+    med = 0.5 * (np.take_along_axis(xs, lo, 1) + np.take_along_axis(xs, hi, 1))[:, 0]
+    return np.where(n > 0, med, np.nan), n
+
+
+def _shown_noise(spread: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(B, m) the noise variance an aid's last increments (B, W, m) show, and (B,) whether
+    at least half the window holds increments (:meth:`Guard._noisy`)."""
+    med, n = _median(spread)
+    mad, _ = _median(np.abs(spread - med[:, None]))
+    enough = (n >= spread.shape[1] // 2).all(-1)
+    shown = 0.5 * (MAD_SIGMA * np.nan_to_num(mad)) ** 2
+    return shown, enough
 
 
 def _gain(P: np.ndarray, H: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -421,6 +460,7 @@ class Guard:
             tuple(np.zeros((B, m, m)) for m in self.dims),
             zi.copy(),
             tuple(np.zeros((B, m)) for m in self.dims),
+            tuple(np.full((B, NOISE_WINDOW, m), np.nan) for m in self.dims),
         )
 
     @staticmethod
@@ -510,14 +550,16 @@ class Guard:
         usable: np.ndarray,
         keep: Callable[[np.ndarray], np.ndarray] | None = None,
         repeated: np.ndarray | None = None,
-    ) -> tuple[GuardState, GuardOutput, np.ndarray, np.ndarray, np.ndarray]:
+    ) -> tuple[GuardState, GuardOutput, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
         """The epoch's flags (B, N): the aids the method isolates this epoch.
 
         Rising edges (a separation alarm, or the detector's flag; ``keep`` is the
         method's common-mode rule on them) start a hold, with the rollback window chosen
         (module docstring, 1); held aids are re-admitted after their passes, from the
-        next epoch on.  Returns the new state, the output, the flags, the windows and the
-        held sole sources whose consistent increment informs the estimate's rate.
+        next epoch on.  Returns the new state, the output, the flags, the windows, the
+        held sole sources whose consistent increment informs the estimate's rate, and
+        the noise each aid is used with where it is held but used for its noise
+        (``output.noisy``).
         """
         c = self.config
         B, N = usable.shape
@@ -570,8 +612,18 @@ class Guard:
         # the increments matter where an aid is held or may be isolated now
         need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
         good, inc, since, last = self._increments(state, test, usable, need)
-        if repeated is not None:  # a repeated output is no evidence of a moving aid
-            good &= ~repeated
+        fresh = np.ones((B, N), bool) if repeated is None else ~repeated
+        good &= fresh  # a repeated output is no evidence of a moving aid
+        # the noise each aid shows: its last increments (a repeated output's is none)
+        shown = usable & (state.since >= 0) & fresh
+        spread = tuple(
+            np.where(
+                shown[:, a, None, None],
+                np.concatenate([state.spread[a][:, 1:], inc[a][0][:, None]], 1),
+                state.spread[a],
+            )
+            for a in range(N)
+        )
         steady, steps = state.steady, state.steps
         calm = np.where(state.hold, np.where(tested & ~good, 0, state.calm + 1), state.calm)
         # consistent increments in a row of every hold (a steady one's: its steps)
@@ -697,6 +749,25 @@ class Guard:
             )
             for a in range(N)
         )
+        # a held only aid whose increments show much more noise than its R (a noise
+        # increase: no jump, no drift) is used with that noise; coasting without it
+        # would trade the aid's noise for the INS's drift.  Its jumps are noise then,
+        # not a fault's onset and end: the sum starts again
+        rate = state.hold & hold & usable & only & good & fresh & (steps >= self.n_off)
+        rate &= (state.since >= 0) & self.rollback
+        noisy, noise = self._noisy(state.hold & hold & usable & only & fresh & ~rate, spread, test)
+        if noisy.any():
+            jump = tuple(np.where(noisy[:, a, None], 0.0, jump[a]) for a in range(N))
+            jump_cov = tuple(np.where(noisy[:, a, None, None], 0.0, jump_cov[a]) for a in range(N))
+            steady = steady & ~noisy
+        taken_sum = tuple(
+            np.where(
+                clear[:, a, None] | noisy[:, a, None],
+                0.0,
+                np.where(taken[:, a, None], jump[a], state.taken[a]),
+            )
+            for a in range(N)
+        )
         pending = np.where(reset, doubt, state.pending)
         new_state = state._replace(
             pulls=test.pulls,
@@ -713,24 +784,43 @@ class Guard:
             jump=jump,
             jump_cov=jump_cov,
             calm=calm,
-            taken=tuple(
-                np.where(
-                    clear[:, a, None],
-                    0.0,
-                    np.where(taken[:, a, None], jump[a], state.taken[a]),
-                )
-                for a in range(N)
-            ),
+            taken=taken_sum,
+            spread=spread,
         )
-        out = GuardOutput(ratio, flags, alarm, choose, undone, unobs, relaxed | welcome, taken)
-        # a held only aid's consistent increment (after a step the aid moves as the
-        # vehicle does, offset) still tells the estimate's rate, once ``n_off`` in a row
-        # were consistent; never a repeated output's (a frozen receiver looks like a stop
-        # at a crawl, and would hold the estimate still)
-        fresh = np.ones((B, N), bool) if repeated is None else ~repeated
-        rate = state.hold & hold & usable & only & good & fresh & (steps >= self.n_off)
-        rate &= (state.since >= 0) & self.rollback
-        return new_state, out, flags, windows, rate
+        out = GuardOutput(
+            ratio, flags, alarm, choose, undone, unobs, relaxed | welcome, taken, noisy
+        )
+        # ``rate`` (above): a held only aid's consistent increment (after a step the aid
+        # moves as the vehicle does, offset) still tells the estimate's rate, once
+        # ``n_off`` in a row were consistent; never a repeated output's (a frozen receiver
+        # looks like a stop at a crawl, and would hold the estimate still)
+        return new_state, out, flags, windows, rate, noise
+
+    def _noisy(
+        self, candidate: np.ndarray, spread: Sequence[np.ndarray], test: GuardTest
+    ) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        """(B, N) the candidates whose increments show a noise variance above
+        :data:`NOISE_RATIO` times their R in some component, and per aid the noise to
+        use them with (B, m, m): the larger of R and the shown noise per component, R
+        elsewhere.  The shown noise is robust to a jump and to the estimate's drift:
+        from the median absolute deviation of the last increments about their median,
+        ``R̂ = (MAD_SIGMA · MAD)² / 2`` (an increment of white noise has variance 2R),
+        given at least half the window."""
+        noisy = np.zeros(candidate.shape, bool)
+        noise = [t.R for t in test.aids]
+        if not self.rollback or not candidate.any():
+            return noisy, tuple(noise)
+        for a, t in enumerate(test.aids):
+            if not candidate[:, a].any():
+                continue
+            shown, enough = _shown_noise(spread[a])
+            r = np.diagonal(t.R, axis1=-2, axis2=-1)
+            on = candidate[:, a] & enough & (shown > NOISE_RATIO * r).any(-1)
+            if on.any():
+                noisy[:, a] = on
+                eff = np.maximum(shown, r)[..., None] * np.eye(self.dims[a])
+                noise[a] = np.where(on[:, None, None], eff, t.R)
+        return noisy, tuple(noise)
 
     def _cancelled(self, a: int, J: np.ndarray, C: np.ndarray, where: np.ndarray) -> np.ndarray:
         """(B,) where ``where``: whether aid ``a``'s jump sum ``J`` is zero within its
@@ -897,7 +987,7 @@ class Guard:
         (the epoch's :attr:`~ftnav.model.system.Epoch.repeated`), or None.
         """
         test = self.test(state, priors, F, z, H, R, usable)
-        after, out, flags, windows, rate = self.decide(
+        after, out, flags, windows, rate, noise = self.decide(
             state, test, detection, usable, keep, repeated
         )
         B, N = usable.shape
@@ -905,7 +995,7 @@ class Guard:
             detection = DetectorOutput(out.statistic, np.ones((B, N)), out.alarm, flags)
         else:
             detection = detection._replace(raw=detection.raw | out.alarm, flag=flags)
-        return Guarded(state, after, test, out, flags, detection, windows, rate)
+        return Guarded(state, after, test, out, flags, detection, windows, rate, noise)
 
     def finish(
         self,
@@ -947,6 +1037,7 @@ class Guard:
         amends = []
         rising = out.hold & ~before.hold
         released = before.hold & ~after.hold
+        informed = np.zeros(usable.shape, bool)  # held aids used for their noise
         for gi, grp in enumerate(self.groups):
             x, P = priors[gi]
             B, n = x.shape
@@ -1048,9 +1139,26 @@ class Guard:
                     p = sep.with_own(p, s, d, D)
                     x, P = x + d, kf.symmetrize(P - D)
                     where |= on
+            for s, a in enumerate(grp):
+                # a held only aid that shows a noise increase: used with that noise where
+                # its innovation is consistent with it
+                on = out.noisy[:, a]
+                if on.any():
+                    Ha, Rn = self._matrices(H[a], g.noise[a], B)
+                    K, A_n = _gain(P, Ha, Rn)
+                    nu = np.where(on[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
+                    on = on & (_chi2(nu, A_n + Rn) <= self.T1[a])
+                    d = np.where(on[:, None], kf.mv(K, nu), 0.0)
+                    D = np.where(on[:, None, None], reduction(K, A_n, Rn), 0.0)
+                    dx -= d
+                    dP -= D
+                    p = sep.with_own(p, s, d, D)
+                    x, P = x + d, kf.symmetrize(P - D)
+                    where |= on
+                    informed[:, a] = on
             if self.rollback:  # the used aids' residuals against the posterior
                 for a in grp:
-                    used = (usable[:, a] & ~out.hold[:, a]) | g.rate[:, a]
+                    used = (usable[:, a] & ~out.hold[:, a]) | g.rate[:, a] | informed[:, a]
                     if used.any():
                         Ha = self._matrices(H[a], R[a], B)[0]
                         r = np.nan_to_num(z[a]) - kf.mv(Ha, x)
@@ -1059,7 +1167,7 @@ class Guard:
             # measured from this epoch's prior (with a rollback's covariance)
             P_from = priors[gi][1] + dP_back
             for a in grp:
-                now = (usable[:, a] & ~out.hold[:, a]) | out.rollback[:, a]
+                now = (usable[:, a] & ~out.hold[:, a]) | out.rollback[:, a] | informed[:, a]
                 if now.any():
                     anchor[a] = np.where(now[:, None, None], P_from, anchor[a])
             pulls[gi], alts[gi] = p, alt
