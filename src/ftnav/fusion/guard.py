@@ -76,7 +76,14 @@ and decides the method's isolation from its detector's flags:
    sum in the measured quantity, ``Hᵀ(HHᵀ)⁻¹``, the rest of the innovation relaxed), the
    only way back when the jump was the end of a fault the filter had followed (an IMU
    cannot see a constant velocity offset); the taken jump stays in the sum, so the jump
-   back at a step's end cancels it.
+   back at a step's end cancels it.  And a held only aid whose last
+   :data:`NOISE_WINDOW` increments show a noise variance above :data:`NOISE_RATIO` times
+   its R in some component (from their median absolute deviation about their median:
+   a jump and the estimate's drift do not move it) is *used with that noise* (per
+   component the larger of it and R) where its innovation is consistent with it: a noise
+   increase is no jump and no drift, and coasting would trade the aid's noise for the
+   INS's drift (the drive's GNSS alone at 10 times its σ: a 148 m coast; at 100 times a
+   lock-out).  Its jump sum restarts meanwhile (noise, not a fault's onset).
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
