@@ -4,7 +4,8 @@ The vendored rtklibexplorer car drive (``rtklib-drive``: MEMS IMU 100 Hz, RTK GN
 scored at the RTK fixes (Q = 1) at the antenna.  Faults are injected into the recorded
 GNSS positions 100 s after the start for 60 s (the frozen receiver for 30 s), north:
 a 0.05 and a 0.2 m/s ramp, a 5 m step, a frozen output, the noise 10 times its σ
-(a ``noise-scale`` fault: white noise added to the recording); plus 15 s GNSS outages every
+(a ``noise-scale`` fault: white noise added to the recording), bursts of 3 m for 1 s
+every 2 s (an intermittent fault); plus 15 s GNSS outages every
 60 s from 40 s; each case with every aid of the file (GNSS positions and velocities,
 NHC, ZUPT) and with the GNSS positions alone (``--aids gnss``: the only position and the
 only aid).  Printed per case and method:
@@ -36,15 +37,19 @@ START, LENGTH = 100.0, 60.0
 
 #: (name, fault of the GNSS positions north: (kind, start, end, metres or factor) s after the
 #: start, outages (length, every, start))
-CASES: list[
-    tuple[str, tuple[str, float, float, float] | None, tuple[float, float, float] | None]
-] = [
+Fault = tuple[str, float, float, float]
+CASES: list[tuple[str, Fault | list[Fault] | None, tuple[float, float, float] | None]] = [
     ("no fault", None, None),
     ("ramp 0.05 m/s, 60 s", ("ramp", START, START + LENGTH, 0.05 * LENGTH), None),
     ("ramp 0.2 m/s, 60 s", ("ramp", START, START + LENGTH, 0.2 * LENGTH), None),
     ("step 5 m, 60 s", ("bias", START, START + LENGTH, 5.0), None),
     ("frozen, 30 s", ("stuck", START, START + 30.0, 0.0), None),
     ("noise x10, 60 s", ("noise-scale", START, START + LENGTH, 10.0), None),
+    (
+        "bursts 3 m, 1 s in 2, 60 s",
+        [("bias", START + a, START + a + 1.0, 3.0) for a in np.arange(0.0, LENGTH, 2.0)],
+        None,
+    ),
     ("15 s outages every 60 s", None, (15.0, 60.0, 40.0)),
 ]
 
@@ -58,11 +63,11 @@ def main() -> None:
         print("|---|---|---|---|---|---|")
         for name, fault, outages in CASES:
             wall = time.perf_counter()
+            each = [] if fault is None else fault if isinstance(fault, list) else [fault]
             faults = []
-            if fault is not None:
-                kind, a, b, metres = fault
+            for kind, a, b, metres in each:
                 spec = f"gnss:{kind}:{t0 + a}:{t0 + b}"
-                faults = [spec if kind == "stuck" else f"{spec}:{metres}"]
+                faults.append(spec if kind == "stuck" else f"{spec}:{metres}")
             res = process_recording(
                 "rtklib-drive", methods=METHODS, aids=aids, faults=faults, outages=outages
             )
@@ -70,7 +75,7 @@ def main() -> None:
             times = rec.times
             ri = loaded.reference_index
             t_ref = times[ri]
-            ends = [fault[2]] if fault is not None else []
+            ends = [max(f[2] for f in each)] if each else []
             if outages is not None:
                 ends = [e for _, e in loaded.outages[0]]
             after = t_ref >= (ends[0] if ends else np.inf)

@@ -83,7 +83,14 @@ and decides the method's isolation from its detector's flags:
    component the larger of it and R) where its innovation is consistent with it: a noise
    increase is no jump and no drift, and coasting would trade the aid's noise for the
    INS's drift (the drive's GNSS alone at 10 times its σ: a 148 m coast; at 100 times a
-   lock-out).  Its jump sum restarts meanwhile (noise, not a fault's onset).
+   lock-out).  Its jump sum restarts meanwhile (noise, not a fault's onset).  Two more
+   rules for the only aid: an increment that repeats the previous one within their
+   noise (a second difference against 6R) is consistent (the aid moves as the vehicle
+   does; the estimate drifts at a rate its covariance did not foresee, after a long
+   coast, and would otherwise fail every increment test and lock the aid out); and an
+   aid whose increment undoes the one jump its sum held (an intermittent fault's burst
+   ending) is back at its old level and taken at once, relaxed — not a repeated output,
+   nor an aid showing a noise increase (its sums cancel by chance).
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
@@ -162,6 +169,7 @@ class GuardState(NamedTuple):
         source's jump past its patience), cleared with the sum.
     spread : per aid, (B, W, m) its last :data:`NOISE_WINDOW` increments (NaN: none, or
         a repeated output's), oldest first: the noise it shows (module docstring, 3).
+    jumps : how many jumps the jump sum holds.
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -184,6 +192,7 @@ class GuardState(NamedTuple):
     calm: np.ndarray
     taken: tuple[np.ndarray, ...]
     spread: tuple[np.ndarray, ...]
+    jumps: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -201,8 +210,9 @@ class GuardOutput(NamedTuple):
     relaxed : re-admitted with the covariance inflated to cover its innovation.
     taken : re-admitted with its jump taken as its new value (the only aid measuring,
         past its patience: module docstring, 3); a relaxed re-admission as well.
-    noisy : held, the only aid measuring, and used with the noise its increments show
-        in place of its R (module docstring, 3).
+    noisy : held, the only aid measuring, its increments showing a noise far above its
+        R: used with that noise where its innovation is consistent with it (module
+        docstring, 3).
     """
 
     statistic: np.ndarray
@@ -468,6 +478,7 @@ class Guard:
             zi.copy(),
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.full((B, NOISE_WINDOW, m), np.nan) for m in self.dims),
+            zi.copy(),
         )
 
     @staticmethod
@@ -631,12 +642,25 @@ class Guard:
             )
             for a in range(N)
         )
+        loud, shown_R = self._loud(state.hold & usable & only & fresh, spread, test)
+        # a held only aid whose increment repeats its previous one within their noise
+        # (6R: a second difference) moves as the vehicle does: the estimate drifts at a
+        # rate its covariance does not foresee (after a long coast)
+        for a, t in enumerate(test.aids):
+            cand = state.hold[:, a] & only[:, a] & shown[:, a] & ~good[:, a] & ~loud[:, a]
+            if not (cand.any() and self.rollback):
+                continue
+            prev = state.spread[a][:, -1]
+            cand &= np.isfinite(prev).all(-1)
+            dd = np.where(cand[:, None], inc[a][0] - np.nan_to_num(prev), 0.0)
+            good[:, a] |= cand & (_chi2(dd, 6.0 * t.R) <= self.T1[a])
         steady, steps = state.steady, state.steps
         calm = np.where(state.hold, np.where(tested & ~good, 0, state.calm + 1), state.calm)
         # consistent increments in a row of every hold (a steady one's: its steps)
         steps = np.where(tested, np.where(good, steps + 1, 0), steps)
         steady = steady & ~(tested & ~good)
         jump, jump_cov = self._jumps(state, inc, tested & ~good)
+        returned = np.zeros((B, N), bool)
         for a in range(N):  # the jumps cancel: the aid is back where it was
             fail = tested[:, a] & ~good[:, a]
             if not fail.any():
@@ -645,6 +669,15 @@ class Guard:
             steady[:, a] |= back & self.rollback & alone[:, a]
             steps[:, a] = np.where(back, 0, steps[:, a])
             calm[:, a] = np.where(back, self.patience, calm[:, a])
+            # the only aid measuring, back at the level it had before its one jump (the
+            # sum held that jump alone, not zero): it is taken at once (an intermittent
+            # fault leaves it healthy between its bursts); never a repeated output, nor
+            # an aid whose increments show a noise increase (its sums cancel by chance)
+            one_out = (state.jumps[:, a] == 1) & ~self._cancelled(
+                a, state.jump[a], state.jump_cov[a], back
+            )
+            returned[:, a] = back & one_out & only[:, a] & state.hold[:, a] & self.rollback
+            returned[:, a] &= fresh[:, a] & ~loud[:, a]
         # a sole source isolated on an alarm nothing explained (no rollback), whose own
         # increments have stayed consistent since, no other aid measuring: the model,
         # not the aid, drifted
@@ -654,8 +687,9 @@ class Guard:
         expired = state.hold & only & (steps >= self.n_off) & (calm >= self.patience)
         settled |= expired & ~undone & self.rollback
         taken = settled & ~steady  # a jump's hold: the jump is taken, not a drift
-        release = state.hold & ((passes >= self.n_off) | undone | settled)
-        relaxed = (release & ~undone & ~strict) | settled
+        returned &= ~undone & ~settled
+        release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
+        relaxed = (release & ~undone & ~strict) | settled | returned
         # a re-admission the detector does not agree with yet overrules it until it clears
         overruled = overruled | (release & det_flag)
         # single fault at a time (module docstring, 1 and 4)
@@ -743,7 +777,8 @@ class Guard:
             carried = onset[:, a] & (jump[a] != 0).any(-1)
             back = self._cancelled(a, jump[a] + inc[a][0], jump_cov[a] + inc[a][1], carried)
             calm[:, a] = np.where(back & only[:, a], self.patience, calm[:, a])
-        clear = release & settled & ~taken  # a jump taken stays in the sum
+        # a jump taken stays in the sum; a sum that cancelled is gone
+        clear = release & ((settled & ~taken) | returned)
         jump = tuple(
             np.where(clear[:, a, None], 0.0, jump[a] + np.where(onset[:, a, None], inc[a][0], 0.0))
             for a in range(N)
@@ -756,16 +791,21 @@ class Guard:
             )
             for a in range(N)
         )
+        jumps = np.where(clear, 0, state.jumps + (tested & ~good) + onset)
         # a held only aid whose increments show much more noise than its R (a noise
         # increase: no jump, no drift) is used with that noise; coasting without it
         # would trade the aid's noise for the INS's drift.  Its jumps are noise then,
         # not a fault's onset and end: the sum starts again
         rate = state.hold & hold & usable & only & good & fresh & (steps >= self.n_off)
-        rate &= (state.since >= 0) & self.rollback
-        noisy, noise = self._noisy(state.hold & hold & usable & only & fresh & ~rate, spread, test)
+        rate &= (state.since >= 0) & self.rollback & ~loud  # a loud aid's rate: its noise
+        noisy = loud & state.hold & hold & usable & only & fresh
+        noise = tuple(
+            np.where(noisy[:, a, None, None], shown_R[a], t.R) for a, t in enumerate(test.aids)
+        )
         if noisy.any():
             jump = tuple(np.where(noisy[:, a, None], 0.0, jump[a]) for a in range(N))
             jump_cov = tuple(np.where(noisy[:, a, None, None], 0.0, jump_cov[a]) for a in range(N))
+            jumps = np.where(noisy, 0, jumps)
             steady = steady & ~noisy
         taken_sum = tuple(
             np.where(
@@ -790,6 +830,7 @@ class Guard:
             last=last,
             jump=jump,
             jump_cov=jump_cov,
+            jumps=jumps,
             calm=calm,
             taken=taken_sum,
             spread=spread,
@@ -803,31 +844,28 @@ class Guard:
         # looks like a stop at a crawl, and would hold the estimate still)
         return new_state, out, flags, windows, rate, noise
 
-    def _noisy(
+    def _loud(
         self, candidate: np.ndarray, spread: Sequence[np.ndarray], test: GuardTest
     ) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
         """(B, N) the candidates whose increments show a noise variance above
         :data:`NOISE_RATIO` times their R in some component, and per aid the noise to
-        use them with (B, m, m): the larger of R and the shown noise per component, R
-        elsewhere.  The shown noise is robust to a jump and to the estimate's drift:
-        from the median absolute deviation of the last increments about their median,
+        use them with (B, m, m): the larger of R and the shown noise per component.  The
+        shown noise is robust to a jump and to the estimate's drift: from the median
+        absolute deviation of the last increments about their median,
         ``R̂ = (MAD_SIGMA · MAD)² / 2`` (an increment of white noise has variance 2R),
         given at least half the window."""
-        noisy = np.zeros(candidate.shape, bool)
+        loud = np.zeros(candidate.shape, bool)
         noise = [t.R for t in test.aids]
         if not self.rollback or not candidate.any():
-            return noisy, tuple(noise)
+            return loud, tuple(noise)
         for a, t in enumerate(test.aids):
             if not candidate[:, a].any():
                 continue
             shown, enough = _shown_noise(spread[a])
             r = np.diagonal(t.R, axis1=-2, axis2=-1)
-            on = candidate[:, a] & enough & (shown > NOISE_RATIO * r).any(-1)
-            if on.any():
-                noisy[:, a] = on
-                eff = np.maximum(shown, r)[..., None] * np.eye(self.dims[a])
-                noise[a] = np.where(on[:, None, None], eff, t.R)
-        return noisy, tuple(noise)
+            loud[:, a] = candidate[:, a] & enough & (shown > NOISE_RATIO * r).any(-1)
+            noise[a] = np.maximum(shown, r)[..., None] * np.eye(self.dims[a])
+        return loud, tuple(noise)
 
     def _cancelled(self, a: int, J: np.ndarray, C: np.ndarray, where: np.ndarray) -> np.ndarray:
         """(B,) where ``where``: whether aid ``a``'s jump sum ``J`` is zero within its
