@@ -144,6 +144,14 @@ class MethodWatch(NamedTuple):
         }
 
 
+def _when(times: np.ndarray, mask: np.ndarray) -> str:
+    """``t = T s`` of the first epoch of ``mask`` (B, K), with ``in N of B runs`` for
+    several runs."""
+    B = mask.shape[0]
+    runs = int(mask.any(1).sum())
+    return f"t = {_first(times, mask):.1f} s" + (f" in {runs} of {B} runs" if B > 1 else "")
+
+
 def nis_band(n: np.ndarray, m: int, probability: float) -> tuple[np.ndarray, np.ndarray]:
     """The two-sided band of the mean of ``n`` NIS of dimension ``m`` (module docstring)."""
     dof = np.maximum(n, 1) * m
@@ -300,24 +308,20 @@ def watch(
                 f"without losing the aid"
             )
         if taken and guard is not None:
-            t_k = _first(times, guard.taken[..., i])
-            n_taken = int(guard.taken[..., i].any(1).sum())
-            in_runs = f" in {n_taken} of {B} runs" if B > 1 else ""
+            when = _when(times, guard.taken[..., i])
             findings.append(
                 f"methods[{name}]: aid {sensor!r}, the only aid measuring, jumped and was "
                 f"taken back with its jump as its new value after the guard's patience "
-                f"(first at t = {t_k:.1f} s{in_runs}; {taken} time(s)): a step of it that "
+                f"(first at {when}; {taken} time(s)): a step of it that "
                 f"lasts is followed from there, as the plain filter follows it"
             )
         if noisy and guard is not None:
-            t_n = _first(times, guard.noisy[..., i])
-            n_noisy = int(guard.noisy[..., i].any(1).sum())
-            in_runs = f" in {n_noisy} of {B} runs" if B > 1 else ""
+            when = _when(times, guard.noisy[..., i])
             findings.append(
                 f"methods[{name}]: aid {sensor!r}, the only aid measuring, was held for a "
-                f"noise far above its R and used with the noise it showed (from t = "
-                f"{t_n:.1f} s{in_runs}; {noisy} measurement(s)): the solution is as noisy as "
-                f"the aid there; an adaptive noise (noise = 'vb') takes this without the hold"
+                f"noise far above its R and used with the noise it showed (from {when}; "
+                f"{noisy} measurement(s)): the solution is as noisy as the aid there; an "
+                f"adaptive noise (noise = 'vb') takes this without the hold"
             )
         if unobs_s > 0 and guard is not None:
             t_u = _first(times, guard.unobservable[..., i])
