@@ -83,14 +83,11 @@ and decides the method's isolation from its detector's flags:
    component the larger of it and R) where its innovation is consistent with it: a noise
    increase is no jump and no drift, and coasting would trade the aid's noise for the
    INS's drift (the drive's GNSS alone at 10 times its σ: a 148 m coast; at 100 times a
-   lock-out).  Its jump sum restarts meanwhile (noise, not a fault's onset).  Two more
-   rules for the only aid: an increment that repeats the previous one within their
-   noise (a second difference against 6R) is consistent (the aid moves as the vehicle
-   does; the estimate drifts at a rate its covariance did not foresee, after a long
-   coast, and would otherwise fail every increment test and lock the aid out); and an
-   aid whose increment undoes the one jump its sum held (an intermittent fault's burst
-   ending) is back at its old level and taken at once, relaxed — not a repeated output,
-   nor an aid showing a noise increase (its sums cancel by chance).
+   lock-out).  Its jump sum stays (clearing it lost a followed fast ramp's end: a
+   lock-out).  And an aid whose increment undoes the one jump its sum held (an
+   intermittent fault's burst ending) is back at its old level and taken at once,
+   relaxed — not a repeated output, nor an aid showing a noise increase (its sums cancel
+   by chance).
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
@@ -643,17 +640,6 @@ class Guard:
             for a in range(N)
         )
         loud, shown_R = self._loud(state.hold & usable & only & fresh, spread, test)
-        # a held only aid whose increment repeats its previous one within their noise
-        # (6R: a second difference) moves as the vehicle does: the estimate drifts at a
-        # rate its covariance does not foresee (after a long coast)
-        for a, t in enumerate(test.aids):
-            cand = state.hold[:, a] & only[:, a] & shown[:, a] & ~good[:, a] & ~loud[:, a]
-            if not (cand.any() and self.rollback):
-                continue
-            prev = state.spread[a][:, -1]
-            cand &= np.isfinite(prev).all(-1)
-            dd = np.where(cand[:, None], inc[a][0] - np.nan_to_num(prev), 0.0)
-            good[:, a] |= cand & (_chi2(dd, 6.0 * t.R) <= self.T1[a])
         steady, steps = state.steady, state.steps
         calm = np.where(state.hold, np.where(tested & ~good, 0, state.calm + 1), state.calm)
         # consistent increments in a row of every hold (a steady one's: its steps)
@@ -794,19 +780,14 @@ class Guard:
         jumps = np.where(clear, 0, state.jumps + (tested & ~good) + onset)
         # a held only aid whose increments show much more noise than its R (a noise
         # increase: no jump, no drift) is used with that noise; coasting without it
-        # would trade the aid's noise for the INS's drift.  Its jumps are noise then,
-        # not a fault's onset and end: the sum starts again
+        # would trade the aid's noise for the INS's drift.  Its jump sum stays: a jump
+        # held before (a followed ramp's end) is still to be taken
         rate = state.hold & hold & usable & only & good & fresh & (steps >= self.n_off)
         rate &= (state.since >= 0) & self.rollback & ~loud  # a loud aid's rate: its noise
         noisy = loud & state.hold & hold & usable & only & fresh
         noise = tuple(
             np.where(noisy[:, a, None, None], shown_R[a], t.R) for a, t in enumerate(test.aids)
         )
-        if noisy.any():
-            jump = tuple(np.where(noisy[:, a, None], 0.0, jump[a]) for a in range(N))
-            jump_cov = tuple(np.where(noisy[:, a, None, None], 0.0, jump_cov[a]) for a in range(N))
-            jumps = np.where(noisy, 0, jumps)
-            steady = steady & ~noisy
         taken_sum = tuple(
             np.where(
                 clear[:, a, None] | noisy[:, a, None],
