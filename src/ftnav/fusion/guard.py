@@ -321,7 +321,7 @@ def _median(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _shown_noise(spread: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(B, m) the noise variance an aid's last increments (B, W, m) show, and (B,) whether
-    at least half the window holds increments (:meth:`Guard._noisy`)."""
+    at least half the window holds increments (:meth:`Guard._loud`)."""
     med, n = _median(spread)
     mad, _ = _median(np.abs(spread - med[:, None]))
     enough = (n >= spread.shape[1] // 2).all(-1)
@@ -630,10 +630,10 @@ class Guard:
         fresh = np.ones((B, N), bool) if repeated is None else ~repeated
         good &= fresh  # a repeated output is no evidence of a moving aid
         # the noise each aid shows: its last increments (a repeated output's is none)
-        shown = usable & (state.since >= 0) & fresh
+        pushed = usable & (state.since >= 0) & fresh
         spread = tuple(
             np.where(
-                shown[:, a, None, None],
+                pushed[:, a, None, None],
                 np.concatenate([state.spread[a][:, 1:], inc[a][0][:, None]], 1),
                 state.spread[a],
             )

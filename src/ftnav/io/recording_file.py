@@ -1318,8 +1318,7 @@ def _aids(
 def _assumed_sigma(sensor: Gnss, log: GnssLog) -> np.ndarray:
     """(K, 6) the σ the filter assumes for each of the receiver's six values (E, N, U m,
     m/s): the epoch's own σ where the aid reads it from the file, else its R."""
-    full = np.sqrt(np.diag(replace(sensor, rows="position-velocity").R))
-    sigma = np.broadcast_to(full, (log.t.size, 6)).copy()
+    sigma = np.broadcast_to(sensor.sigma_all, (log.t.size, 6)).copy()
     if sensor.per_epoch_sigma and log.sigma is not None:
         own = np.isfinite(log.sigma) & (log.sigma > 0)
         sigma[own] = log.sigma[own]

@@ -217,6 +217,13 @@ class Gnss:
         return np.diag(full[self._rows])
 
     @property
+    def sigma_all(self) -> np.ndarray:
+        """(6,) the configured σ of all six values E, N, U (m), v_E, v_N, v_U (m/s),
+        whichever rows are measured: the square root of the diagonal of R over every
+        row."""
+        return np.sqrt(np.diag(replace(self, rows="position-velocity").R))
+
+    @property
     def difference_factor(self) -> np.ndarray | None:
         """(m,) ``ψ = e^{−dt/τ}`` of each component for ``markov="difference"``, else None.
 
@@ -297,9 +304,8 @@ class Gnss:
         d = _metres(np.asarray(truth.p, dtype=float))  # (K, 3) N, E, U per L, λ, h
         dp = e[..., _EN] / d  # δL = δN/R_Mh, δλ = δE/(R_Nh cos L), δh = δU
         out = np.concatenate([truth.p + dp, truth.v + e[..., 3:]], -1)
-        if self.per_epoch_sigma:  # the configured σ of every row (R of all 6 rows)
-            sigma = np.sqrt(np.diag(replace(self, rows="position-velocity").R))
-            out = np.concatenate([out, np.broadcast_to(sigma, out.shape)], -1)
+        if self.per_epoch_sigma:  # the configured σ of every row
+            out = np.concatenate([out, np.broadcast_to(self.sigma_all, out.shape)], -1)
         return out
 
     def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
