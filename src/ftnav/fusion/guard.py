@@ -790,7 +790,7 @@ class Guard:
         )
         taken_sum = tuple(
             np.where(
-                clear[:, a, None] | noisy[:, a, None],
+                clear[:, a, None],
                 0.0,
                 np.where(taken[:, a, None], jump[a], state.taken[a]),
             )
