@@ -355,8 +355,9 @@ def prepare_recording(
         if f.start < 0 or f.end > rec.times[-1]:
             raise ProcessingError(
                 f"{names['faults']}: [{f.start + rec.t_start:.3f}, {f.end + rec.t_start:.3f}) "
-                f"s is outside the processed span [{rec.t_start:.3f}, "
-                f"{rec.t_start + rec.times[-1]:.3f}] s (the recording's time base)"
+                f"s is not within the processed span [{rec.t_start:.3f}, "
+                f"{rec.t_start + rec.times[-1]:.3f}] s (the recording's time base): a "
+                "fault starts and ends inside it (to the end: END the span's last time)"
             )
     if smooth:
         _check_smoothable(rec)

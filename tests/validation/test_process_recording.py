@@ -53,7 +53,7 @@ def test_one_call_reads_the_file_once_and_returns_a_typed_result(short_drive, mo
         ({"outages": (-1, 60, 10)}, r"^outages: length and spacing must be positive"),
         ({"faults": ["gnss:bias:1:2"]}, r"^faults: a bias needs a MAGNITUDE"),
         ({"faults": ["nhc:bias:1:2:3"]}, r"^faults: 'nhc' is not a GNSS aid"),
-        ({"faults": ["gnss:bias:1e12:2e12:3"]}, r"^faults: \[.*outside the processed span"),
+        ({"faults": ["gnss:bias:1e12:2e12:3"]}, r"^faults: \[.*not within the processed span"),
     ],
 )
 def test_arguments_are_refused_by_name(short_drive, kw, message):

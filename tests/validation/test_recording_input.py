@@ -168,7 +168,7 @@ def test_malformed_recordings_are_refused(tmp_path, capsys, kw, pattern):
         ),
         (["--fault", "gnss:noise-scale:1752003300:1752003310"], r"^--fault: a noise-scale needs"),
         (["--fault", "gnss:bias:1752003300:1752003310"], r"^--fault: a bias needs a MAGNITUDE"),
-        (["--fault", "gnss:bias:1:2:5"], r"^--fault: \[1\.000, 2\.000\) s is outside"),
+        (["--fault", "gnss:bias:1:2:5"], r"^--fault: \[1\.000, 2\.000\) s is not within"),
         (["--outage-length", "-3"], r"^--outage-length: must be > 0"),
         (["--methods", "ckf,nope"], r"^--methods: no method 'nope'"),
         (["--aids", "gnss,odometer"], r"^--aids: no aid 'odometer'"),
