@@ -40,7 +40,9 @@ and decides the method's isolation from its detector's flags:
    allowed ``kappa`` times its σ; an aid taken back only thanks to that allowance comes
    with the covariance inflated along its measurement (``P + γ P Hᵀ (H P Hᵀ)⁻¹ H P``, γ
    giving its innovation a χ² equal to its dimension) and its update at once
-   (``relaxed``).  A detector that still alarms after ``override`` consecutive passes
+   (``relaxed``).  An output repeated bit for bit passes no re-admission test (a frozen
+   receiver's stale fix passes as the allowance grows past the distance moved since).
+   A detector that still alarms after ``override`` consecutive passes
    of the guard's tests is overruled until its own flag clears; the guard watches that
    aid with its own χ² meanwhile.  (The passes it counts are those with the detector
    quiet, so with ``n_off < override`` the aid is re-admitted first and the override
@@ -65,15 +67,17 @@ and decides the method's isolation from its detector's flags:
    when it cancels (the fault's end undid its onset).  Only where no other aid
    measures (the aid is the only one of the estimate): another aid that holds the
    quantity's rate (an odometer, NHC, GNSS velocities) keeps the coasting honest, and
-   there a ramp of the aid must stay out (``slowramp``).  Where no other aid measures at
-   all, held or not (a held healthy aid must not leave a faulty one the field): once
+   there a ramp of the aid must stay out (``slowramp``).  Where the aid measures and no
+   other aid does, held or not (a held healthy aid must not leave a faulty one the field;
+   an epoch where nothing measures makes no aid the only one): once
    ``n_off`` increments in a row were consistent, each consistent increment updates the
    estimate as a measurement of its drift (``Δk H(Φ − I)``, noise 2R: after a step the
    aid moves as the vehicle does, and the coast keeps the vehicle's velocity); an output
    repeated bit for bit (``repeated``: a frozen receiver, which at a crawl passes the
    increment test) counts as inconsistent; and ``patience_s`` after the hold's last jump
    the jump is *taken* (the plain filter's choice: the estimate moves by the hold's jump
-   sum in the measured quantity, ``Hᵀ(HHᵀ)⁻¹``, the rest of the innovation relaxed), the
+   sum in the measured quantity, carried by the states that are that quantity,
+   :func:`_carrier`, the rest of the innovation relaxed), the
    only way back when the jump was the end of a fault the filter had followed (an IMU
    cannot see a constant velocity offset); the taken jump stays in the sum, so the jump
    back at a step's end cancels it.  And a held only aid whose last
@@ -287,6 +291,9 @@ NOISE_WINDOW = 16
 #: a held only aid whose increments show a noise variance this many times its R (its σ
 #: twice the declared) is used with that noise instead of coasted without it
 NOISE_RATIO = 4.0
+#: a state carries a jump taken (:func:`_carrier`) where its part of a measured row's
+#: predicted variance is at least this share of the largest part (σ within a factor 10)
+CARRIER_SHARE = 1e-2
 #: 1 / Φ⁻¹(3/4): the standard deviation of a normal sample from its median absolute
 #: deviation
 MAD_SIGMA = 1.482602218505602
@@ -358,6 +365,28 @@ def _psd(A: np.ndarray) -> np.ndarray:
 def _pd_rows(P: np.ndarray) -> np.ndarray:
     """(B,) whether each matrix is positive definite."""
     return np.asarray(np.linalg.eigvalsh(P).min(-1) > 0)
+
+
+def _carrier(H: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """(B, n, m) the map of a jump of the measured quantity onto the states that carry it.
+
+    Each row's carriers are the states whose part of the row's predicted variance,
+    ``H_ij² P_jj``, is at least :data:`CARRIER_SHARE` of its largest: the measured
+    quantity itself (a position, a GNSS error state of the same size), not a state that
+    moves the measurement only through a small coupling (an attitude through a lever
+    arm).  The move is the smallest in the carriers' own σ, ``DHᵀ(HDHᵀ)⁻¹`` with D the
+    carriers' variances.  The plain pseudo-inverse ``Hᵀ(HHᵀ)⁻¹`` mixes units: with the
+    drive's 5 cm lever arm it put half of a 10 m height jump into a 28° roll (a 150 km
+    lock-out); weighting every state by its σ still put 85° into the heading for the
+    jump back of a 1 km step.  A jump is a linear move of what is measured, and a
+    coupling state is linear only for small angles.
+    """
+    D = np.diagonal(P, axis1=-2, axis2=-1)[:, None, :]  # (B, 1, n)
+    part = H**2 * D
+    carries = (part >= CARRIER_SHARE * part.max(-1, keepdims=True)) & (part > 0)
+    HD = np.where(carries, H * D, 0.0)
+    M: np.ndarray = np.linalg.solve(HD @ kf.mT(H), HD)
+    return kf.mT(M)
 
 
 def inflation(nu: np.ndarray, A: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -609,6 +638,13 @@ class Guard:
         # could never be taken out again: the detector's word is then kept
         loose = unobs if self.rollback else np.zeros_like(unobs)
         quiet = ~det_raw | overruled | loose
+        # a repeated output passes no re-admission test: a frozen receiver's last value
+        # passes as the coasting allowance grows past the distance driven since, and
+        # taking it back drags the estimate to where the vehicle was (the drive's GNSS
+        # alone frozen for 120 s: re-admitted at 38 s, a 135 km lock-out)
+        fresh = np.ones((B, N), bool) if repeated is None else ~repeated
+        ok &= fresh
+        ok_alt &= fresh
         tested = state.hold & usable
         passes = np.where(tested, np.where(ok & quiet, state.passes + 1, 0), state.passes)
         # the detector tests against the rolled-back estimate: the alternative is judged
@@ -621,13 +657,15 @@ class Guard:
         undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
         # no other aid of the estimate measures now (a sole source in the strict sense)
         alone = np.stack([~self._witness_present(a, usable, state) for a in range(N)], 1)
-        # no other aid of the estimate measures at all, held or not (the only aid now): a
-        # held healthy aid must not leave a faulty one the field
-        only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
+        # the aid measures and no other aid of the estimate does, held or not (the only
+        # aid now): a held healthy aid must not leave a faulty one the field.  An epoch
+        # where nothing measures is no evidence (it made every held aid "only" between
+        # the fixes, and a step of the GNSS positions beside its velocities, NHC and ZUPT
+        # was taken after the patience: the drive's 5 m east step, 4.6 m followed)
+        only = usable & np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
         # the increments matter where an aid is held or may be isolated now
         need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
         good, inc, since, last = self._increments(state, test, usable, need)
-        fresh = np.ones((B, N), bool) if repeated is None else ~repeated
         good &= fresh  # a repeated output is no evidence of a moving aid
         # the noise each aid shows: its last increments (a repeated output's is none)
         pushed = usable & (state.since >= 0) & fresh
@@ -1119,9 +1157,9 @@ class Guard:
                     jumped = out.taken[:, a]
                     if jumped.any():
                         # a sole source's jump taken: the estimate moves by it in the
-                        # measured quantity only (Hᵀ(HHᵀ)⁻¹), with its covariance; the
-                        # rest of the innovation is the coast's drift (below)
-                        M = kf.mT(np.linalg.solve(Ha @ kf.mT(Ha), Ha))
+                        # measured quantity only, with its covariance; the rest of the
+                        # innovation is the coast's drift (below)
+                        M = _carrier(Ha, P)
                         J = np.where(jumped[:, None], after.jump[a] - before.taken[a], 0.0)
                         C = np.where(jumped[:, None, None], after.jump_cov[a], 0.0)
                         shift = kf.mv(M, J)
