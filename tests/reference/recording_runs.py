@@ -1,8 +1,8 @@
 """Running a recording from the tests: load, run every method through the engine, score.
 
 One place for what the recorded-log tests do between a recording file and its traces
-(``ftnav process`` without its outputs), and for copies of the built-in drive with their
-data by absolute path.
+(``ftnav process`` without its outputs), and for copies of the built-in drive (or another
+built-in recording) with their data by absolute path.
 """
 
 from __future__ import annotations
@@ -48,10 +48,12 @@ def process(path: Path, nav_covariance: bool = False, **kw: Any):
     return loaded, traces, scores
 
 
-def drive_copy(path: Path, edit: Callable[[dict], None] | None = None) -> Path:
-    """The built-in drive written to ``path`` with its data files by absolute path, after
-    ``edit`` (a function changing the parsed document in place)."""
-    src = recording_path("rtklib-drive")
+def drive_copy(
+    path: Path, edit: Callable[[dict], None] | None = None, name: str = "rtklib-drive"
+) -> Path:
+    """The built-in drive (or recording ``name``) written to ``path`` with its data files
+    by absolute path, after ``edit`` (a function changing the parsed document in place)."""
+    src = recording_path(name)
     doc = tomllib.loads(src.read_text())
     doc["imu"]["file"] = str(src.parent / doc["imu"]["file"])
     for a in doc["aids"]:

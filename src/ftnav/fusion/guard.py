@@ -74,7 +74,8 @@ and decides the method's isolation from its detector's flags:
    estimate as a measurement of its drift (``Δk H(Φ − I)``, noise 2R: after a step the
    aid moves as the vehicle does, and the coast keeps the vehicle's velocity); an output
    repeated bit for bit (``repeated``: a frozen receiver, which at a crawl passes the
-   increment test) counts as inconsistent; and ``patience_s`` after the hold's last jump
+   increment test) is no measurement to the increments (untested, no reference, no
+   jump: a freeze is an outage to them); and ``patience_s`` after the hold's last jump
    the jump is *taken* (the plain filter's choice: the estimate moves by the hold's jump
    sum in the measured quantity, carried by the states that are that quantity,
    :func:`_carrier`, the rest of the innovation relaxed), the
@@ -665,8 +666,12 @@ class Guard:
         only = usable & np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
         # the increments matter where an aid is held or may be isolated now
         need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
-        good, inc, since, last = self._increments(state, test, usable, need)
-        good &= fresh  # a repeated output is no evidence of a moving aid
+        # a repeated output is no measurement for the increments: it is neither tested
+        # nor their reference, so a freeze is an outage to them, and the first fresh
+        # output is tested against the last one before it (the walk's 15 s freeze of its
+        # only aid was held as a jump for the patience after it: 2.0 m against ckf's 1.1)
+        good, inc, since, last = self._increments(state, test, usable & fresh, need)
+        judged = tested & fresh  # the held aids whose output is a measurement now
         # the noise each aid shows: its last increments (a repeated output's is none)
         pushed = usable & (state.since >= 0) & fresh
         spread = tuple(
@@ -679,14 +684,14 @@ class Guard:
         )
         loud, shown_R = self._loud(state.hold & usable & only & fresh, spread, test)
         steady, steps = state.steady, state.steps
-        calm = np.where(state.hold, np.where(tested & ~good, 0, state.calm + 1), state.calm)
+        calm = np.where(state.hold, np.where(judged & ~good, 0, state.calm + 1), state.calm)
         # consistent increments in a row of every hold (a steady one's: its steps)
-        steps = np.where(tested, np.where(good, steps + 1, 0), steps)
-        steady = steady & ~(tested & ~good)
-        jump, jump_cov = self._jumps(state, inc, tested & ~good)
+        steps = np.where(judged, np.where(good, steps + 1, 0), steps)
+        steady = steady & ~(judged & ~good)
+        jump, jump_cov = self._jumps(state, inc, judged & ~good)
         returned = np.zeros((B, N), bool)
         for a in range(N):  # the jumps cancel: the aid is back where it was
-            fail = tested[:, a] & ~good[:, a]
+            fail = judged[:, a] & ~good[:, a]
             if not fail.any():
                 continue
             back = self._cancelled(a, jump[a], jump_cov[a], fail)
@@ -710,7 +715,9 @@ class Guard:
         # is its new value (the plain filter's choice; a coast does not outlast it)
         expired = state.hold & only & (steps >= self.n_off) & (calm >= self.patience)
         settled |= expired & ~undone & self.rollback
-        taken = settled & ~steady  # a jump's hold: the jump is taken, not a drift
+        # a jump's hold: the jump is taken, not a drift (a hold whose sum holds no jump, a
+        # freeze's, ends relaxed with nothing to take)
+        taken = settled & ~steady & (state.jumps > 0)
         returned &= ~undone & ~settled
         release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
         relaxed = (release & ~undone & ~strict) | settled | returned
@@ -815,7 +822,7 @@ class Guard:
             )
             for a in range(N)
         )
-        jumps = np.where(clear, 0, state.jumps + (tested & ~good) + onset)
+        jumps = np.where(clear, 0, state.jumps + (judged & ~good) + onset)
         # a held only aid whose increments show much more noise than its R (a noise
         # increase: no jump, no drift) is used with that noise; coasting without it
         # would trade the aid's noise for the INS's drift.  Its jump sum stays: a jump
