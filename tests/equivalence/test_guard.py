@@ -321,19 +321,3 @@ def test_a_held_faulty_aid_is_not_taken_while_another_aid_measures():
     assert not held[70:, :, 1].any()
     assert not held[-10:].any()
     assert np.abs(err).max() < 3.0, err
-
-
-def test_an_epoch_where_nothing_measures_makes_no_aid_the_only_one():
-    """Two position aids measuring at the even epochs only; aid 0 steps by 30 for epochs
-    40-99 (flagged while it lasts), aid 1 is healthy.  At the odd epochs no aid measures,
-    which once made each held aid "the only aid measuring": aid 0's step was taken after
-    its patience (the drive's 5 m east step of the GNSS positions beside its velocities,
-    NHC and ZUPT: followed).  The step is not taken while it lasts; the aid is back after
-    it, the estimate on the truth."""
-    held, relaxed, err = _two_aids(
-        lambda k: [40 <= k < 100, False], 140, measured=lambda k: k % 2 == 0
-    )
-    assert held[40:99, :, 0].all(), np.flatnonzero(~held[40:99, :, 0].all(1)) + 41
-    assert not relaxed[40:99, :, 0].any(), np.flatnonzero(relaxed[:, :, 0].any(1)) + 1
-    assert not held[-10:].any()
-    assert np.abs(err).max() < 3.0, err

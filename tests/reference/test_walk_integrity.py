@@ -5,10 +5,10 @@ is fitted to it; the drive's fault-tolerant methods (``fkf-chi2``, ``fkf-glr``, 
 detectors and the guard's defaults) are added to its file as they are.  Its frozen
 receiver showed a logic error (a freeze's end held as a jump), fixed with no parameter
 (a repeated output is no measurement to the increments; the drive's freezes improved
-with it, docs/integrity.md §1.3).  Its GNSS is the only aid while the walker moves, so every fault is one of the
-only aid.  Oracle: the RTK fixes (Q = 1, until 72 s) and the plain centralized filter
-(``ckf``) on the same data.  Faults of the GNSS positions from 25 to 40 s after the
-start, scored from 2 s after their end:
+with it, docs/integrity.md §1.3).  Its GNSS is the only aid while the walker moves,
+so every fault is one of the only aid.  Oracle: the RTK fixes (Q = 1, until 72 s) and
+the plain centralized filter (``ckf``) on the same data.  Faults of the GNSS positions
+from 25 to 40 s after the start, scored from 2 s after their end:
 
 * none: the χ² method never isolates the GNSS and is ``ckf`` to the micrometre;
 * a 5 m step, the receiver frozen, the noise 10 times its σ, a 10 m height step: after

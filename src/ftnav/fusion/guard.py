@@ -67,9 +67,8 @@ and decides the method's isolation from its detector's flags:
    when it cancels (the fault's end undid its onset).  Only where no other aid
    measures (the aid is the only one of the estimate): another aid that holds the
    quantity's rate (an odometer, NHC, GNSS velocities) keeps the coasting honest, and
-   there a ramp of the aid must stay out (``slowramp``).  Where the aid measures and no
-   other aid does, held or not (a held healthy aid must not leave a faulty one the field;
-   an epoch where nothing measures makes no aid the only one): once
+   there a ramp of the aid must stay out (``slowramp``).  Where no other aid measures at
+   all, held or not (a held healthy aid must not leave a faulty one the field): once
    ``n_off`` increments in a row were consistent, each consistent increment updates the
    estimate as a measurement of its drift (``Δk H(Φ − I)``, noise 2R: after a step the
    aid moves as the vehicle does, and the coast keeps the vehicle's velocity); an output
@@ -658,12 +657,15 @@ class Guard:
         undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
         # no other aid of the estimate measures now (a sole source in the strict sense)
         alone = np.stack([~self._witness_present(a, usable, state) for a in range(N)], 1)
-        # the aid measures and no other aid of the estimate does, held or not (the only
-        # aid now): a held healthy aid must not leave a faulty one the field.  An epoch
-        # where nothing measures is no evidence (it made every held aid "only" between
-        # the fixes, and a step of the GNSS positions beside its velocities, NHC and ZUPT
-        # was taken after the patience: the drive's 5 m east step, 4.6 m followed)
-        only = usable & np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
+        # no other aid of the estimate measures at all, held or not (the only aid now): a
+        # held healthy aid must not leave a faulty one the field.  Between the fixes no
+        # aid measures, so every held aid is "only" there: its patience may end its hold
+        # at such an epoch (relaxed, the detector overruled until its flag clears), beside
+        # aids that measure other quantities at the fixes (docs/integrity.md §5: this
+        # re-admits the drive's GLR after a noise minute in 1.4 s rather than 14 s, and
+        # takes a lasting 5 m east step after 10 s; requiring the aid to measure traded
+        # the first for the second, and was not kept)
+        only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
         # the increments matter where an aid is held or may be isolated now
         need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
         # a repeated output is no measurement for the increments: it is neither tested
