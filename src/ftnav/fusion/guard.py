@@ -80,7 +80,12 @@ and decides the method's isolation from its detector's flags:
    :func:`_carrier`, the rest of the innovation relaxed), the
    only way back when the jump was the end of a fault the filter had followed (an IMU
    cannot see a constant velocity offset); the taken jump stays in the sum, so the jump
-   back at a step's end cancels it.  And a held only aid whose last
+   back at a step's end cancels it.  The patience also ends a hold whose jump no other
+   aid measuring can judge: it lies in rows none of them sees, neither the quantity nor
+   its rate (a star tracker or an altimeter beside a GNSS that stepped north), and the
+   rows they see moved by no more than chance (a noise increase moves them all); the
+   jump is then taken in those rows only, the others' rows left to them.  And a held
+   only aid whose last
    :data:`NOISE_WINDOW` increments show a noise variance above :data:`NOISE_RATIO` times
    its R in some component (from their median absolute deviation about their median:
    a jump and the estimate's drift do not move it) is *used with that noise* (per
@@ -367,6 +372,14 @@ def _pd_rows(P: np.ndarray) -> np.ndarray:
     return np.asarray(np.linalg.eigvalsh(P).min(-1) > 0)
 
 
+def _carries(H: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """(B, m, n) whether state j carries row i of ``H``: its part of the row's predicted
+    variance, ``H_ij² P_jj``, is at least :data:`CARRIER_SHARE` of the row's largest."""
+    part = H**2 * np.diagonal(P, axis1=-2, axis2=-1)[:, None, :]
+    out: np.ndarray = (part >= CARRIER_SHARE * part.max(-1, keepdims=True)) & (part > 0)
+    return out
+
+
 def _carrier(H: np.ndarray, P: np.ndarray) -> np.ndarray:
     """(B, n, m) the map of a jump of the measured quantity onto the states that carry it.
 
@@ -382,9 +395,7 @@ def _carrier(H: np.ndarray, P: np.ndarray) -> np.ndarray:
     coupling state is linear only for small angles.
     """
     D = np.diagonal(P, axis1=-2, axis2=-1)[:, None, :]  # (B, 1, n)
-    part = H**2 * D
-    carries = (part >= CARRIER_SHARE * part.max(-1, keepdims=True)) & (part > 0)
-    HD = np.where(carries, H * D, 0.0)
+    HD = np.where(_carries(H, P), H * D, 0.0)
     M: np.ndarray = np.linalg.solve(HD @ kf.mT(H), HD)
     return kf.mT(M)
 
@@ -666,6 +677,14 @@ class Guard:
         # takes a lasting 5 m east step after 10 s; requiring the aid to measure traded
         # the first for the second, and was not kept)
         only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
+        # the patience may also end a hold whose jump no other aid measuring sees (an
+        # altimeter or a star tracker beside a GNSS that stepped north): they cannot say
+        # which is right, and the coast drifts (seed002: held 115 s, then re-admitted on
+        # the allowance with the step; its end held 110 s more)
+        care = state.hold | det_flag | state.overruled | (ratio > 1.0)
+        unwitnessed = np.stack(
+            [self._unwitnessed(a, usable, test, state, care) for a in range(N)], 1
+        )
         # the increments matter where an aid is held or may be isolated now
         need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
         # a repeated output is no measurement for the increments: it is neither tested
@@ -715,7 +734,7 @@ class Guard:
         settled = state.hold & steady & unobs & alone & (steps >= self.n_off) & ~undone
         # a sole source consistent again for the patience since its last jump: the jump
         # is its new value (the plain filter's choice; a coast does not outlast it)
-        expired = state.hold & only & (steps >= self.n_off) & (calm >= self.patience)
+        expired = state.hold & unwitnessed & (steps >= self.n_off) & (calm >= self.patience)
         settled |= expired & ~undone & self.rollback
         # a jump's hold: the jump is taken, not a drift (a hold whose sum holds no jump, a
         # freeze's, ends relaxed with nothing to take)
@@ -1003,6 +1022,62 @@ class Guard:
                 out |= usable[:, j] & (True if state is None else ~state.hold[:, j])
         return out
 
+    def _unseen(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:
+        """(B, m) the rows of aid ``a`` that no other aid of its group in ``witnesses``
+        (B, N) responds to.  A row's quantity is carried by the states of ``H_a`` and of
+        its rate ``H_a D`` (``D = Φ − I``); a witness responds to the states of its rows,
+        their rates and the rates' rates (``H_j``, ``H_j D``, ``H_j D²``), each state by
+        the 1 % rule of :func:`_carries`.  A star tracker or an altimeter responds to no
+        horizontal GNSS row; GNSS velocities, an odometer or the vehicle constraints to
+        the position's rate; GNSS positions or velocities to an attitude (a tilt moves
+        the velocity's rate).  Every row where no witness measures."""
+        g = self.group_of[a]
+        others = [j for j in self.groups[g] if j != a]
+        present = np.zeros(witnesses.shape[0], bool)
+        for j in others:
+            present |= witnesses[:, j]
+        out = np.ones((witnesses.shape[0], self.dims[a]), bool)
+        if not present.any():
+            return out
+        P, Ha = test.P[g], test.H[a]
+        D = np.broadcast_to(test.F[g], P.shape) - np.eye(P.shape[-1])
+        quantity = _carries(Ha, P) | _carries(Ha @ D, P)  # (B, m, n)
+        seen = np.zeros(P.shape[:2], bool)
+        for j in others:
+            Hj = test.H[j]
+            HjD = Hj @ D
+            moves = _carries(Hj, P) | _carries(HjD, P) | _carries(HjD @ D, P)
+            seen |= witnesses[:, j, None] & moves.any(1)
+        return np.asarray(~(quantity & seen[:, None, :]).any(-1))
+
+    def _unwitnessed(
+        self, a: int, usable: np.ndarray, test: GuardTest, state: GuardState, care: np.ndarray
+    ) -> np.ndarray:
+        """(B,) whether no other aid of ``a``'s group that measures now can judge ``a``'s
+        hold: its jump (the hold's sum, or the jump taken whose end cancels it) lies in
+        rows none of them sees (:meth:`_unseen`), and the rows they see moved by no
+        more than chance (the sum's χ² there against its covariance, at the guard's
+        false-alarm probability).  True where no other aid measures.  A noise increase
+        moves every row, so it does not pass.  Computed where ``care`` (B, N);
+        elsewhere, whether no other aid measures."""
+        witnesses = usable.copy()
+        witnesses[:, a] = False
+        measuring = witnesses[:, list(self.groups[self.group_of[a]])].any(1)
+        if not (measuring & care[:, a]).any():
+            return np.asarray(~measuring)
+        unseen = self._unseen(a, witnesses, test)
+        J, C = state.jump[a], state.jump_cov[a]
+        var = np.diagonal(C, axis1=-2, axis2=-1)
+        z2 = np.maximum(J**2, state.taken[a] ** 2) / np.where(var > 0, var, np.inf)
+        moved = (z2 > _threshold(self.pfa, 1)) & unseen
+        seen = ~unseen
+        eye = np.eye(self.dims[a])
+        C_s = np.where(seen[:, :, None] & seen[:, None, :], C, eye)
+        C_s = np.where(_pd_rows(C_s)[:, None, None], C_s, eye)
+        k = seen.sum(-1)
+        still = _chi2(np.where(seen, J, 0.0), C_s) <= _thresholds(self.pfa, k)
+        return np.asarray(~measuring | (moved.any(-1) & still))
+
     def _witnessed(
         self, a: int, w: np.ndarray, test: GuardTest, state: GuardState, usable: np.ndarray
     ) -> np.ndarray:
@@ -1169,8 +1244,12 @@ class Guard:
                         # measured quantity only, with its covariance; the rest of the
                         # innovation is the coast's drift (below)
                         M = _carrier(Ha, P)
-                        J = np.where(jumped[:, None], after.jump[a] - before.taken[a], 0.0)
-                        C = np.where(jumped[:, None, None], after.jump_cov[a], 0.0)
+                        # (in the rows no other aid measuring sees: the others hold theirs)
+                        wit = usable & ~out.hold
+                        wit[:, a] = False
+                        free = jumped[:, None] & self._unseen(a, wit, g.test)
+                        J = np.where(free, after.jump[a] - before.taken[a], 0.0)
+                        C = np.where(free[:, :, None] & free[:, None, :], after.jump_cov[a], 0.0)
                         shift = kf.mv(M, J)
                         spread = kf.symmetrize(M @ C @ kf.mT(M))
                         x, P = x + shift, kf.symmetrize(P + spread)

@@ -1,0 +1,129 @@
+"""Which aids can judge a held aid's jump (:meth:`ftnav.fusion.guard.Guard._unseen`,
+:meth:`~ftnav.fusion.guard.Guard._unwitnessed`), in closed form.
+
+A held aid's patience ends its hold as the plain filter would (the jump taken) only where
+no other aid measuring can say which is right (docs/integrity.md §1.3).  An aid sees a
+row of the held aid when one of its rows is carried by the quantity the row measures or
+by that quantity's rate (``H`` and ``H D``, ``D = Φ − I``), and responds to it when that
+state is among those of its own rows, their rates and the rates' rates (``H_j``,
+``H_j D``, ``H_j D²``).  Oracle, by hand on a position / velocity / tilt model (a tilt
+moves the east velocity's rate by g): an altimeter sees the GNSS height and nothing
+else, a star tracker none of its rows, a velocity aid every row (their rates), an
+odometer heading north the north row only; a held star tracker's tilt is seen by GNSS
+velocities (their rate) and positions (their rate's rate), not by an altimeter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ftnav.fusion.config import GuardSettings
+from ftnav.fusion.guard import Guard, GuardTest
+
+DT = 1.0
+N_STATES = 7  # pE, pN, pU, vE, vN, vU, tilt
+G = 9.8
+
+
+def _rows(*cols: int, n: int = N_STATES) -> np.ndarray:
+    H = np.zeros((len(cols), n))
+    for i, c in enumerate(cols):
+        H[i, c] = 1.0
+    return H
+
+
+AIDS = {
+    "gnss": _rows(0, 1, 2),
+    "altimeter": _rows(2),
+    "star tracker": _rows(6),
+    "velocity": _rows(3, 4, 5),
+    "odometer north": _rows(4),
+}
+
+
+def _setup(names: list[str], B: int = 1) -> tuple[Guard, GuardTest]:
+    Hs = [AIDS[k] for k in names]
+    guard = Guard(GuardSettings(), [tuple(range(len(names)))], [N_STATES], [h.shape[0] for h in Hs])
+    F = np.eye(N_STATES)
+    F[:3, 3:6] = DT * np.eye(3)
+    F[3, 6] = G * DT
+    P = np.diag([4.0, 4.0, 4.0, 0.01, 0.01, 0.01, 1e-4])
+    test = GuardTest(
+        pulls=(),
+        alternative=(),
+        aids=(),
+        P=(np.broadcast_to(P, (B, N_STATES, N_STATES)).copy(),),
+        H=tuple(np.broadcast_to(h, (B, *h.shape)).copy() for h in Hs),
+        F=(F,),
+    )
+    return guard, test
+
+
+@pytest.mark.parametrize(
+    ("witnesses", "unseen"),
+    [
+        ([], [True, True, True]),
+        (["altimeter"], [True, True, False]),
+        (["star tracker"], [True, True, True]),
+        (["altimeter", "star tracker"], [True, True, False]),
+        (["velocity"], [False, False, False]),
+        (["odometer north"], [True, False, True]),
+    ],
+)
+def test_the_gnss_rows_each_aid_sees(witnesses, unseen):
+    guard, test = _setup(["gnss", *witnesses])
+    usable = np.ones((1, 1 + len(witnesses)), bool)
+    usable[:, 0] = False
+    np.testing.assert_array_equal(guard._unseen(0, usable, test)[0], unseen)
+
+
+@pytest.mark.parametrize(
+    ("witness", "seen"),
+    [("velocity", True), ("gnss", True), ("altimeter", False), ("odometer north", False)],
+)
+def test_a_star_tracker_tilt_is_seen_through_the_velocity(witness, seen):
+    guard, test = _setup(["star tracker", witness])
+    usable = np.array([[False, True]])
+    assert guard._unseen(0, usable, test)[0, 0] == (not seen)
+
+
+def test_an_aid_without_a_measurement_sees_nothing():
+    guard, test = _setup(["gnss", "velocity"])
+    np.testing.assert_array_equal(
+        guard._unseen(0, np.array([[False, False]]), test)[0], [True, True, True]
+    )
+
+
+def _held(guard: Guard, jump: np.ndarray, cov: np.ndarray):
+    state = guard.init(jump.shape[0])
+    B, m = jump.shape
+    jumps = list(state.jump)
+    covs = list(state.jump_cov)
+    jumps[0], covs[0] = jump, np.broadcast_to(cov, (B, m, m)).copy()
+    return state._replace(jump=tuple(jumps), jump_cov=tuple(covs))
+
+
+def test_a_north_step_beside_an_altimeter_and_a_star_tracker_is_unwitnessed():
+    guard, test = _setup(["gnss", "altimeter", "star tracker"], B=4)
+    cov = 2.0 * np.eye(3)  # one increment: 2R, R = 1 m²
+    jump = np.array(
+        [
+            [0.3, 20.0, -0.5],  # a north step: the height they see did not move
+            [0.3, 20.0, 12.0],  # the height moved too: the altimeter can judge it
+            [0.3, 0.5, -0.5],  # nothing moved beyond chance
+            [9.0, -14.0, 11.0],  # a noise increase moves every row
+        ]
+    )
+    state = _held(guard, jump, cov)
+    usable = np.ones((4, 3), bool)
+    care = np.ones((4, 3), bool)
+    got = guard._unwitnessed(0, usable, test, state, care)
+    np.testing.assert_array_equal(got, [True, False, False, False])
+    # beside GNSS velocities every row's rate is seen: never unwitnessed; alone, always
+    guard_v, test_v = _setup(["gnss", "velocity"], B=4)
+    state_v = _held(guard_v, jump, cov)
+    usable_v = np.ones((4, 2), bool)
+    assert not guard_v._unwitnessed(0, usable_v, test_v, state_v, care[:, :2]).any()
+    usable_v[:, 1] = False
+    assert guard_v._unwitnessed(0, usable_v, test_v, state_v, care[:, :2]).all()
