@@ -96,7 +96,9 @@ and decides the method's isolation from its detector's flags:
    lock-out).  And an aid whose increment undoes the one jump its sum held (an
    intermittent fault's burst ending) is back at its old level and taken at once,
    relaxed — not a repeated output, nor an aid showing a noise increase (its sums cancel
-   by chance).
+   by chance).  A held aid beside others whose increments show such a noise passes only
+   the strict χ², not the allowance, while they do (a noisy value that passes the
+   allowance by chance would be taken whole, relaxed).
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
