@@ -104,6 +104,11 @@ def _held(guard: Guard, jump: np.ndarray, cov: np.ndarray):
     return state._replace(jump=tuple(jumps), jump_cov=tuple(covs))
 
 
+def _only(guard: Guard, usable: np.ndarray) -> np.ndarray:
+    """No other aid measures (what ``Guard.decide`` passes as ``only``)."""
+    return ~guard._witness_present(0, usable)
+
+
 def test_a_north_step_beside_an_altimeter_and_a_star_tracker_is_unwitnessed():
     guard, test = _setup(["gnss", "altimeter", "star tracker"], B=4)
     cov = 2.0 * np.eye(3)  # one increment: 2R, R = 1 m²
@@ -118,12 +123,14 @@ def test_a_north_step_beside_an_altimeter_and_a_star_tracker_is_unwitnessed():
     state = _held(guard, jump, cov)
     usable = np.ones((4, 3), bool)
     care = np.ones((4, 3), bool)
-    got = guard._unwitnessed(0, usable, test, state, care)
+    got = guard._unwitnessed(0, usable, test, state, _only(guard, usable), care[:, 0])
     np.testing.assert_array_equal(got, [True, False, False, False])
     # beside GNSS velocities every row's rate is seen: never unwitnessed; alone, always
     guard_v, test_v = _setup(["gnss", "velocity"], B=4)
     state_v = _held(guard_v, jump, cov)
     usable_v = np.ones((4, 2), bool)
-    assert not guard_v._unwitnessed(0, usable_v, test_v, state_v, care[:, :2]).any()
+    only_v = _only(guard_v, usable_v)
+    assert not guard_v._unwitnessed(0, usable_v, test_v, state_v, only_v, care[:, 0]).any()
     usable_v[:, 1] = False
-    assert guard_v._unwitnessed(0, usable_v, test_v, state_v, care[:, :2]).all()
+    only_v = _only(guard_v, usable_v)
+    assert guard_v._unwitnessed(0, usable_v, test_v, state_v, only_v, care[:, 0]).all()

@@ -679,14 +679,6 @@ class Guard:
         # takes a lasting 5 m east step after 10 s; requiring the aid to measure traded
         # the first for the second, and was not kept)
         only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
-        # the patience may also end a hold whose jump no other aid measuring sees (an
-        # altimeter or a star tracker beside a GNSS that stepped north): they cannot say
-        # which is right, and the coast drifts (seed002: held 115 s, then re-admitted on
-        # the allowance with the step; its end held 110 s more)
-        care = state.hold | det_flag | state.overruled | (ratio > 1.0)
-        unwitnessed = np.stack(
-            [self._unwitnessed(a, usable, test, state, care) for a in range(N)], 1
-        )
         # the increments matter where an aid is held or may be isolated now
         need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
         # a repeated output is no measurement for the increments: it is neither tested
@@ -742,7 +734,16 @@ class Guard:
         settled = state.hold & steady & unobs & alone & (steps >= self.n_off) & ~undone
         # a sole source consistent again for the patience since its last jump: the jump
         # is its new value (the plain filter's choice; a coast does not outlast it)
-        expired = state.hold & unwitnessed & (steps >= self.n_off) & (calm >= self.patience)
+        # (or no other aid measuring can judge its jump: an altimeter or a star tracker
+        # beside a GNSS that stepped north cannot say which is right, and the coast
+        # drifts; seed002: held 115 s, re-admitted on the allowance with the step, its
+        # end held 110 s more)
+        ripe = state.hold & (steps >= self.n_off) & (calm >= self.patience)
+        unwitnessed = np.stack(
+            [self._unwitnessed(a, usable, test, state, only[:, a], ripe[:, a]) for a in range(N)],
+            1,
+        )
+        expired = ripe & unwitnessed
         settled |= expired & ~undone & self.rollback
         # a jump's hold: the jump is taken, not a drift (a hold whose sum holds no jump, a
         # freeze's, ends relaxed with nothing to take)
@@ -1059,21 +1060,24 @@ class Guard:
         return np.asarray(~(quantity & seen[:, None, :]).any(-1))
 
     def _unwitnessed(
-        self, a: int, usable: np.ndarray, test: GuardTest, state: GuardState, care: np.ndarray
+        self,
+        a: int,
+        usable: np.ndarray,
+        test: GuardTest,
+        state: GuardState,
+        only: np.ndarray,
+        care: np.ndarray,
     ) -> np.ndarray:
         """(B,) whether no other aid of ``a``'s group that measures now can judge ``a``'s
         hold: its jump (the hold's sum, or the jump taken whose end cancels it) lies in
         rows none of them sees (:meth:`_unseen`), and the rows they see moved by no
         more than chance (the sum's χ² there against its covariance, at the guard's
-        false-alarm probability).  True where no other aid measures.  A noise increase
-        moves every row, so it does not pass.  Computed where ``care`` (B, N);
-        elsewhere, whether no other aid measures."""
-        witnesses = usable.copy()
-        witnesses[:, a] = False
-        measuring = witnesses[:, list(self.groups[self.group_of[a]])].any(1)
-        if not (measuring & care[:, a]).any():
-            return np.asarray(~measuring)
-        unseen = self._unseen(a, witnesses, test)
+        false-alarm probability).  True where no other aid measures (``only``, (B,)).
+        A noise increase moves every row, so it does not pass.  Computed where ``care``
+        (B,); elsewhere ``only``."""
+        if not (~only & care).any():
+            return only
+        unseen = self._unseen(a, usable, test)
         J, C = state.jump[a], state.jump_cov[a]
         var = np.diagonal(C, axis1=-2, axis2=-1)
         z2 = np.maximum(J**2, state.taken[a] ** 2) / np.where(var > 0, var, np.inf)
@@ -1084,7 +1088,7 @@ class Guard:
         C_s = np.where(_pd_rows(C_s)[:, None, None], C_s, eye)
         k = seen.sum(-1)
         still = _chi2(np.where(seen, J, 0.0), C_s) <= _thresholds(self.pfa, k)
-        return np.asarray(~measuring | (moved.any(-1) & still))
+        return np.asarray(only | (moved.any(-1) & still))
 
     def _witnessed(
         self, a: int, w: np.ndarray, test: GuardTest, state: GuardState, usable: np.ndarray
@@ -1253,9 +1257,7 @@ class Guard:
                         # innovation is the coast's drift (below)
                         M = _carrier(Ha, P)
                         # (in the rows no other aid measuring sees: the others hold theirs)
-                        wit = usable & ~out.hold
-                        wit[:, a] = False
-                        free = jumped[:, None] & self._unseen(a, wit, g.test)
+                        free = jumped[:, None] & self._unseen(a, usable & ~out.hold, g.test)
                         J = np.where(free, after.jump[a] - before.taken[a], 0.0)
                         C = np.where(free[:, :, None] & free[:, None, :], after.jump_cov[a], 0.0)
                         shift = kf.mv(M, J)
