@@ -23,19 +23,19 @@ from pathlib import Path
 import numpy as np
 
 from ftnav.eval.montecarlo import run_scenario
-from ftnav.io.scenario_file import load_scenario
+from ftnav.io.common import read_toml
+from ftnav.io.ins_scenario_file import parse_ins_scenario
 from ftnav.scenarios import builtin_path
 
 DURATION = 1500.0
 RUNS = 4
 
 
-def _fault(sensor: str, kind: str, start: float, end: float, magnitude: list[float]) -> str:
+def _fault(
+    sensor: str, kind: str, start: float, end: float, magnitude: list[float]
+) -> dict[str, object]:
     key = "magnitude_deg_h" if kind == "gyro-bias" else "magnitude"
-    return (
-        f'[[faults]]\nsensor = "{sensor}"\nkind = "{kind}"\nstart = {start}\nend = {end}\n'
-        f"{key} = {magnitude}\n\n"
-    )
+    return {"sensor": sensor, "kind": kind, "start": start, "end": end, key: magnitude}
 
 
 CASES = {
@@ -63,17 +63,17 @@ def _horizontal(error: np.ndarray, keep: np.ndarray) -> float:
 
 
 def main(names: list[str]) -> None:
-    text = Path(builtin_path("seed002")).read_text()
-    head, rest = text.split("[[faults]]", 1)
-    tail = rest[rest.index("[evaluation]") :]
-    head = head.replace("duration_s = 3600.0", f"duration_s = {DURATION}")
-    work = Path("benchmarks") / ".seed002_faults.toml"
+    path = builtin_path("seed002")
+    doc = read_toml(path)
+    doc["filter"]["duration_s"] = DURATION
     print("| fault | " + " | ".join(("ckf", "fkf-chi2", "fkf-cusum", "dkf-vb", "dkf-vb-chi2")))
     for name in names:
-        work.write_text(head + CASES[name] + tail)
+        fault = CASES[name]
+        doc["faults"] = [fault]
         w = time.time()
-        result = run_scenario(load_scenario(work), RUNS, 1)
-        end = min(float(CASES[name].split("end = ")[1].split("\n")[0]), DURATION)
+        sc = parse_ins_scenario(doc, f"seed002, {name}", Path(path).parent)
+        result = run_scenario(sc, RUNS, 1)
+        end = min(float(fault["end"]), DURATION)  # type: ignore[arg-type]
         cells = []
         for method, res in result.results.items():
             t = np.arange(res.error.shape[1]) * 1.0
@@ -81,7 +81,6 @@ def main(names: list[str]) -> None:
             twin = _horizontal(result.fault_free[method].error, t >= 60.0)
             cells.append(f"{method} {after:.2f} (twin {twin:.2f})")
         print(f"| {name} | " + " | ".join(cells) + f" |  <!-- {time.time() - w:.0f} s -->")
-    work.unlink(missing_ok=True)
 
 
 if __name__ == "__main__":

@@ -23,7 +23,8 @@ import pytest
 
 from ftnav.eval.evaluate import evaluate
 from ftnav.eval.montecarlo import run_scenario
-from ftnav.io.scenario_file import load_scenario
+from ftnav.io.common import read_toml
+from ftnav.io.scenario_file import load_scenario, parse_scenario
 from ftnav.scenarios import builtin_path
 
 RUNS = 60
@@ -75,22 +76,18 @@ NOISY = ("ckf-chi2", "fkf-chi2", "dkf-chi2")
 
 
 @pytest.fixture(scope="module")
-def noisy(tmp_path_factory):
+def noisy():
     """``slowramp`` with its ramp replaced by the fix's noise at 10 times its σ over
     [300, 500) s: the odometer measures beside the fix, so the only-aid noise rule does
     not apply; a noisy fix that passed the coasting allowance by chance was taken whole,
     relaxed (ckf-chi2 1.40 m after the noise against ckf's 0.30 m, 3 runs of 20 some
     8 m off for 100 s)."""
-    text = Path(builtin_path("slowramp")).read_text()
-    head, rest = text.split("[[faults]]", 1)
-    tail = rest[rest.index("[evaluation]") :]
-    fault = (
-        '[[faults]]\nsensor = "gnss"\nkind = "noise-scale"\nstart = 300.0\nend = 500.0\n'
-        "magnitude = [10.0]\n\n"
-    )
-    path = tmp_path_factory.mktemp("noisy") / "slowramp-noise.toml"
-    path.write_text(head + fault + tail)
-    sc = load_scenario(path)
+    path = builtin_path("slowramp")
+    doc = read_toml(path)
+    doc["faults"] = [
+        {"sensor": "gnss", "kind": "noise-scale", "start": 300.0, "end": 500.0, "magnitude": [10.0]}
+    ]
+    sc = parse_scenario(doc, "slowramp, the fix noisy", Path(path).parent)
     sc = dataclasses.replace(sc, methods=tuple(m for m in sc.methods if m.name in ("ckf", *NOISY)))
     return sc, run_scenario(sc, 20, 1, fault_free=False)
 

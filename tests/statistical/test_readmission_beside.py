@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from ftnav.eval.montecarlo import run_scenario
-from ftnav.io.scenario_file import load_scenario
+from ftnav.io.common import read_toml
+from ftnav.io.ins_scenario_file import parse_ins_scenario
 from ftnav.scenarios import builtin_path
 
 RUNS = 2
@@ -27,18 +28,20 @@ GUARDED = ("fkf-chi2", "fkf-cusum")
 
 
 @pytest.fixture(scope="module")
-def stepped(tmp_path_factory):
-    text = Path(builtin_path("seed002")).read_text()
-    head, rest = text.split("[[faults]]", 1)
-    tail = rest[rest.index("[evaluation]") :]
-    head = head.replace("duration_s = 3600.0", f"duration_s = {DURATION}")
-    fault = (
-        f'[[faults]]\nsensor = "gnss"\nkind = "bias"\nstart = {START}\nend = {END}\n'
-        "magnitude = [0.0, 20.0, 0.0, 0.0, 0.0, 0.0]\n\n"
-    )
-    path = tmp_path_factory.mktemp("beside") / "seed002-step.toml"
-    path.write_text(head + fault + tail)
-    sc = load_scenario(path)
+def stepped():
+    path = builtin_path("seed002")
+    doc = read_toml(path)
+    doc["filter"]["duration_s"] = DURATION
+    doc["faults"] = [
+        {
+            "sensor": "gnss",
+            "kind": "bias",
+            "start": START,
+            "end": END,
+            "magnitude": [0.0, 20.0, 0.0, 0.0, 0.0, 0.0],
+        }
+    ]
+    sc = parse_ins_scenario(doc, "seed002, a 20 m north step", Path(path).parent)
     methods = tuple(m for m in sc.methods if m.name in ("ckf", *GUARDED))
     return run_scenario(sc, RUNS, 1, methods=methods)
 
