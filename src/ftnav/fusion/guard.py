@@ -697,13 +697,13 @@ class Guard:
             )
             for a in range(N)
         )
-        loud, shown_R = self._loud(state.hold & usable & only & fresh, spread, test)
+        shows, shown_R = self._loud(state.hold & usable & fresh, spread, test)
+        loud = shows & only
         # a held aid beside others whose increments show a noise far above its R passes
         # only the strict test: a noisy fix that passes the coasting allowance by chance
         # is taken whole, relaxed, and the estimate left that far off (slowramp's fix at
         # 10 times its noise: 8 m off for 100 s after it)
-        beside, _ = self._loud(state.hold & usable & ~only & fresh, spread, test)
-        passes = np.where(tested & beside & ~strict, 0, passes)
+        passes = np.where(tested & shows & ~only & ~strict, 0, passes)
         steady, steps = state.steady, state.steps
         calm = np.where(state.hold, np.where(judged & ~good, 0, state.calm + 1), state.calm)
         # consistent increments in a row of every hold (a steady one's: its steps)
