@@ -36,6 +36,7 @@ SLOW = (
     "tests/statistical/test_rbf_seed000.py",
     "tests/statistical/test_chi2.py",
     "tests/equivalence/test_batching.py::test_fault_free_twin",
+    "tests/statistical/test_backing_ins_fault.py",
 )
 
 

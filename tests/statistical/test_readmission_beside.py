@@ -12,15 +12,9 @@ worse once a fault ended, within 1.5×), and the fault-free twins (within 10 %).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
-
-from ftnav.eval.montecarlo import run_scenario
-from ftnav.io.common import read_toml
-from ftnav.io.ins_scenario_file import parse_ins_scenario
-from ftnav.scenarios import builtin_path
+from seed002_fault import run_seed002
 
 RUNS = 2
 START, END, DURATION = 300.0, 500.0, 800.0
@@ -29,21 +23,14 @@ GUARDED = ("fkf-chi2", "fkf-cusum")
 
 @pytest.fixture(scope="module")
 def stepped():
-    path = builtin_path("seed002")
-    doc = read_toml(path)
-    doc["filter"]["duration_s"] = DURATION
-    doc["faults"] = [
-        {
-            "sensor": "gnss",
-            "kind": "bias",
-            "start": START,
-            "end": END,
-            "magnitude": [0.0, 20.0, 0.0, 0.0, 0.0, 0.0],
-        }
-    ]
-    sc = parse_ins_scenario(doc, "seed002, a 20 m north step", Path(path).parent)
-    methods = tuple(m for m in sc.methods if m.name in ("ckf", *GUARDED))
-    return run_scenario(sc, RUNS, 1, methods=methods)
+    fault = {
+        "sensor": "gnss",
+        "kind": "bias",
+        "start": START,
+        "end": END,
+        "magnitude": [0.0, 20.0, 0.0, 0.0, 0.0, 0.0],
+    }
+    return run_seed002(fault, DURATION, RUNS, ("ckf", *GUARDED), "a 20 m north step")
 
 
 def _horizontal(res, keep: np.ndarray) -> float:

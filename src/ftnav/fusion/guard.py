@@ -107,6 +107,18 @@ and decides the method's isolation from its detector's flags:
 5. **Common mode.**  The method's common-mode rule sees every aid isolated or flagged:
    when a quorum disagrees at once, the shared reference failed, and every hold is
    released with the rest.
+6. **Backing.**  A detector's alarm may be the estimate's fault, not the aid's: a gyro
+   bias step of the SINS makes a star tracker disagree first (a sequential detector
+   sees it before the bias states absorb it), and the isolation then lets the attitude
+   run off.  While an aid is held without a jump, every other aid that measures, is not
+   held and responds to its rows (:meth:`Guard._unseen`) weighs it by the likelihood of
+   its own innovation under "the held aid is right" (against the estimate updated by
+   the held aid's measurement) and under "the estimate is right".  The log-likelihood
+   ratios are summed over the hold as Page's CUSUM; past ``ln(1/pfa)`` (the guard's
+   false-alarm probability), once the hold has lasted the patience, the other aids back
+   the held one, and it is re-admitted, relaxed.  A faulty aid's update moves the
+   estimate away from what they measure (the sum stays at zero); an aid they cannot
+   judge gets no backing (``seed002``'s GNSS beside its star tracker).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
@@ -201,6 +213,7 @@ class GuardState(NamedTuple):
     taken: tuple[np.ndarray, ...]
     spread: tuple[np.ndarray, ...]
     jumps: np.ndarray
+    support: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -518,6 +531,7 @@ class Guard:
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.full((B, NOISE_WINDOW, m), np.nan) for m in self.dims),
             zi.copy(),
+            np.zeros((B, N)),
         )
 
     @staticmethod
@@ -745,6 +759,10 @@ class Guard:
         )
         expired = ripe & unwitnessed
         settled |= expired & ~undone & self.rollback
+        # a hold the other aids back: the aid was right, the estimate (the INS) wrong (a
+        # gyro bias step: the star tracker flagged, the GNSS velocities confirming it)
+        support, backed = self._support(state, test, usable & fresh)
+        settled |= backed & ~undone
         # a jump's hold: the jump is taken, not a drift (a hold whose sum holds no jump, a
         # freeze's, ends relaxed with nothing to take)
         taken = settled & ~steady & (state.jumps > 0)
@@ -872,7 +890,9 @@ class Guard:
             for a in range(N)
         )
         pending = np.where(reset, doubt, state.pending)
+        support = np.where(reset, 0.0, support)
         new_state = state._replace(
+            support=support,
             pulls=test.pulls,
             alternative=test.alternative,
             hold=hold,
@@ -922,6 +942,65 @@ class Guard:
             loud[:, a] = candidate[:, a] & enough & (shown > NOISE_RATIO * r).any(-1)
             noise[a] = np.maximum(shown, r)[..., None] * np.eye(self.dims[a])
         return loud, tuple(noise)
+
+    def _support(
+        self, state: GuardState, test: GuardTest, usable: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(B, N) the other aids' evidence for each held aid, and where it backs the aid
+        (module docstring, 6).
+
+        Each witness ``j`` (measuring, not held, responding to the held aid's rows:
+        :meth:`_unseen`) gives twice its log-likelihood ratio of "the held aid is right"
+        (its innovation against the estimate updated by the held aid's measurement,
+        ``ν_j − H_j K_a ν_a`` with ``S_j⁺ = H_j (I − K_a H_a) P H_jᵀ + R_j``) against "the
+        estimate is right" (``ν_j``, ``S_j``):
+        ``χ²(ν_j, S_j) + ln|S_j| − χ²(ν_j − H_j K_a ν_a, S_j⁺) − ln|S_j⁺|``.  Where the
+        held aid is right its update moves the estimate towards what the witness
+        measures; where it is faulty, away.  The witnesses' sum is accumulated over the
+        hold as Page's CUSUM (floored at zero): above ``2 ln(1/pfa)`` (a mean run
+        between false backings of at least ``1/pfa`` epochs, for true likelihood ratios)
+        the aid is backed, once held for the patience (the other rules had their chance:
+        on the drive the GLR's false alarms in turns last a few seconds, and ending them
+        early only moved the next one).  Only a hold with no jump (its onset's or since):
+        a jump is the signature of the aid's own fault."""
+        B, N = usable.shape
+        support = np.where(state.hold, state.support, 0.0)
+        backed = np.zeros((B, N), bool)
+        cand = state.hold & (state.jumps == 0) & usable
+        if not self.rollback or not cand.any():
+            return support, backed
+        for a in range(N):
+            ca = cand[:, a]
+            if not ca.any():
+                continue
+            g, ta = self.group_of[a], test.aids[a]
+            P, Ha = test.P[g], test.H[a]
+            K, _ = _gain(P, Ha, ta.R)
+            dx = kf.mv(K, ta.nu)
+            P_a = kf.symmetrize(P - K @ Ha @ P)
+            gain, seen_any = np.zeros(B), np.zeros(B, bool)
+            for j in self.groups[g]:
+                if j == a:
+                    continue
+                w = ca & usable[:, j] & ~state.hold[:, j]
+                if not w.any():
+                    continue
+                only_j = np.zeros((B, N), bool)
+                only_j[:, j] = w
+                w &= ~self._unseen(a, only_j, test).all(-1)
+                if not w.any():
+                    continue
+                tj, Hj = test.aids[j], test.H[j]
+                S0 = tj.A + tj.R
+                S1 = kf.symmetrize(Hj @ P_a @ kf.mT(Hj)) + tj.R
+                q0 = _chi2(tj.nu, S0) + np.linalg.slogdet(S0)[1]
+                q1 = _chi2(tj.nu - kf.mv(Hj, dx), S1) + np.linalg.slogdet(S1)[1]
+                gain += np.where(w, q0 - q1, 0.0)
+                seen_any |= w
+            support[:, a] = np.where(seen_any, np.maximum(0.0, support[:, a] + gain), support[:, a])
+            ripe = state.calm[:, a] >= self.patience  # the other rules had their chance
+            backed[:, a] = ca & seen_any & ripe & (support[:, a] > -2.0 * math.log(self.pfa))
+        return support, backed
 
     def _cancelled(self, a: int, J: np.ndarray, C: np.ndarray, where: np.ndarray) -> np.ndarray:
         """(B,) where ``where``: whether aid ``a``'s jump sum ``J`` is zero within its
