@@ -9,9 +9,9 @@ against the plain filter's 0.47 m.  With the backing rule (docs/integrity.md §1
 GNSS velocities, which see the tilt, back the star tracker and it is re-admitted: 7
 runs of 8 end at 0.53–0.68 m.  Oracles: the plain filter's error after the fault, per
 run (issue 20's rule, within 1.5×: the median run passes; the RMS over the runs does
-not, an expected failure: one run is locked out for 150 s by a false alarm's rollback
-of 148 m of the GNSS's pull, which the star tracker and altimeter cannot judge, §5;
-the χ² method has such a run too, 509 m).
+not, an expected failure: in one run a false alarm's rollback of the GNSS's pull,
+which the star tracker and altimeter cannot judge, locks the GNSS out for 150 s, 148 m
+after the fault, §5; the χ² method has such a run too, 509 m).
 """
 
 from __future__ import annotations
