@@ -964,7 +964,7 @@ class Guard:
         early only moved the next one).  Only a hold with no jump (its onset's or since):
         a jump is the signature of the aid's own fault."""
         B, N = usable.shape
-        support = np.where(state.hold, state.support, 0.0)
+        support = state.support.copy()  # zero where not held: reset at every hold's ends
         backed = np.zeros((B, N), bool)
         cand = state.hold & (state.jumps == 0) & usable
         if not self.rollback or not cand.any():
@@ -975,9 +975,9 @@ class Guard:
                 continue
             g, ta = self.group_of[a], test.aids[a]
             P, Ha = test.P[g], test.H[a]
-            K, _ = _gain(P, Ha, ta.R)
+            K, A = _gain(P, Ha, ta.R)
             dx = kf.mv(K, ta.nu)
-            P_a = kf.symmetrize(P - K @ Ha @ P)
+            P_a = P - reduction(K, A, ta.R)  # the estimate updated by the held aid
             gain, seen_any = np.zeros(B), np.zeros(B, bool)
             for j in self.groups[g]:
                 if j == a:
