@@ -53,7 +53,8 @@ from ftnav.io.recording_file import (
     recording_aids,
 )
 from ftnav.io.solution_file import SOLUTION_COLUMNS, solution_table, trace_dataset
-from ftnav.model.scenario import Fault, FaultKind, Recording
+from ftnav.model.imu import RANGES
+from ftnav.model.scenario import SINS, Fault, FaultKind, Recording
 from ftnav.model.streams import scheduled
 from ftnav.recorded.stream import RECORDING_FAULT_KINDS
 from ftnav.recordings import recording_names, recording_path
@@ -110,12 +111,18 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
     END on the recording's time base (s), a bias or ramp MAGNITUDE in metres on the north
     position, a ``noise-scale`` MAGNITUDE the factor ≥ 1 on the noise σ of every row the
     aid measures (white noise added to the recording:
-    :func:`ftnav.recorded.stream.gnss_raw`).  ``aids`` maps the recording's aid names to
-    their types (:func:`ftnav.io.recording_file.recording_aids`); errors name ``field``."""
+    :func:`ftnav.recorded.stream.gnss_raw`).  Or ``sins:gyro-bias:START:END:X,Y,Z``: a
+    step of the recorded gyros' bias, deg/h about the body axes (x right, y forward, z
+    up), as a scenario file's ``magnitude_deg_h``
+    (:func:`ftnav.recorded.stream.imu_with_faults`).  ``aids`` maps the recording's aid
+    names to their types (:func:`ftnav.io.recording_file.recording_aids`); errors name
+    ``field``."""
     parts = text.split(":")
     if len(parts) not in (4, 5):
         raise ProcessingError(f"{field}: expected SENSOR:KIND:START:END[:MAGNITUDE], got {text!r}")
     sensor, kind = parts[0], parts[1]
+    if sensor == SINS or kind == "gyro-bias":
+        return _sins_fault(text, parts, field)
     if aids.get(sensor) not in ("gnss", "gnss-velocity"):
         gnss = [n for n, t in aids.items() if t.startswith("gnss")]
         raise ProcessingError(f"{field}: {sensor!r} is not a GNSS aid of the recording ({gnss})")
@@ -151,6 +158,35 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
         )
     checked = cast("FaultKind", kind)  # one of RECORDING_FAULTS (above)
     return Fault(sensor, checked, start, end, np.array([0.0, mag, 0.0, 0.0, 0.0, 0.0]))
+
+
+def _sins_fault(text: str, parts: list[str], field: str) -> Fault:
+    """``sins:gyro-bias:START:END:X,Y,Z`` (deg/h) as a :class:`Fault` (rad/s)."""
+    if parts[0] != SINS or parts[1] != "gyro-bias":
+        raise ProcessingError(
+            f"{field}: 'gyro-bias' is the only fault of the SINS and applies only to it: "
+            f"sins:gyro-bias:START:END:X,Y,Z (deg/h) ({text!r})"
+        )
+    try:
+        start, end = float(parts[2]), float(parts[3])
+        rate = [float(x) for x in parts[4].split(",")] if len(parts) == 5 else []
+    except ValueError:
+        raise ProcessingError(f"{field}: START, END and X,Y,Z must be numbers ({text!r})") from None
+    if len(rate) != 3:
+        raise ProcessingError(
+            f"{field}: a gyro-bias needs X,Y,Z, the step in deg/h about the body axes "
+            f"(x right, y forward, z up) ({text!r})"
+        )
+    if not all(math.isfinite(x) for x in (start, end, *rate)) or end <= start:
+        raise ProcessingError(f"{field}: END must be after START, all finite ({text!r})")
+    limit = RANGES["angular_rate"]
+    mag = np.asarray(rate) / limit.per_si
+    if np.abs(mag).max() > limit.high:
+        raise ProcessingError(
+            f"{field}: gyro-bias {max(abs(x) for x in rate):g} deg/h is beyond a gyro's "
+            f"{limit.high * limit.per_si:g} deg/h ({limit.text}) ({text!r})"
+        )
+    return Fault(SINS, "gyro-bias", start, end, mag)
 
 
 def _outages(outages: Outages | Sequence[float] | None, field: str) -> Outages | None:

@@ -23,6 +23,7 @@ from ftnav.recorded.imu import ImuLog, clean, increments, stationary
 from ftnav.recorded.stream import (
     GnssLog,
     gnss_raw,
+    imu_with_faults,
     interleave,
     level,
     on_grid,
@@ -57,6 +58,27 @@ def test_increments_are_exact_integrals_of_held_rates():
     d1, _ = increments(log, np.array([t[i - 1], mid, t[i]]))
     np.testing.assert_allclose(d1, [gyro[i] * (mid - t[i - 1]), gyro[i] * (t[i] - mid)])
     np.testing.assert_allclose(dv.sum(0), (acc[1:] * np.diff(t)[:, None]).sum(0), rtol=1e-12)
+
+
+def test_a_sins_gyro_bias_step_adds_its_rate_times_the_time_inside_its_window():
+    """The step's rate is held on every sample stamped in ``[start, end)`` (a sample's
+    stamp ends its interval): the increments over the window grow by rate × the covered
+    time exactly, the accelerometers and everything outside are untouched."""
+    t = 0.01 * np.arange(1, 1001)
+    rng = np.random.default_rng(5)
+    log = ImuLog(t, rng.normal(size=(1000, 3)), rng.normal(size=(1000, 3)))
+    before = log.gyro.copy()
+    rate = np.radians([0.1, -0.2, 0.5])
+    start, end = 2.005, 6.005  # samples stamped 2.01 ... 6.00: intervals (2.00, 6.00]
+    faulty = imu_with_faults(log, [Fault("sins", "gyro-bias", start, end, rate)])
+    assert faulty.accel is log.accel
+    grid = np.array([t[0], 2.0, 6.0, t[-1]])
+    d0, v0 = increments(log, grid)
+    d1, v1 = increments(faulty, grid)
+    np.testing.assert_allclose(d1 - d0, [np.zeros(3), rate * 4.0, np.zeros(3)], atol=1e-12)
+    np.testing.assert_array_equal(v1, v0)
+    np.testing.assert_array_equal(log.gyro, before)  # the log given is not changed
+    assert imu_with_faults(log, [Fault("gnss", "bias", start, end, np.ones(6))]) is log
 
 
 def test_clean_drops_stale_rows_and_repeated_stamps_and_refuses_going_back():

@@ -169,6 +169,17 @@ def test_malformed_recordings_are_refused(tmp_path, capsys, kw, pattern):
         (["--fault", "gnss:noise-scale:1752003300:1752003310"], r"^--fault: a noise-scale needs"),
         (["--fault", "gnss:bias:1752003300:1752003310"], r"^--fault: a bias needs a MAGNITUDE"),
         (["--fault", "gnss:bias:1:2:5"], r"^--fault: \[1\.000, 2\.000\) s is not within"),
+        (["--fault", "sins:bias:1752003300:1752003310:5"], r"^--fault: 'gyro-bias' is the only"),
+        (["--fault", "gnss:gyro-bias:1752003300:1752003310:0,0,1"], r"^--fault: 'gyro-bias' is"),
+        (
+            ["--fault", "sins:gyro-bias:1752003300:1752003310:1800"],
+            r"^--fault: a gyro-bias needs X,Y,Z, the step in deg/h about the body axes",
+        ),
+        (
+            ["--fault", "sins:gyro-bias:1752003300:1752003310:0,0,1e7"],
+            r"^--fault: gyro-bias 1e\+07 deg/h is beyond a gyro's",
+        ),
+        (["--fault", "sins:gyro-bias:1:2:0,0,1"], r"^--fault: \[1\.000, 2\.000\) s is not within"),
         (["--outage-length", "-3"], r"^--outage-length: must be > 0"),
         (["--methods", "ckf,nope"], r"^--methods: no method 'nope'"),
         (["--aids", "gnss,odometer"], r"^--aids: no aid 'odometer'"),
@@ -227,11 +238,15 @@ def test_detectors_that_cannot_run_on_real_noise_are_refused(tmp_path, capsys, d
 
 def test_a_fault_without_a_recorded_form_is_refused_from_python(tmp_path):
     """A ``Fault`` object given to ``process_recording`` is checked as a ``--fault`` is: a
-    noise ramp (or an IMU fault) has no recorded form and used to be ignored silently."""
+    noise ramp has no recorded form and used to be ignored silently; a gyro-bias step is
+    the SINS's alone."""
     from ftnav import process_recording
     from ftnav.io.common import ScenarioError
     from ftnav.model.scenario import Fault
 
     fault = Fault("gnss", "noise-ramp", 1752003300.0, 1752003310.0, np.full(6, 5.0))
     with pytest.raises(ScenarioError, match=r"faults\[0\]\.kind: 'noise-ramp' has no recorded"):
+        process_recording(_write(tmp_path), methods=["ckf"], faults=[fault])
+    fault = Fault("gnss", "gyro-bias", 1752003300.0, 1752003310.0, np.zeros(3))
+    with pytest.raises(ScenarioError, match=r"faults\[0\]\.kind: 'gyro-bias' is the only fault"):
         process_recording(_write(tmp_path), methods=["ckf"], faults=[fault])

@@ -54,7 +54,7 @@ from ftnav.io.sections import (
     resolve_methods,
 )
 from ftnav.model.imu import ImuErrors
-from ftnav.model.scenario import AidSpec, Fault, Recording
+from ftnav.model.scenario import SINS, AidSpec, Fault, Recording
 from ftnav.nav.attitude import euler_to_dcm
 from ftnav.nav.earth import gravity
 from ftnav.nav.units import parse_quantity
@@ -82,6 +82,7 @@ from ftnav.recorded.stream import (
     given,
     gnss_raw,
     gyrocompass_sigma,
+    imu_with_faults,
     interleave,
     on_grid,
     outage_schedule,
@@ -1543,6 +1544,11 @@ def load_recording(
                 f"faults[{i}].kind",
                 f"{x.kind!r} has no recorded form (recordings: {', '.join(RECORDING_FAULT_KINDS)})",
             )
+        if (x.kind == "gyro-bias") != (x.sensor == SINS):
+            raise ScenarioError(
+                f"faults[{i}].kind",
+                "'gyro-bias' is the only fault of the SINS and applies only to it",
+            )
     f = _keep_aids(parsed.file, aids)
     imu_err = imu_errors(f.imu.errors, "imu.errors", origin)
     log, cleaning, partial, nav = _read_imu(f.imu, base, origin)
@@ -1557,7 +1563,8 @@ def load_recording(
     al, attitude_sigma = _start(f, log, gnss, nav, origin, imu_err)
     imu_err, noise_note, noise_warning = _static_noise(f, log, imu_err, origin)
     raw_log = log
-    log = log._replace(gyro=log.gyro - al.gyro_bias)
+    # the static window's bias out; the SINS's injected faults in (after the alignment)
+    log = imu_with_faults(log._replace(gyro=log.gyro - al.gyro_bias), faults)
     dt, steps, spe, sub = _grid(gnss_all, log, al.t, f, origin)
     t_origin = float(gnss_all.t.min())
     sched: list[tuple[float, float]] = []

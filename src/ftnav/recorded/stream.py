@@ -33,7 +33,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ftnav.model.faults import fault_effect, hold_stuck
-from ftnav.model.scenario import Fault
+from ftnav.model.scenario import SINS, Fault
 from ftnav.model.streams import AidStream, ImuStream, InsStream
 from ftnav.nav import attitude
 from ftnav.nav.attitude import euler_to_dcm
@@ -41,9 +41,16 @@ from ftnav.nav.earth import OMEGA_IE, omega_ie_n, radii
 from ftnav.nav.mechanization import InsState
 from ftnav.recorded.imu import ImuLog, increments
 
-#: the faults a recorded GNSS aid can be given (:func:`gnss_raw`); the others (a noise
-#: ramp, an IMU fault) have no recorded form
-RECORDING_FAULT_KINDS: tuple[str, ...] = ("bias", "ramp", "noise-scale", "outage", "stuck")
+#: the faults a recorded GNSS aid can be given (:func:`gnss_raw`) and the SINS's gyro-bias
+#: step (:func:`imu_with_faults`); a noise ramp has no recorded form
+RECORDING_FAULT_KINDS: tuple[str, ...] = (
+    "bias",
+    "ramp",
+    "noise-scale",
+    "outage",
+    "stuck",
+    "gyro-bias",
+)
 
 __all__ = [
     "RECORDING_FAULT_KINDS",
@@ -52,6 +59,7 @@ __all__ = [
     "GridPlacement",
     "align",
     "given",
+    "imu_with_faults",
     "gyrocompass",
     "gyrocompass_sigma",
     "level",
@@ -346,6 +354,22 @@ def retime_velocity(log: GnssLog, offset: float) -> GnssLog:
     for j in range(3):
         v[order, j] = np.interp(t - offset, t, log.v[order, j])
     return log._replace(v=v)
+
+
+def imu_with_faults(log: ImuLog, faults: Sequence[Fault]) -> ImuLog:
+    """The IMU log with the SINS's ``gyro-bias`` faults added: each fault's (3,) body
+    rate (rad/s, x right, y forward, z up) on every sample whose stamp (the end of its
+    interval) lies in ``[start, end)``, as the simulation adds it to its increments
+    (:mod:`ftnav.sim.ins`).  ``start``/``end`` on the log's time base; the other faults
+    are the aids' (:func:`gnss_raw`).  The log is not changed in place."""
+    steps = [f for f in faults if f.sensor == SINS and f.kind == "gyro-bias"]
+    if not steps:
+        return log
+    gyro = log.gyro.copy()
+    for f in steps:
+        window = (log.t >= f.start) & (log.t < f.end)
+        gyro[window] += np.asarray(f.magnitude, float)
+    return log._replace(gyro=gyro)
 
 
 def gnss_raw(
