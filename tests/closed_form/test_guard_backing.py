@@ -133,3 +133,43 @@ def test_no_backing_from_an_aid_that_cannot_see_the_rows_nor_for_a_hold_with_a_j
     state = _held(guard, 1)
     usable = np.array([[True, False]])
     assert guard._support(state, test, usable)[0][0, 0] == 0.0
+
+
+def _both_held(guard: Guard, B: int, jumps: int, length: int):
+    """Both aids held, each with ``jumps`` jumps, for ``length`` epochs since the onset
+    and a jump at the last epoch (``calm`` 0)."""
+    state = guard.init(B)
+    hold = np.ones((B, 2), bool)
+    return state._replace(
+        hold=hold,
+        jumps=np.full((B, 2), jumps),
+        calm=np.zeros((B, 2), int),
+        length=np.full((B, 2), length),
+    )
+
+
+def test_two_devices_held_at_once_back_each_other_despite_their_jumps():
+    """A SINS fault flags the star tracker and the GNSS velocity together, each increment
+    a jump (the estimate drifts).  One fault at a time: the held aids witness each other
+    with the same closed-form gain, from the patience after the onset; a faulty pair
+    (the velocity opposing) never; aids of one device never."""
+    nu_a, nu_v = np.array([0.01, 0.01]), np.array([0.5, -0.5])
+    guard, test = _setup("velocity east", nu_a, nu_v)
+    guard.devices = ("StarTracker", "Gnss")
+    per_epoch = _oracle_gain(nu_a, nu_v)
+    threshold = 2.0 * np.log(1.0 / guard.pfa)
+    epochs = int(np.ceil(threshold / per_epoch[0])) + 1
+    state = _both_held(guard, 2, jumps=3, length=guard.patience)
+    for _ in range(epochs):
+        support, backed = guard._support(state, test, np.ones((2, 2), bool))
+        state = state._replace(support=support)
+    np.testing.assert_allclose(support[0, 0], epochs * per_epoch[0], rtol=1e-9)
+    np.testing.assert_array_equal(backed[:, 0], [True, False])
+    # before the patience since the onset: not yet
+    early = state._replace(length=np.full((2, 2), guard.patience - 1))
+    assert not guard._support(early, test, np.ones((2, 2), bool))[1][:, 0].any()
+    # one device: the jumps are the aid's own, and a held aid is no witness
+    guard.devices = ("Gnss", "Gnss")
+    support, backed = guard._support(state, test, np.ones((2, 2), bool))
+    assert not backed.any()
+    np.testing.assert_array_equal(support, state.support)  # no candidate: unchanged

@@ -165,29 +165,27 @@ def test_every_fault_runs_finite_with_spd_covariances_and_bounded_error(scenario
     assert h.max() < BOUND_M, f"fkf-chi2: max horizontal error {h.max():.1f} m before 3200 s"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "a SINS gyro-bias step is common to every local filter: the residual chi-square test "
-        "flags GNSS, DNS, CNS and TAN within ~100 s, only the ADS (height) stays in the "
-        "fusion, and the horizontal error grows to ~6.7 km by 3600 s (never re-admitted)"
-    ),
-)
 def test_federated_chi2_error_stays_bounded_through_the_sins_fault(results):
+    """A SINS gyro-bias step is common to every local filter: the residual χ² test flags
+    the aids one after the other.  Was 6.7 km by 3600 s (GNSS, DNS, CNS and TAN held,
+    never re-admitted); aids held together back each other (the guard's backing, module
+    docstring 6): 20 m at most after the step."""
     h = _horizontal(results.results["fkf-chi2"])
     assert h.max() < BOUND_M, f"max horizontal error {h.max():.1f} m"
 
 
 def test_common_mode_quorum_keeps_the_aids_through_the_sins_fault(scenario, results):
-    """Quorum 4 of 5: the gyro step flags every aid but the barometer (height only).
+    """Quorum 4 of 5: a gyro step that flags every aid but the barometer (height only)
+    keeps them all.
 
     Before the SINS fault no aid fault flags four aids at once, so the filter is
     bit-identical to ``fkf-chi2`` there: every genuine aid fault is still isolated.
+    (Since the aids held together back each other, ``fkf-chi2`` itself holds at most
+    three at once through the step, so the quorum is not reached there either.)
     """
     plain, quorum = results.results["fkf-chi2"], results.results["fkf-chi2-quorum"]
     before_sins = scenario.times < SINS_FAULT[0]
     np.testing.assert_array_equal(quorum.error[:, before_sins], plain.error[:, before_sins])
     assert (plain.flag[:, before_sins].sum(-1) < 4).all()
-    assert (plain.flag[:, ~before_sins].sum(-1) >= 4).any()  # the rule has work to do
     h = _horizontal(quorum)
     assert h.max() < BOUND_M, f"max horizontal error {h.max():.1f} m"

@@ -21,7 +21,7 @@ from ftnav.fdi.chi2 import DetectorState
 from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, RbfDetector, config_error
 from ftnav.fusion.detection import Detection
-from ftnav.fusion.guard import Guard, GuardState
+from ftnav.fusion.guard import Guard, GuardState, devices_of
 from ftnav.fusion.locals import LocalBank, NoiseState, gated, measurements
 from ftnav.fusion.protocol import StepOutput, minus, select
 from ftnav.model.system import Epoch, LinearSystem
@@ -90,7 +90,15 @@ class CentralizedFilter:
         self.guard = (
             None
             if g is None
-            else Guard(g, [tuple(range(N))], [system.n_aug], dims, dt, self.detection.separation)
+            else Guard(
+                g,
+                [tuple(range(N))],
+                [system.n_aug],
+                dims,
+                dt,
+                self.detection.separation,
+                devices=devices_of(system.sensors),
+            )
         )
 
     @property

@@ -118,7 +118,12 @@ and decides the method's isolation from its detector's flags:
    false-alarm probability), once the hold has lasted the patience, the other aids back
    the held one, and it is re-admitted, relaxed.  A faulty aid's update moves the
    estimate away from what they measure (the sum stays at zero); an aid they cannot
-   judge gets no backing (``seed002``'s GNSS beside its star tracker).
+   judge gets no backing (``seed002``'s GNSS beside its star tracker).  Where two
+   aids of different devices are held at once (a SINS fault flags one after the other),
+   a jump no longer says "the aid's own fault" (one fault at a time: the estimate is
+   the common cause), so the held aids back each other too, from the patience after
+   the hold's onset, and a backed jump is taken.  Not two aids of one device (a
+   receiver's positions and velocities), which may fail together.
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
@@ -136,7 +141,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from functools import lru_cache
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.stats import chi2
@@ -154,6 +159,7 @@ __all__ = [
     "GuardState",
     "GuardTest",
     "Guarded",
+    "devices_of",
     "inflation",
     "reduction",
 ]
@@ -190,6 +196,9 @@ class GuardState(NamedTuple):
     spread : per aid, (B, W, m) its last :data:`NOISE_WINDOW` increments (NaN: none, or
         a repeated output's), oldest first: the noise it shows (module docstring, 3).
     jumps : how many jumps the jump sum holds.
+    support : the other aids' backing of a held aid (module docstring, 6), zero where
+        not held.
+    length : epochs since the hold's onset (0 where not held).
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -214,6 +223,7 @@ class GuardState(NamedTuple):
     spread: tuple[np.ndarray, ...]
     jumps: np.ndarray
     support: np.ndarray
+    length: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -322,6 +332,18 @@ MAD_SIGMA = 1.482602218505602
 #: ratio above χ²₁'s 0.99 quantile): a rollback changes the estimate, so it needs the
 #: witnesses' consent more than an isolation does
 WITNESS_LLR = float(chi2.isf(0.01, 1))
+
+
+def devices_of(sensors: Sequence[Any]) -> tuple[str, ...]:
+    """The device of each aid (:class:`ftnav.model.system.Sensor`) for the guard's
+    backing (module docstring, 6): its ``device`` (an integrated aid's sensor model: one
+    receiver's position and velocity aids are one device, and so are two sensors of one
+    model), else the aid itself.  Aids of one device may fail together, so they do not
+    back each other."""
+    return tuple(
+        str(s.device) if getattr(s, "device", None) is not None else f"aid:{s.name}"
+        for s in sensors
+    )
 
 
 @lru_cache(maxsize=1024)
@@ -467,8 +489,12 @@ class Guard:
         dt: float = 1.0,
         detector: Separation | None = None,
         rollback: bool = True,
+        devices: Sequence[str] | None = None,
     ):
         self.config = config
+        #: the device each aid comes from (:func:`devices_of`): two halves of one
+        #: receiver do not back each other
+        self.devices = tuple(str(d) for d in devices) if devices is not None else None
         self.n_off = 5 if config.n_off is None else int(config.n_off)
         self.groups = [tuple(int(a) for a in g) for g in groups]
         self.sizes = [int(n) for n in sizes]
@@ -532,6 +558,7 @@ class Guard:
             tuple(np.full((B, NOISE_WINDOW, m), np.nan) for m in self.dims),
             zi.copy(),
             np.zeros((B, N)),
+            zi.copy(),
         )
 
     @staticmethod
@@ -891,8 +918,10 @@ class Guard:
         )
         pending = np.where(reset, doubt, state.pending)
         support = np.where(reset, 0.0, support)
+        length = np.where(hold & ~rising, state.length + 1, 0)
         new_state = state._replace(
             support=support,
+            length=length,
             pulls=test.pulls,
             alternative=test.alternative,
             hold=hold,
@@ -962,11 +991,31 @@ class Guard:
         the aid is backed, once held for the patience (the other rules had their chance:
         on the drive the GLR's false alarms in turns last a few seconds, and ending them
         early only moved the next one).  Only a hold with no jump (its onset's or since):
-        a jump is the signature of the aid's own fault."""
+        a jump is the signature of the aid's own fault — unless another aid, of another
+        device (:func:`devices_of`), is held beside it.  Under a single fault two
+        devices do not fail at once, so the estimate did, and its drift makes a jump of
+        every increment: the two held aids witness each other (with the unheld ones), and
+        the patience counts from the hold's onset (``length``).  A backed hold with jumps
+        takes its jump sum (:meth:`decide`).  Two aids of one device (a receiver's
+        positions and velocities) may fail together (both noisy) and never back each
+        other."""
         B, N = usable.shape
         support = state.support.copy()  # zero where not held: reset at every hold's ends
         backed = np.zeros((B, N), bool)
-        cand = state.hold & (state.jumps == 0) & usable
+        held = state.hold & usable
+        # another held aid of the group, of another device, measuring now: under a
+        # single fault, two devices' aids held at once are not both faulty, so a jump of
+        # each is no longer the aid's own.  Never two aids of one device (a receiver's
+        # positions and velocities fail together: a noise increase of both shares the
+        # coast's drift, and they would back each other on it)
+        partner = held
+        co = np.zeros((B, N), bool)
+        for a in range(N):
+            for j in self.groups[self.group_of[a]]:
+                if self._apart(a, j):
+                    co[:, a] |= partner[:, j]
+        co &= partner
+        cand = held & ((state.jumps == 0) | co)
         if not self.rollback or not cand.any():
             return support, backed
         for a in range(N):
@@ -982,7 +1031,9 @@ class Guard:
             for j in self.groups[g]:
                 if j == a:
                     continue
-                w = ca & usable[:, j] & ~state.hold[:, j]
+                # a held witness only for an aid held beside it (the two back each other)
+                w = ca & usable[:, j]
+                w &= ~state.hold[:, j] | (partner[:, j] & co[:, a] & self._apart(a, j))
                 if not w.any():
                     continue
                 only_j = np.zeros((B, N), bool)
@@ -998,9 +1049,20 @@ class Guard:
                 gain += np.where(w, q0 - q1, 0.0)
                 seen_any |= w
             support[:, a] = np.where(seen_any, np.maximum(0.0, support[:, a] + gain), support[:, a])
-            ripe = state.calm[:, a] >= self.patience  # the other rules had their chance
+            # the other rules had their chance: the patience since the last jump, or,
+            # backed by another held aid, since the hold began (the estimate's drift
+            # makes a jump of every increment)
+            ripe = (state.calm[:, a] >= self.patience) | (
+                co[:, a] & (state.length[:, a] >= self.patience)
+            )
             backed[:, a] = ca & seen_any & ripe & (support[:, a] > -2.0 * math.log(self.pfa))
         return support, backed
+
+    def _apart(self, a: int, j: int) -> bool:
+        """Whether aids ``a`` and ``j`` are two (not one aid) of different devices."""
+        if a == j:
+            return False
+        return self.devices is None or self.devices[a] != self.devices[j]
 
     def _cancelled(self, a: int, J: np.ndarray, C: np.ndarray, where: np.ndarray) -> np.ndarray:
         """(B,) where ``where``: whether aid ``a``'s jump sum ``J`` is zero within its

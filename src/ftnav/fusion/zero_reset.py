@@ -21,7 +21,7 @@ from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.config import NOTHING_LEARNED, Learned
 from ftnav.fusion.detection import Detection
 from ftnav.fusion.federated import FederatedConfig
-from ftnav.fusion.guard import Guard, GuardState
+from ftnav.fusion.guard import Guard, GuardState, devices_of
 from ftnav.fusion.isolation import IsolationPolicy
 from ftnav.fusion.locals import LocalBank, gated, measurements
 from ftnav.fusion.protocol import StepOutput, minus, select
@@ -69,7 +69,15 @@ class ZeroResetFilter:
         self.guard = (
             None
             if g is None
-            else Guard(g, [tuple(range(N))], [self.nc], dims, dt, self.detection.separation)
+            else Guard(
+                g,
+                [tuple(range(N))],
+                [self.nc],
+                dims,
+                dt,
+                self.detection.separation,
+                devices=devices_of(system.sensors),
+            )
         )
         self.policy = IsolationPolicy(
             "standalone", config.common_mode, config.common_mode_quorum, self.N

@@ -333,6 +333,7 @@ class SinsScenario(ScenarioBase):
                 a.offset,
                 a.sensor.private,
                 getattr(a.sensor, "gate_probability", 0.0) or None,
+                type(a.sensor).__name__,  # one receiver's position and velocity aids
             )
             for a in self.aids
         )

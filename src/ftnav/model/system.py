@@ -61,6 +61,8 @@ class Sensor:
     probability, or None) makes it a pseudo-measurement used only where its innovation's
     χ² passes that gate: a vehicle constraint that does not hold at that epoch (a slip in
     a turn, a creep mistaken for a stop) is left out, neither used nor tested.
+    ``device`` names the instrument the aid comes from where several aids share one (a
+    receiver's positions and velocities); None: the aid is its own.
     """
 
     name: str
@@ -71,6 +73,7 @@ class Sensor:
     offset: int = 0
     private: PrivateStates | None = None
     gate: float | None = None
+    device: str | None = None
 
     @property
     def dim(self) -> int:
