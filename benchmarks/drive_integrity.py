@@ -5,10 +5,11 @@ scored at the RTK fixes (Q = 1) at the antenna.  Faults are injected into the re
 GNSS positions 100 s after the start for 60 s (the frozen receiver for 30 and 120 s),
 north: a 0.05 and a 0.2 m/s ramp, a 5 m step, a frozen output, the noise 10 times its σ
 (a ``noise-scale`` fault: white noise added to the recording), bursts of 3 m for 1 s
-every 2 s (an intermittent fault); plus 15 s GNSS outages every
-60 s from 40 s; each case with every aid of the file (GNSS positions and velocities,
-NHC, ZUPT) and with the GNSS positions alone (``--aids gnss``: the only position and the
-only aid).  Printed per case and method:
+every 2 s (an intermittent fault); plus 15 s GNSS outages every 60 s from 40 s, and with
+them a fault of the INS itself (a 0.5 deg/s heading-gyro bias step starting 1.5 s into an
+outage, ``sins:gyro-bias``); each case with every aid of the file (GNSS positions and
+velocities, NHC, ZUPT) and with the GNSS positions alone (``--aids gnss``: the only
+position and the only aid).  Printed per case and method:
 
 * ``rms``: horizontal RMS against the fixes as ``ftnav process`` scores it (m);
 * ``after``: horizontal RMS of the solution against the fixes from the fault's end to
@@ -54,6 +55,9 @@ CASES: list[tuple[str, Fault | list[Fault] | None, tuple[float, float, float] | 
         None,
     ),
     ("15 s outages every 60 s", None, (15.0, 60.0, 40.0)),
+    # the INS's own fault where no aid sees it: a heading-gyro bias step 1.5 s into the
+    # fifth outage (0.5 deg/s for 48 s); "after" from its end, "back" from the outage's
+    ("gyro z 0.5 deg/s in an outage", ("gyro-z", 242.0, 290.0, 0.5), (15.0, 60.0, 40.0)),
 ]
 
 
@@ -69,6 +73,9 @@ def main() -> None:
             each = [] if fault is None else fault if isinstance(fault, list) else [fault]
             faults = []
             for kind, a, b, metres in each:
+                if kind == "gyro-z":  # deg/s about the body's up axis, as deg/h
+                    faults.append(f"sins:gyro-bias:{t0 + a}:{t0 + b}:0,0,{metres * 3600}")
+                    continue
                 spec = f"gnss:{kind}:{t0 + a}:{t0 + b}"
                 faults.append(spec if kind == "stuck" else f"{spec}:{metres}")
             res = process_recording(
@@ -79,10 +86,15 @@ def main() -> None:
             ri = loaded.reference_index
             t_ref = times[ri]
             ends = [max(f[2] for f in each)] if each else []
+            first = ends[0] if ends else np.inf  # "after" counts from the fault's end
             if outages is not None:
                 ends = [e for _, e in loaded.outages[0]]
-            after = t_ref >= (ends[0] if ends else np.inf)
-            late = t_ref >= (ends[0] + 10.0 if ends else np.inf)
+                if each:  # back from the end of the outage the fault starts in
+                    ends = [e for s, e in loaded.outages[0] if s <= each[0][1] < e]
+                else:
+                    first = ends[0]
+            after = t_ref >= first
+            late = t_ref >= first + 10.0
             g = rec.sensor_names.index("gnss")
             for m in METHODS:
                 tr = res.traces[m]

@@ -37,6 +37,7 @@ SLOW = (
     "tests/statistical/test_chi2.py",
     "tests/equivalence/test_batching.py::test_fault_free_twin",
     "tests/statistical/test_backing_ins_fault.py",
+    "tests/reference/test_drive_integrity.py::test_a_sins_gyro_step_in_an_outage",
 )
 
 
