@@ -21,7 +21,7 @@ from ftnav.fdi.chi2 import DetectorState
 from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, RbfDetector, config_error
 from ftnav.fusion.detection import Detection
-from ftnav.fusion.guard import Guard, GuardState, devices_of
+from ftnav.fusion.guard import Guard, GuardState
 from ftnav.fusion.locals import LocalBank, NoiseState, gated, measurements
 from ftnav.fusion.protocol import StepOutput, minus, select
 from ftnav.model.system import Epoch, LinearSystem
@@ -86,19 +86,10 @@ class CentralizedFilter:
         self.detection = Detection(config.detector, learned.detector, dims)
         self.bank = LocalBank(system, config.noise, augmented=True)
         g = config.guard_settings
-        N = system.n_sensors
         self.guard = (
             None
             if g is None
-            else Guard(
-                g,
-                [tuple(range(N))],
-                [system.n_aug],
-                dims,
-                dt,
-                self.detection.separation,
-                devices=devices_of(system.sensors),
-            )
+            else Guard.fused(g, system.sensors, system.n_aug, dt, self.detection.separation)
         )
 
     @property

@@ -32,7 +32,7 @@ from ftnav.core.linalg import spd_solve
 from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, Separation, config_error
 from ftnav.fusion.detection import Detection, epoch_features, features_needed
-from ftnav.fusion.guard import Guard, GuardState, devices_of
+from ftnav.fusion.guard import Guard, GuardState
 from ftnav.fusion.locals import (
     LocalBank,
     LocalUpdate,
@@ -130,15 +130,7 @@ class DistributedFilter:
         self.guard = None
         if g is not None:
             sd = config.detector if isinstance(config.detector, Separation) else None
-            self.guard = Guard(
-                g,
-                [tuple(range(N))],
-                [system.n_aug],
-                dims,
-                dt,
-                sd,
-                devices=devices_of(system.sensors),
-            )
+            self.guard = Guard.fused(g, system.sensors, system.n_aug, dt, sd)
         self.q_scale = np.ones(N) if local_Q_scale is None else np.asarray(local_Q_scale, float)
         self.p_scale = np.ones(N) if local_P0_scale is None else np.asarray(local_P0_scale, float)
         self.detection = Detection(config.detector, learned.detector, dims)

@@ -49,7 +49,7 @@ from ftnav.fusion.config import (
     config_error,
 )
 from ftnav.fusion.detection import Detection, epoch_features, features_needed
-from ftnav.fusion.guard import Amend, Guard, GuardState, devices_of
+from ftnav.fusion.guard import Amend, Guard, GuardState
 from ftnav.fusion.isolation import IsolationPolicy
 from ftnav.fusion.locals import (
     LocalBank,
@@ -287,15 +287,7 @@ class FederatedFilter:
                 groups = [(i,) for i in range(N)]
                 self.guard = Guard(g, groups, sizes, dims, dt, rollback=False)
             else:
-                self.guard = Guard(
-                    g,
-                    [tuple(range(N))],
-                    [self.nc],
-                    dims,
-                    dt,
-                    sd,
-                    devices=devices_of(system.sensors),
-                )
+                self.guard = Guard.fused(g, system.sensors, self.nc, dt, sd)
         self.features = features_needed(
             self.detection, features, feature_prior or self.detection.prior
         )

@@ -528,6 +528,23 @@ class Guard:
             self.Jd = max(1, int((self.spans <= d_epochs).sum()))
             self.pfa_d = float(detector.false_alarm_probability) / self.Jd
 
+    @classmethod
+    def fused(
+        cls,
+        config: GuardSettings,
+        sensors: Sequence[Any],
+        n_states: int,
+        dt: float = 1.0,
+        detector: Separation | None = None,
+    ) -> Guard:
+        """The guard of one estimate that every aid informs (centralized, the
+        distributed centre, fusion-reset and zero-reset federated): one group of every
+        aid, ``n_states`` tracked states, each aid's device from its sensor
+        (:func:`devices_of`)."""
+        dims = [int(s.dim) for s in sensors]
+        group = [tuple(range(len(dims)))]
+        return cls(config, group, [n_states], dims, dt, detector, devices=devices_of(sensors))
+
     def init(self, batch: int) -> GuardState:
         B, N = batch, self.N
         pairs = list(zip(self.groups, self.sizes, strict=True))

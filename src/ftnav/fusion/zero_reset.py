@@ -21,7 +21,7 @@ from ftnav.fdi.chi2 import DetectorState
 from ftnav.fusion.config import NOTHING_LEARNED, Learned
 from ftnav.fusion.detection import Detection
 from ftnav.fusion.federated import FederatedConfig
-from ftnav.fusion.guard import Guard, GuardState, devices_of
+from ftnav.fusion.guard import Guard, GuardState
 from ftnav.fusion.isolation import IsolationPolicy
 from ftnav.fusion.locals import LocalBank, gated, measurements
 from ftnav.fusion.protocol import StepOutput, minus, select
@@ -59,7 +59,7 @@ class ZeroResetFilter:
     ):
         self.system = system
         self.config = config
-        self.N = N = system.n_sensors
+        self.N = system.n_sensors
         self.nc = system.n_common
         self.bank = LocalBank(system, config.noise)
         dims = [s.dim for s in system.sensors]
@@ -69,15 +69,7 @@ class ZeroResetFilter:
         self.guard = (
             None
             if g is None
-            else Guard(
-                g,
-                [tuple(range(N))],
-                [self.nc],
-                dims,
-                dt,
-                self.detection.separation,
-                devices=devices_of(system.sensors),
-            )
+            else Guard.fused(g, system.sensors, self.nc, dt, self.detection.separation)
         )
         self.policy = IsolationPolicy(
             "standalone", config.common_mode, config.common_mode_quorum, self.N
