@@ -141,7 +141,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from functools import lru_cache
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from scipy.stats import chi2
@@ -151,6 +151,7 @@ from ftnav.core.kalman import Gaussian
 from ftnav.fdi import separation as sep
 from ftnav.fdi.chi2 import DetectorOutput
 from ftnav.fusion.config import GuardSettings, Separation
+from ftnav.model.system import Sensor
 
 __all__ = [
     "Amend",
@@ -334,16 +335,12 @@ MAD_SIGMA = 1.482602218505602
 WITNESS_LLR = float(chi2.isf(0.01, 1))
 
 
-def devices_of(sensors: Sequence[Any]) -> tuple[str, ...]:
-    """The device of each aid (:class:`ftnav.model.system.Sensor`) for the guard's
-    backing (module docstring, 6): its ``device`` (an integrated aid's sensor model: one
-    receiver's position and velocity aids are one device, and so are two sensors of one
-    model), else the aid itself.  Aids of one device may fail together, so they do not
-    back each other."""
-    return tuple(
-        str(s.device) if getattr(s, "device", None) is not None else f"aid:{s.name}"
-        for s in sensors
-    )
+def devices_of(sensors: Sequence[Sensor]) -> tuple[str, ...]:
+    """The device of each aid for the guard's backing (module docstring, 6): its
+    ``device`` (an integrated aid's sensor model: one receiver's position and velocity
+    aids are one device, and so are two sensors of one model), else the aid itself.
+    Aids of one device may fail together, so they do not back each other."""
+    return tuple(s.device if s.device is not None else f"aid:{s.name}" for s in sensors)
 
 
 @lru_cache(maxsize=1024)
@@ -532,7 +529,7 @@ class Guard:
     def fused(
         cls,
         config: GuardSettings,
-        sensors: Sequence[Any],
+        sensors: Sequence[Sensor],
         n_states: int,
         dt: float = 1.0,
         detector: Separation | None = None,
@@ -541,7 +538,7 @@ class Guard:
         distributed centre, fusion-reset and zero-reset federated): one group of every
         aid, ``n_states`` tracked states, each aid's device from its sensor
         (:func:`devices_of`)."""
-        dims = [int(s.dim) for s in sensors]
+        dims = [s.dim for s in sensors]
         group = [tuple(range(len(dims)))]
         return cls(config, group, [n_states], dims, dt, detector, devices=devices_of(sensors))
 
@@ -1020,20 +1017,21 @@ class Guard:
         support = state.support.copy()  # zero where not held: reset at every hold's ends
         backed = np.zeros((B, N), bool)
         held = state.hold & usable
+        if not self.rollback or not held.any():
+            return support, backed
         # another held aid of the group, of another device, measuring now: under a
         # single fault, two devices' aids held at once are not both faulty, so a jump of
         # each is no longer the aid's own.  Never two aids of one device (a receiver's
         # positions and velocities fail together: a noise increase of both shares the
         # coast's drift, and they would back each other on it)
-        partner = held
         co = np.zeros((B, N), bool)
         for a in range(N):
             for j in self.groups[self.group_of[a]]:
                 if self._apart(a, j):
-                    co[:, a] |= partner[:, j]
-        co &= partner
+                    co[:, a] |= held[:, j]
+        co &= held
         cand = held & ((state.jumps == 0) | co)
-        if not self.rollback or not cand.any():
+        if not cand.any():
             return support, backed
         for a in range(N):
             ca = cand[:, a]
@@ -1050,7 +1048,7 @@ class Guard:
                     continue
                 # a held witness only for an aid held beside it (the two back each other)
                 w = ca & usable[:, j]
-                w &= ~state.hold[:, j] | (partner[:, j] & co[:, a] & self._apart(a, j))
+                w &= ~state.hold[:, j] | (co[:, a] & self._apart(a, j))
                 if not w.any():
                     continue
                 only_j = np.zeros((B, N), bool)
