@@ -296,6 +296,9 @@ class Guarded(NamedTuple):
         (module docstring, 3).
     noise : per aid, (B, m, m) the noise a held only aid is used with now where
         ``output.noisy`` (its R elsewhere).
+    home : per aid, the jump back ``(B, m)`` and its covariance ``(B, m, m)`` of an aid
+        back at its old level (:meth:`Guard._home`; zero elsewhere): the estimate moves
+        by it in the measured quantity before the aid's relaxed update.
     """
 
     before: GuardState
@@ -307,6 +310,7 @@ class Guarded(NamedTuple):
     windows: np.ndarray
     rate: np.ndarray
     noise: tuple[np.ndarray, ...]
+    home: tuple[tuple[np.ndarray, np.ndarray], ...]
 
 
 class Amend(NamedTuple):
@@ -662,7 +666,15 @@ class Guard:
         usable: np.ndarray,
         keep: Callable[[np.ndarray], np.ndarray] | None = None,
         repeated: np.ndarray | None = None,
-    ) -> tuple[GuardState, GuardOutput, np.ndarray, np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+    ) -> tuple[
+        GuardState,
+        GuardOutput,
+        np.ndarray,
+        np.ndarray,
+        np.ndarray,
+        tuple[np.ndarray, ...],
+        tuple[tuple[np.ndarray, np.ndarray], ...],
+    ]:
         """The epoch's flags (B, N): the aids the method isolates this epoch.
 
         Rising edges (a separation alarm, or the detector's flag; ``keep`` is the
@@ -671,7 +683,7 @@ class Guard:
         next epoch on.  Returns the new state, the output, the flags, the windows, the
         held sole sources whose consistent increment informs the estimate's rate, and
         the noise each aid is used with where it is held but used for its noise
-        (``output.noisy``).
+        (``output.noisy``), and each aid's jump back home (:attr:`Guarded.home`).
         """
         c = self.config
         B, N = usable.shape
@@ -735,7 +747,10 @@ class Guard:
         # the first for the second, and was not kept)
         only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
         # the increments matter where an aid is held or may be isolated now
-        need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
+        # (and where a jump sum outlived a re-admission: its jump back is awaited)
+        need = (
+            (state.hold | det_flag | (ratio > 1.0) | (state.jumps > 0)) if self.rollback else None
+        )
         # a repeated output is no measurement for the increments: it is neither tested
         # nor their reference, so a freeze is an outage to them, and the first fresh
         # output is tested against the last one before it (the walk's 15 s freeze of its
@@ -824,11 +839,25 @@ class Guard:
         # (in :meth:`record`): the detector tested it against the coasting covariance the
         # allowance is for
         welcome = ~state.hold & det_flag & ~overruled & loose & ok
+        # an aid whose new jump undoes the jump sum it was re-admitted with (the
+        # allowance took it back with its step, and the estimate followed), in rows no
+        # other aid measuring reads: it is back at the level the estimate had before it
+        # followed, and is taken at once, relaxed (the drive's 2 m GNSS step for 60 s:
+        # re-admitted with the step after 23 s, its end was held 40 s, 2 m off, where
+        # ckf was back at 0.06 m)
+        # (flagged by the detector or by the guard's own χ² where it overrules it, and
+        # inconsistent now: the epoch after a re-admission's update is no jump back)
+        # (never an aid whose increments show a noise increase: its jumps cancel by chance)
+        far = np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
+        due = (det_flag | overruled) & far & ~state.hold & fresh
+        due &= ~self._loud(due & usable, spread, test)[0]
+        home = self._home(state, inc, good, due, usable, test)
+        welcome = welcome | home
         overruled = overruled | welcome
         # an overruled detector's aid is watched by the guard's own χ² instead
         own = np.zeros((B, N), bool)
         for a, t in enumerate(test.aids):
-            own[:, a] = overruled[:, a] & usable[:, a] & (t.nis > self.T1[a])
+            own[:, a] = overruled[:, a] & usable[:, a] & (t.nis > self.T1[a]) & ~home[:, a]
         triggered = alarm | (det_flag & ~overruled) | own
         hold_before = state.hold
         if keep is not None:
@@ -898,7 +927,7 @@ class Guard:
             back = self._cancelled(a, jump[a] + inc[a][0], jump_cov[a] + inc[a][1], carried)
             calm[:, a] = np.where(back & only[:, a], self.patience, calm[:, a])
         # a jump taken stays in the sum; a sum that cancelled is gone
-        clear = release & ((settled & ~taken) | returned)
+        clear = (release & ((settled & ~taken) | returned)) | home
         jump = tuple(
             np.where(clear[:, a, None], 0.0, jump[a] + np.where(onset[:, a, None], inc[a][0], 0.0))
             for a in range(N)
@@ -961,7 +990,14 @@ class Guard:
         # moves as the vehicle does, offset) still tells the estimate's rate, once
         # ``n_off`` in a row were consistent; never a repeated output's (a frozen receiver
         # looks like a stop at a crawl, and would hold the estimate still)
-        return new_state, out, flags, windows, rate, noise
+        back_home = tuple(
+            (
+                np.where(home[:, a, None], inc[a][0], 0.0),
+                np.where(home[:, a, None, None], inc[a][1], 0.0),
+            )
+            for a in range(N)
+        )
+        return new_state, out, flags, windows, rate, noise, back_home
 
     def _loud(
         self, candidate: np.ndarray, spread: Sequence[np.ndarray], test: GuardTest
@@ -1085,6 +1121,61 @@ class Guard:
         valid = where & _pd_rows(np.where(where[:, None, None], C, np.eye(self.dims[a])))
         C = np.where(valid[:, None, None], C, np.eye(self.dims[a]))
         return np.asarray(valid & (_chi2(J, C) <= self.T1[a]))
+
+    def _home(
+        self,
+        state: GuardState,
+        inc: Sequence[tuple[np.ndarray, np.ndarray]],
+        good: np.ndarray,
+        candidate: np.ndarray,
+        usable: np.ndarray,
+        test: GuardTest,
+    ) -> np.ndarray:
+        """(B, N) the aids (not held, flagged, ``candidate``) whose increment now is a
+        jump that undoes the jump sum kept from a hold they were re-admitted with: in
+        every row the jump moves (beyond chance), the sum plus the jump is zero within
+        their covariance, and no other aid measuring now reads those rows directly (a
+        position beside velocities and constraints, which cannot tell one constant
+        offset from another).  The aid is back where it was before its fault (module
+        docstring, 3).  Only the moved rows are compared: the sum's other rows may hold
+        what the estimate's own moves (a rollback, a jump taken) left in the held aid's
+        increments."""
+        B, N = usable.shape
+        out = np.zeros((B, N), bool)
+        if not self.rollback:  # independent locals: no increments, no sums
+            return out
+        for a in range(N):
+            cand = candidate[:, a] & usable[:, a] & (state.since[:, a] >= 0) & ~good[:, a]
+            cand &= (state.jumps[:, a] > 0) & (state.jump[a] != 0).any(-1)
+            if not cand.any():
+                continue
+            # the rows the jump now moves must cancel the kept sum there (the sum's
+            # other rows may hold what the estimate's own moves left in it)
+            d, Cd = inc[a]
+            J, C = state.jump[a], state.jump_cov[a]
+            t1 = _threshold(self.pfa, 1)
+            var_d = np.diagonal(Cd, axis1=-2, axis2=-1)
+            var_s = np.diagonal(C, axis1=-2, axis2=-1) + var_d
+            moved = d**2 / np.where(var_d > 0, var_d, np.inf) > t1
+            undone = (J + d) ** 2 / np.where(var_s > 0, var_s, np.inf) <= t1
+            back = cand & moved.any(-1) & (undone | ~moved).all(-1)
+            read = self._read(a, usable & ~state.hold, test)
+            out[:, a] = back & ~(moved & read).any(-1)
+        return out
+
+    def _read(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:
+        """(B, m) the rows of aid ``a`` whose quantity another aid of its group in
+        ``witnesses`` (B, N) measures directly: its rows are carried by the same states
+        (:func:`_carries`; a rate or a constraint reads none of a position's)."""
+        g = self.group_of[a]
+        P = test.P[g]
+        mine = _carries(test.H[a], P)  # (B, m, n)
+        read = np.zeros(mine.shape, bool)
+        for j in self.groups[g]:
+            if j != a and witnesses[:, j].any():
+                theirs = _carries(test.H[j], P).any(1)  # (B, n)
+                read |= witnesses[:, j, None, None] & mine & theirs[:, None, :]
+        return np.asarray(read.any(-1))
 
     def _jumps(
         self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
@@ -1303,7 +1394,7 @@ class Guard:
         (the epoch's :attr:`~ftnav.model.system.Epoch.repeated`), or None.
         """
         test = self.test(state, priors, F, z, H, R, usable)
-        after, out, flags, windows, rate, noise = self.decide(
+        after, out, flags, windows, rate, noise, home = self.decide(
             state, test, detection, usable, keep, repeated
         )
         B, N = usable.shape
@@ -1311,7 +1402,7 @@ class Guard:
             detection = DetectorOutput(out.statistic, np.ones((B, N)), out.alarm, flags)
         else:
             detection = detection._replace(raw=detection.raw | out.alarm, flag=flags)
-        return Guarded(state, after, test, out, flags, detection, windows, rate, noise)
+        return Guarded(state, after, test, out, flags, detection, windows, rate, noise, home)
 
     def finish(
         self,
@@ -1422,6 +1513,20 @@ class Guard:
                         dx -= shift
                         dP += spread
                         where |= jumped
+                    J, C = g.home[a]
+                    homed = rel & (J != 0).any(-1)
+                    if homed.any():
+                        # an aid back at its old level: the estimate follows its jump
+                        # back in the measured quantity, then takes it (relaxed)
+                        M = _carrier(Ha, P)
+                        shift = np.where(homed[:, None], kf.mv(M, J), 0.0)
+                        spread = np.where(
+                            homed[:, None, None], kf.symmetrize(M @ C @ kf.mT(M)), 0.0
+                        )
+                        x, P = x + shift, kf.symmetrize(P + spread)
+                        dx -= shift
+                        dP += spread
+                        where |= homed
                     A = kf.symmetrize(Ha @ P @ kf.mT(Ha))
                     nu = np.where(rel[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
                     gam = np.where(rel, inflation(nu, A, Ra), 0.0)
