@@ -38,6 +38,8 @@ SLOW = (
     "tests/equivalence/test_batching.py::test_fault_free_twin",
     "tests/statistical/test_backing_ins_fault.py",
     "tests/reference/test_drive_integrity.py::test_a_sins_gyro_step_in_an_outage",
+    "tests/reference/test_drive_integrity.py::test_after_a_lasting_step_taken_back_through_"
+    "the_allowance_the_gnss_comes_home[1.0]",
 )
 
 
