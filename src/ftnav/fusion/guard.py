@@ -98,7 +98,12 @@ and decides the method's isolation from its detector's flags:
    relaxed — not a repeated output, nor an aid showing a noise increase (its sums cancel
    by chance).  A held aid beside others whose increments show such a noise passes only
    the strict χ², not the allowance, while they do (a noisy value that passes the
-   allowance by chance would be taken whole, relaxed).
+   allowance by chance would be taken whole, relaxed).  And an aid re-admitted with a
+   jump its sum kept (the allowance took it back with its step) whose new jump undoes
+   that sum in every row it moves, rows no other measuring aid reads directly, is
+   *home* (:meth:`Guard._home`): the estimate follows the jump back in the measured
+   quantity and takes the aid, relaxed (the drive's 2 m GNSS step for 60 s: its end was
+   held 40 s, 0.93 m after the fault against ``ckf``'s 0.10 m; now 0.06 m).
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
@@ -1173,7 +1178,7 @@ class Guard:
         read = np.zeros(mine.shape, bool)
         for j in self.groups[g]:
             if j != a and witnesses[:, j].any():
-                theirs = _carries(test.H[j], P).any(1)  # (B, n)
+                theirs = np.asarray(_carries(test.H[j], P).any(1))  # (B, n)
                 read |= witnesses[:, j, None, None] & mine & theirs[:, None, :]
         return np.asarray(read.any(-1))
 
