@@ -301,9 +301,10 @@ class Guarded(NamedTuple):
         (module docstring, 3).
     noise : per aid, (B, m, m) the noise a held only aid is used with now where
         ``output.noisy`` (its R elsewhere).
-    home : per aid, the jump back ``(B, m)`` and its covariance ``(B, m, m)`` of an aid
-        back at its old level (:meth:`Guard._home`; zero elsewhere): the estimate moves
-        by it in the measured quantity before the aid's relaxed update.
+    home : (B, N) the aids back at their old level (:meth:`Guard._home`): the estimate
+        moves by their jump back in the measured quantity before their relaxed update.
+    increments : per aid, the epoch's increment ``(B, m)`` and its covariance
+        ``(B, m, m)`` (:meth:`Guard._increments`): a home aid's jump back.
     """
 
     before: GuardState
@@ -315,7 +316,8 @@ class Guarded(NamedTuple):
     windows: np.ndarray
     rate: np.ndarray
     noise: tuple[np.ndarray, ...]
-    home: tuple[tuple[np.ndarray, np.ndarray], ...]
+    home: np.ndarray
+    increments: tuple[tuple[np.ndarray, np.ndarray], ...]
 
 
 class Amend(NamedTuple):
@@ -678,6 +680,7 @@ class Guard:
         np.ndarray,
         np.ndarray,
         tuple[np.ndarray, ...],
+        np.ndarray,
         tuple[tuple[np.ndarray, np.ndarray], ...],
     ]:
         """The epoch's flags (B, N): the aids the method isolates this epoch.
@@ -688,7 +691,8 @@ class Guard:
         next epoch on.  Returns the new state, the output, the flags, the windows, the
         held sole sources whose consistent increment informs the estimate's rate, and
         the noise each aid is used with where it is held but used for its noise
-        (``output.noisy``), and each aid's jump back home (:attr:`Guarded.home`).
+        (``output.noisy``), and the aids back home with the epoch's increments
+        (:attr:`Guarded.home`).
         """
         c = self.config
         B, N = usable.shape
@@ -752,10 +756,7 @@ class Guard:
         # the first for the second, and was not kept)
         only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
         # the increments matter where an aid is held or may be isolated now
-        # (and where a jump sum outlived a re-admission: its jump back is awaited)
-        need = (
-            (state.hold | det_flag | (ratio > 1.0) | (state.jumps > 0)) if self.rollback else None
-        )
+        need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
         # a repeated output is no measurement for the increments: it is neither tested
         # nor their reference, so a freeze is an outage to them, and the first fresh
         # output is tested against the last one before it (the walk's 15 s freeze of its
@@ -850,11 +851,11 @@ class Guard:
         # followed, and is taken at once, relaxed (the drive's 2 m GNSS step for 60 s:
         # re-admitted with the step after 23 s, its end was held 40 s, 2 m off, where
         # ckf was back at 0.06 m)
-        # (flagged by the detector or by the guard's own χ² where it overrules it, and
-        # inconsistent now: the epoch after a re-admission's update is no jump back)
-        # (never an aid whose increments show a noise increase: its jumps cancel by chance)
+        # (flagged, and inconsistent now: the epoch after a re-admission's update is no
+        # jump back; never an aid whose increments show a noise increase: its jumps
+        # cancel by chance)
         far = np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
-        due = (det_flag | overruled) & far & ~state.hold & fresh
+        due = det_flag & far & ~state.hold & fresh
         due &= ~self._loud(due & usable, spread, test)[0]
         home = self._home(state, inc, good, due, usable, test)
         welcome = welcome | home
@@ -995,14 +996,7 @@ class Guard:
         # moves as the vehicle does, offset) still tells the estimate's rate, once
         # ``n_off`` in a row were consistent; never a repeated output's (a frozen receiver
         # looks like a stop at a crawl, and would hold the estimate still)
-        back_home = tuple(
-            (
-                np.where(home[:, a, None], inc[a][0], 0.0),
-                np.where(home[:, a, None, None], inc[a][1], 0.0),
-            )
-            for a in range(N)
-        )
-        return new_state, out, flags, windows, rate, noise, back_home
+        return new_state, out, flags, windows, rate, noise, home, inc
 
     def _loud(
         self, candidate: np.ndarray, spread: Sequence[np.ndarray], test: GuardTest
@@ -1139,12 +1133,11 @@ class Guard:
         """(B, N) the aids (not held, flagged, ``candidate``) whose increment now is a
         jump that undoes the jump sum kept from a hold they were re-admitted with: in
         every row the jump moves (beyond chance), the sum plus the jump is zero within
-        their covariance, and no other aid measuring now reads those rows directly (a
-        position beside velocities and constraints, which cannot tell one constant
-        offset from another).  The aid is back where it was before its fault (module
-        docstring, 3).  Only the moved rows are compared: the sum's other rows may hold
-        what the estimate's own moves (a rollback, a jump taken) left in the held aid's
-        increments."""
+        their covariance, and no other aid measuring now reads those rows
+        (:meth:`_unseen` without rates: a position beside velocities and constraints).
+        The aid is back where it was before its fault (module docstring, 3).  Only the
+        moved rows are compared: the sum's other rows may hold what the estimate's own
+        moves (a rollback, a jump taken) left in the held aid's increments."""
         B, N = usable.shape
         out = np.zeros((B, N), bool)
         if not self.rollback:  # independent locals: no increments, no sums
@@ -1164,23 +1157,9 @@ class Guard:
             moved = d**2 / np.where(var_d > 0, var_d, np.inf) > t1
             undone = (J + d) ** 2 / np.where(var_s > 0, var_s, np.inf) <= t1
             back = cand & moved.any(-1) & (undone | ~moved).all(-1)
-            read = self._read(a, usable & ~state.hold, test)
+            read = ~self._unseen(a, usable & ~state.hold, test, rates=False)
             out[:, a] = back & ~(moved & read).any(-1)
         return out
-
-    def _read(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:
-        """(B, m) the rows of aid ``a`` whose quantity another aid of its group in
-        ``witnesses`` (B, N) measures directly: its rows are carried by the same states
-        (:func:`_carries`; a rate or a constraint reads none of a position's)."""
-        g = self.group_of[a]
-        P = test.P[g]
-        mine = _carries(test.H[a], P)  # (B, m, n)
-        read = np.zeros(mine.shape, bool)
-        for j in self.groups[g]:
-            if j != a and witnesses[:, j].any():
-                theirs = np.asarray(_carries(test.H[j], P).any(1))  # (B, n)
-                read |= witnesses[:, j, None, None] & mine & theirs[:, None, :]
-        return np.asarray(read.any(-1))
 
     def _jumps(
         self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
@@ -1283,7 +1262,9 @@ class Guard:
                 out |= usable[:, j] & (True if state is None else ~state.hold[:, j])
         return out
 
-    def _unseen(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:
+    def _unseen(
+        self, a: int, witnesses: np.ndarray, test: GuardTest, rates: bool = True
+    ) -> np.ndarray:
         """(B, m) the rows of aid ``a`` that no other aid of its group in ``witnesses``
         (B, N) responds to.  A row's quantity is carried by the states of ``H_a`` and of
         its rate ``H_a D`` (``D = Φ − I``); a witness responds to the states of its rows,
@@ -1291,7 +1272,10 @@ class Guard:
         the 1 % rule of :func:`_carries`.  A star tracker or an altimeter responds to no
         horizontal GNSS row; GNSS velocities, an odometer or the vehicle constraints to
         the position's rate; GNSS positions or velocities to an attitude (a tilt moves
-        the velocity's rate).  Every row where no witness measures."""
+        the velocity's rate).  Every row where no witness measures.  Without ``rates``
+        the rows no witness *reads*: the quantity is carried by ``H_a``'s states and a
+        witness reads those of ``H_j`` only (a rate or a constraint reads none of a
+        position's: it cannot tell one constant offset from another)."""
         g = self.group_of[a]
         others = [j for j in self.groups[g] if j != a]
         present = np.zeros(witnesses.shape[0], bool)
@@ -1302,12 +1286,16 @@ class Guard:
             return out
         P, Ha = test.P[g], test.H[a]
         D = np.broadcast_to(test.F[g], P.shape) - np.eye(P.shape[-1])
-        quantity = _carries(Ha, P) | _carries(Ha @ D, P)  # (B, m, n)
+        quantity = _carries(Ha, P)  # (B, m, n)
+        if rates:
+            quantity = quantity | _carries(Ha @ D, P)
         seen = np.zeros(P.shape[:2], bool)
         for j in others:
             Hj = test.H[j]
-            HjD = Hj @ D
-            moves = _carries(Hj, P) | _carries(HjD, P) | _carries(HjD @ D, P)
+            moves = _carries(Hj, P)
+            if rates:
+                HjD = Hj @ D
+                moves = moves | _carries(HjD, P) | _carries(HjD @ D, P)
             seen |= witnesses[:, j, None] & moves.any(1)
         return np.asarray(~(quantity & seen[:, None, :]).any(-1))
 
@@ -1399,7 +1387,7 @@ class Guard:
         (the epoch's :attr:`~ftnav.model.system.Epoch.repeated`), or None.
         """
         test = self.test(state, priors, F, z, H, R, usable)
-        after, out, flags, windows, rate, noise, home = self.decide(
+        after, out, flags, windows, rate, noise, home, inc = self.decide(
             state, test, detection, usable, keep, repeated
         )
         B, N = usable.shape
@@ -1407,7 +1395,7 @@ class Guard:
             detection = DetectorOutput(out.statistic, np.ones((B, N)), out.alarm, flags)
         else:
             detection = detection._replace(raw=detection.raw | out.alarm, flag=flags)
-        return Guarded(state, after, test, out, flags, detection, windows, rate, noise, home)
+        return Guarded(state, after, test, out, flags, detection, windows, rate, noise, home, inc)
 
     def finish(
         self,
@@ -1503,35 +1491,30 @@ class Guard:
                 if rel.any():
                     Ha, Ra = self._matrices(H[a], R[a], B)
                     jumped = out.taken[:, a]
-                    if jumped.any():
-                        # a sole source's jump taken: the estimate moves by it in the
-                        # measured quantity only, with its covariance; the rest of the
-                        # innovation is the coast's drift (below)
+                    homed = rel & g.home[:, a]
+                    if jumped.any() or homed.any():
+                        # a sole source's jump taken, or an aid's jump back home: the
+                        # estimate moves by it in the measured quantity only, with its
+                        # covariance; the rest of the innovation is the coast's drift
+                        # (below).  A jump taken moves the rows no other aid measuring
+                        # sees (the others hold theirs); a home aid's rows none reads
                         M = _carrier(Ha, P)
-                        # (in the rows no other aid measuring sees: the others hold theirs)
-                        free = jumped[:, None] & self._unseen(a, usable & ~out.hold, g.test)
-                        J = np.where(free, after.jump[a] - before.taken[a], 0.0)
-                        C = np.where(free[:, :, None] & free[:, None, :], after.jump_cov[a], 0.0)
+                        J, C = np.zeros((B, self.dims[a])), np.zeros((B,) + (self.dims[a],) * 2)
+                        if jumped.any():
+                            free = jumped[:, None] & self._unseen(a, usable & ~out.hold, g.test)
+                            J = np.where(free, after.jump[a] - before.taken[a], 0.0)
+                            C = np.where(
+                                free[:, :, None] & free[:, None, :], after.jump_cov[a], 0.0
+                            )
+                        d, Cd = g.increments[a]
+                        J = np.where(homed[:, None], d, J)
+                        C = np.where(homed[:, None, None], Cd, C)
                         shift = kf.mv(M, J)
                         spread = kf.symmetrize(M @ C @ kf.mT(M))
                         x, P = x + shift, kf.symmetrize(P + spread)
                         dx -= shift
                         dP += spread
-                        where |= jumped
-                    J, C = g.home[a]
-                    homed = rel & (J != 0).any(-1)
-                    if homed.any():
-                        # an aid back at its old level: the estimate follows its jump
-                        # back in the measured quantity, then takes it (relaxed)
-                        M = _carrier(Ha, P)
-                        shift = np.where(homed[:, None], kf.mv(M, J), 0.0)
-                        spread = np.where(
-                            homed[:, None, None], kf.symmetrize(M @ C @ kf.mT(M)), 0.0
-                        )
-                        x, P = x + shift, kf.symmetrize(P + spread)
-                        dx -= shift
-                        dP += spread
-                        where |= homed
+                        where |= jumped | homed
                     A = kf.symmetrize(Ha @ P @ kf.mT(Ha))
                     nu = np.where(rel[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
                     gam = np.where(rel, inflation(nu, A, Ra), 0.0)
