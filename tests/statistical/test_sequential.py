@@ -27,6 +27,9 @@ from ftnav.fdi.sequential import (
     variance_cusum_arl,
     variance_threshold,
 )
+from ftnav.fusion.config import Cusum, Glr
+from ftnav.fusion.detection import Detection
+from ftnav.model.system import Sensor
 
 
 def two_sided(h: float, k: float, mu: float) -> float:
@@ -167,3 +170,35 @@ def test_bad_settings_are_refused():
         CusumDetector([1], arl0=100.0, variance_ratio=1.0)
     with pytest.raises(ValueError, match="window"):
         GlrDetector([1], arl0=100.0, window=0)
+
+
+@pytest.mark.parametrize(
+    "config", [Cusum(kind="cusum", arl0=1e4), Glr(kind="glr", arl0=1e4, window=16)]
+)
+def test_a_gated_constraint_is_left_to_its_gate(config):
+    """The sequential tests run on the aids of a device only (:mod:`ftnav.fusion.detection`):
+    a 4σ shift of a gated pseudo-measurement's innovation (a constraint in a turn) never
+    raises them, while the same shift of a device's aid alarms within the closed-form
+    epochs — the first at which the statistic passes the threshold (GLR: ``w μ²`` over
+    the window w = 1 at once; CUSUM: ``n (μ − k) > h``)."""
+    device = Sensor("gnss", None, np.eye(2), np.eye(2))
+    constraint = Sensor("nhc", None, np.eye(2), np.eye(2), gate=1e-3)
+    detection = Detection(config, sensors=(device, constraint))
+    state = detection.init(1, 2)
+    mu, tested = 4.0, np.ones((1, 2), dtype=bool)
+    shifted = [np.full((1, 2), mu), np.full((1, 2), mu)]
+    zeros = np.zeros((1, 2))
+    first, flags = None, []
+    for k in range(1, 40):
+        state, out = detection.step(state, zeros, zeros, tested, zeros, innovations=shifted)
+        assert out is not None
+        flags.append(bool(out.flag[0, 1]))
+        if first is None and out.flag[0, 0]:
+            first = k
+    assert not any(flags)
+    if isinstance(config, Glr):  # ‖(μ, μ)‖² = 2μ² = 32 against the χ²(2) threshold
+        assert 2 * mu**2 > glr_threshold(1e4, 16, 2)
+        assert first == 1
+    else:  # each component's CUSUM gains μ − k per epoch (two components: one alarms)
+        h = cusum_threshold(2 * 2 * 1e4, 0.5)
+        assert first == int(np.floor(h / (mu - 0.5))) + 1

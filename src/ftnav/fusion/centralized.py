@@ -82,8 +82,7 @@ class CentralizedFilter:
     ):
         self.system = system
         self.config = config
-        dims = [s.dim for s in system.sensors]
-        self.detection = Detection(config.detector, learned.detector, dims)
+        self.detection = Detection(config.detector, learned.detector, system.sensors)
         self.bank = LocalBank(system, config.noise, augmented=True)
         g = config.guard_settings
         self.guard = (

@@ -124,7 +124,6 @@ class DistributedFilter:
         self.config = config
         self.N = N = system.n_sensors
         self.bank = LocalBank(system, config.noise, augmented=True)
-        dims = [s.dim for s in system.sensors]
         g = config.guard_settings
         # the guard tracks every aid's pull on the centre (an information sum: the CKF)
         self.guard = None
@@ -133,7 +132,7 @@ class DistributedFilter:
             self.guard = Guard.fused(g, system.sensors, system.n_aug, dt, sd)
         self.q_scale = np.ones(N) if local_Q_scale is None else np.asarray(local_Q_scale, float)
         self.p_scale = np.ones(N) if local_P0_scale is None else np.asarray(local_P0_scale, float)
-        self.detection = Detection(config.detector, learned.detector, dims)
+        self.detection = Detection(config.detector, learned.detector, system.sensors)
         self.features = features_needed(
             self.detection, features, feature_prior or self.detection.prior
         )

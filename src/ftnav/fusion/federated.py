@@ -272,7 +272,7 @@ class FederatedFilter:
         self.nc = system.n_common
         self.bank = LocalBank(system, config.noise)
         dims = [s.dim for s in system.sensors]
-        self.detection = Detection(config.detector, learned.detector, dims)
+        self.detection = Detection(config.detector, learned.detector, system.sensors)
         self.global_prior = self.detection.prior == "global" and (
             self.detection.residual or self.detection.whitened
         )

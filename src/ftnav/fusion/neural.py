@@ -207,7 +207,7 @@ class NeuralFusion:
         self.n_inputs = self.N + int(self.free_input)
         self.bank = LocalBank(system, config.noise)
         dims = [s.dim for s in system.sensors]
-        self.detection = Detection(config.detector, dims=dims)
+        self.detection = Detection(config.detector, sensors=system.sensors)
         self.policy = IsolationPolicy(config.isolation, n_filters=self.N)
         g = config.guard_settings
         # the locals are independent: each tracks its own aid's pull

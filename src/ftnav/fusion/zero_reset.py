@@ -62,8 +62,7 @@ class ZeroResetFilter:
         self.N = system.n_sensors
         self.nc = system.n_common
         self.bank = LocalBank(system, config.noise)
-        dims = [s.dim for s in system.sensors]
-        self.detection = Detection(config.detector, learned.detector, dims)
+        self.detection = Detection(config.detector, learned.detector, system.sensors)
         g = config.guard_settings
         # the guard tracks every aid's pull on the fused estimate (the master's)
         self.guard = (
