@@ -17,8 +17,17 @@ with its 95 % interval (:mod:`ftnav.eval.intervals`) in one :class:`xarray.Datas
 (:func:`sweep_dataset`): the swept keys are dimensions, then ``method``, ``state`` or
 ``sensor``, and ``bound`` (``value``, ``lo``, ``hi``).
 
-The points run one after another (each batched over its runs and spread over the local
-workers like ``ftnav run``); batching points together is not done yet.
+A sweep of fault settings only (every key under ``faults.``: sizes, times, kinds) keeps
+the model, the methods and the noise of every point, so its points run together
+(:func:`ftnav.eval.montecarlo.run_points`): one batch of every point's runs and one
+fault-free twin shared by all, stepped as one campaign of ``(P + 1)·runs`` runs; each
+point's metrics equal those of its own campaign bit for bit
+(``tests/equivalence/test_sweep_batched.py``), and the per-epoch cost of a linear
+model is paid once, not P times (``benchmarks/bench_sweep.py``).  As many points go in
+one batch as the memory estimate of :mod:`ftnav.eval.resources` lets their results
+fit.  Any other key (a method's setting, a noise scale) changes the filters or the
+model: those points run one after another, each batched over its runs and spread over
+the local workers like ``ftnav run``.
 """
 
 from __future__ import annotations
@@ -37,14 +46,23 @@ import xarray as xr
 
 from ftnav.eval.evaluate import MethodMetrics, evaluate
 from ftnav.eval.intervals import CONFIDENCE, Interval
-from ftnav.eval.montecarlo import run_scenario
+from ftnav.eval.montecarlo import run_points, run_scenario
+from ftnav.eval.resources import available_memory_bytes, max_runs_within
 from ftnav.io.common import ScenarioError, read_toml
 from ftnav.io.ins_scenario_file import parse_ins_scenario
 from ftnav.io.scenario_file import parse_scenario
 from ftnav.model.scenario import InsScenario, Scenario
 from ftnav.version import __version__
 
-__all__ = ["SweepAxis", "SweepError", "SweepResult", "parse_set", "run_sweep", "sweep_dataset"]
+__all__ = [
+    "SweepAxis",
+    "SweepError",
+    "SweepResult",
+    "faults_only",
+    "parse_set",
+    "run_sweep",
+    "sweep_dataset",
+]
 
 #: Detection metrics kept per method and sensor (the names of ``DetectionStats``).
 DETECTION = ("rate", "event_rate", "false_alarm_rate", "mean_delay_s", "median_delay_s")
@@ -186,12 +204,20 @@ def run_sweep(
     Dask cluster at ``scheduler`` when given."""
     metrics = []
     first = points[0][1]
-    for _, sc in points:
-        options: dict[str, Any] = {"scheduler": scheduler}
-        if workers is not None:
-            options["workers"] = workers
-        result = run_scenario(sc, runs, seed, progress=progress, **options)
-        metrics.append(evaluate(result))
+    options: dict[str, Any] = {"scheduler": scheduler}
+    if workers is not None:
+        options["workers"] = workers
+    scenarios = [sc for _, sc in points]
+    if len(scenarios) > 1 and faults_only(axes):
+        size = _points_per_batch(first, runs, len(scenarios), workers)
+        for i in range(0, len(scenarios), size):
+            group = scenarios[i : i + size]
+            scaled = None if progress is None else _scaled(progress, len(group))
+            for result in run_points(group, runs, seed, progress=scaled, **options):
+                metrics.append(evaluate(result))
+    else:
+        for sc in scenarios:
+            metrics.append(evaluate(run_scenario(sc, runs, seed, progress=progress, **options)))
     return SweepResult(
         first.name,
         tuple(axes),
@@ -202,6 +228,29 @@ def run_sweep(
         runs,
         seed,
     )
+
+
+def faults_only(axes: Sequence[SweepAxis]) -> bool:
+    """Whether every swept key is a fault's setting (the points then run together)."""
+    return all(a.key.split(".")[0] == "faults" for a in axes)
+
+
+def _points_per_batch(
+    sc: Scenario | InsScenario, runs: int, points: int, workers: int | None
+) -> int:
+    """How many points' campaigns of ``runs`` runs fit in memory at once (all, when the
+    available memory is unknown; at least one)."""
+    available = available_memory_bytes()
+    if available is None:
+        return points
+    options = {} if workers is None else {"workers": workers}
+    fit = max_runs_within(sc, available, **options)
+    return max(1, min(points, fit // max(1, runs)))
+
+
+def _scaled(progress: Callable[[int], None], points: int) -> Callable[[int], None]:
+    """The progress of ``points`` points stepped together: each epoch counts for each."""
+    return lambda n: progress(n * points)
 
 
 def _bounds(i: Interval | None, value: float | None = None) -> list[float]:

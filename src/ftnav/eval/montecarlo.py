@@ -12,12 +12,18 @@ independent, so the results are those of two separate batches): in-window errors
 be compared with and without the fault on identical noise, at half the per-epoch
 Python overhead.  Per-run random streams come from one root seed, so run i is the
 same alone, in a batch, or in another worker process (:mod:`ftnav.parallel`).
+
+Scenarios that differ in their faults only (the points of a sweep over fault settings,
+:mod:`ftnav.sweep`) run in one batch the same way (:func:`run_points`): each point's
+runs, then one fault-free twin for all of them, ``(P + 1)·runs`` rows stepped together,
+so a sweep of P fault sizes costs about one campaign of P + 1 times the runs, not P
+campaigns; every point's results equal its own campaign's bit for bit.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -51,9 +57,10 @@ __all__ = [
     "build_filters",
     "join_results",
     "chunk_runs",
+    "run_points",
     "run_scenario",
     "simulate_runs",
-    "split_result",
+    "split_results",
 ]
 
 #: smallest ``methods × epochs`` of a linear scenario worth worker processes (~2 s each)
@@ -145,17 +152,17 @@ def simulate_runs(scenario: Any, runs: range, seed: int) -> Simulated | Simulate
     return simulate(scenario, len(runs), seed, first_run=runs.start)
 
 
-def chunk_runs(sc: Any, twin: bool = True) -> int:
+def chunk_runs(sc: Any, twin: bool = True, points: int = 1) -> int:
     """Runs per batch of an integrated scenario so its IMU increments stay within
     :data:`CHUNK_BYTES` (a linear scenario runs in one batch).
 
     Per run and per SINS: the increments ``dθ``, ``Δv``, ``2 × 3`` float64 per IMU
-    sample; the fault-free twin doubles it.  A 3600 s flight at 100 Hz gives 62 runs
-    per batch.
+    sample, for each of ``points`` streams (:func:`run_points`) and the fault-free
+    twin.  A 3600 s flight at 100 Hz gives 62 runs per batch.
     """
     if sc.kind != "integrated":
         return 1 << 62
-    per_run: int = sc.samples_per_epoch * sc.steps * 6 * 8 * (2 if twin else 1)
+    per_run: int = sc.samples_per_epoch * sc.steps * 6 * 8 * (int(points) + bool(twin))
     return max(1, CHUNK_BYTES // per_run)
 
 
@@ -330,13 +337,72 @@ def run_scenario(
     before it is scored: a method that diverges raises
     :class:`~ftnav.engine.driver.Diverged`, naming it, the epoch and its time.
     """
+    (result,) = run_points(
+        (scenario,),
+        runs,
+        seed,
+        methods=methods,
+        fault_free=fault_free,
+        progress=progress,
+        workers=workers,
+        check_spd=check_spd,
+        chunk=chunk,
+        first_run=first_run,
+        scheduler=scheduler,
+    )
+    return result
+
+
+def run_points(
+    points: Sequence[Any],
+    runs: int,
+    seed: int,
+    *,
+    methods: Sequence[Any] | None = None,
+    fault_free: bool = True,
+    progress: Callable[[int], None] | None = None,
+    workers: int = 1,
+    check_spd: bool = True,
+    chunk: int | None = None,
+    first_run: int = 0,
+    scheduler: str | None = None,
+) -> list[ScenarioResult]:
+    """:func:`run_scenario` of every scenario of ``points`` in one batch (module
+    docstring); their results in order, each equal to its own :func:`run_scenario`'s.
+
+    The points must differ in their faults only (the same model, methods, aids, steps
+    and seed: the sweep of :mod:`ftnav.sweep` checks its keys): every row runs the first
+    point's filters.  Each batch holds every point's runs and one fault-free twin (a
+    point without faults gets none, as alone); ``chunk`` counts runs per point.
+
+    Raises
+    ------
+    ValueError : ``"points: ..."`` when they do not share the kind, steps, time step and
+        method names.
+    """
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
+    points = tuple(points)
+    if not points:
+        raise ValueError("points: none given")
+    scenario = points[0]
+    for other in points[1:]:
+        if (other.kind, other.steps, other.dt, [m.name for m in other.methods]) != (
+            scenario.kind,
+            scenario.steps,
+            scenario.dt,
+            [m.name for m in scenario.methods],
+        ):
+            raise ValueError(
+                "points: the scenarios must differ in their faults only (kind, steps, dt "
+                "and methods differ)"
+            )
     methods = tuple(scenario.methods if methods is None else methods)
     system = scenario.system()
     build_filters(scenario, system, methods)  # every method builds before anything runs
-    twin = fault_free and bool(scenario.faults)
-    chunk = chunk_runs(scenario, twin) if chunk is None else int(chunk)
+    twin = fault_free and any(bool(p.faults) for p in points)
+    P = len(points)
+    chunk = chunk_runs(scenario, twin, P) if chunk is None else int(chunk)
     if chunk < 1:
         raise ValueError(f"chunk: must be >= 1, got {chunk}")
     integrated = scenario.kind == "integrated"
@@ -348,68 +414,82 @@ def run_scenario(
     starts = range(first_run, end, chunk)
     groups = [methods]
     if workers > 1 and (
-        len(starts) < workers if integrated else len(methods) * scenario.steps >= PARALLEL_MIN_WORK
+        len(starts) < workers
+        if integrated
+        else P * len(methods) * scenario.steps >= PARALLEL_MIN_WORK
     ):
         parts = -(-workers // len(starts)) if integrated else 3 * workers
         groups = [tuple(g) for g in split_even(methods, parts)]
     keep = len(starts) * len(groups) == 1  # the stream and truth stay in this process
     tasks = [
-        (scenario, range(s, min(s + chunk, end)), seed, g, twin, check_spd, keep)
+        (points, range(s, min(s + chunk, end)), seed, g, twin, check_spd, keep)
         for s in starts
         for g in groups
     ]
     done = run_tasks(_task, tasks, workers, progress, scheduler)
-    return _merge(done, len(groups), methods, scenario, runs, seed)
+    return [
+        _merge([d[i] for d in done], len(groups), methods, p, runs, seed)
+        for i, p in enumerate(points)
+    ]
 
 
-#: one task of :func:`run_scenario`: the scenario, a batch of runs, the root seed, a
-#: group of methods, the fault-free twin, check_spd, keep the stream and truth
-_Task = tuple[Any, range, int, Sequence[Any], bool, bool, bool]
+#: one task of :func:`run_points`: the points, a batch of runs, the root seed, a group of
+#: methods, the fault-free twin, check_spd, keep the stream and truth
+_Task = tuple[Sequence[Any], range, int, Sequence[Any], bool, bool, bool]
 
 
-def _task(task: _Task, progress: Callable[[int], None] | None = None) -> ScenarioResult:
-    """One task of :func:`run_scenario`: a group of methods over a batch of runs."""
-    sc, rr, seed, methods, twin, check_spd, keep = task
-    runs = len(rr)
+def _task(task: _Task, progress: Callable[[int], None] | None = None) -> tuple[ScenarioResult, ...]:
+    """One task of :func:`run_points`: a group of methods over a batch of runs of every
+    point (each point's runs, then the fault-free twin's, in one stream)."""
+    points, rr, seed, methods, twin, check_spd, keep = task
+    runs, sc = len(rr), points[0]
     system = sc.system()
     model = navigation_model(sc, system)
     filters = build_filters(sc, system, methods)
-    sim = simulate_runs(sc, rr, seed)
-    stream = sim.stream
+    sims = [simulate_runs(p, rr, seed) for p in points]
+    streams = [s.stream for s in sims]
+    truths = [s.truth for s in sims]
     if twin:
-        stream = concat_streams(stream, simulate_runs(sc.without_faults(), rr, seed).stream)
+        streams.append(simulate_runs(sc.without_faults(), rr, seed).stream)
+        truths.append(truths[0])  # the fault-free twin's truth is the faulty runs'
+    stream = streams[0] if len(streams) == 1 else concat_streams(*streams)
     names = [m.name for m in methods]
-    truth = sim.truth if not twin else _twin_truth(sim.truth)
     records = iterate(model, stream, filters, sc.steps, progress, check_spd, sc.times)
+    truth = _stacked_truth(truths)
     scored = score(sc, records, truth, names, stream, model, filters)
     for name, res in scored.items():  # a NaN error or a negative variance is no result
         check_output(name, (res.error, res.estimate), (res.P_diag,), sc.times)
-    results, ff = {}, {}
-    for name, res in scored.items():
-        if twin:
-            results[name], ff[name] = split_result(res, runs)
-        else:
-            results[name] = res
-    linear = isinstance(sim.truth, LinearTruth)  # small: kept whatever the batching
-    return ScenarioResult(
-        sc,
-        runs,
-        seed,
-        results,
-        ff,
-        sim.truth if keep or linear else None,
-        sim.stream if keep else None,
-    )
-
-
-def _twin_truth(truth: LinearTruth | InsTruth) -> LinearTruth | InsTruth:
-    """The truth of a batch of runs and their fault-free twins (the truth is the same)."""
-    if isinstance(truth, LinearTruth):
-        return LinearTruth(
-            np.concatenate([truth.states, truth.states]),
-            tuple(np.concatenate([z, z]) for z in truth.noise_free),
+    parts = {name: split_results(res, runs, len(streams)) for name, res in scored.items()}
+    out = []
+    for i, (p, sim) in enumerate(zip(points, sims, strict=True)):
+        results = {name: part[i] for name, part in parts.items()}
+        ff = {name: part[-1] for name, part in parts.items()} if twin and p.faults else {}
+        linear = isinstance(sim.truth, LinearTruth)  # small: kept whatever the batching
+        out.append(
+            ScenarioResult(
+                p,
+                runs,
+                seed,
+                results,
+                ff,
+                sim.truth if keep or linear else None,
+                sim.stream if keep else None,
+            )
         )
-    return truth  # the flight is shared by every run
+    return tuple(out)
+
+
+def _stacked_truth(truths: Sequence[LinearTruth | InsTruth]) -> LinearTruth | InsTruth:
+    """The truth of the batches of one stream, in its order (the points' runs and the
+    fault-free twin's: faults change the measurements, not the truth)."""
+    first = truths[0]
+    if len(truths) == 1 or not isinstance(first, LinearTruth):
+        return first  # the flight is shared by every run
+    linear = cast("Sequence[LinearTruth]", truths)
+    return LinearTruth(
+        np.concatenate([t.states for t in linear]),
+        tuple(np.concatenate(z) for z in zip(*(t.noise_free for t in linear), strict=True)),
+    )
 
 
 def _rebuilt(like: tuple[Any, ...], parts: list[Any]) -> tuple[Any, ...]:
@@ -417,20 +497,17 @@ def _rebuilt(like: tuple[Any, ...], parts: list[Any]) -> tuple[Any, ...]:
     return type(like)(*parts) if hasattr(like, "_fields") else tuple(parts)
 
 
-def split_result(r: MethodResult, runs: int) -> tuple[MethodResult, MethodResult]:
-    """Split a :class:`MethodResult` of a concatenated batch after ``runs`` runs."""
+def split_results(r: MethodResult, runs: int, parts: int) -> list[MethodResult]:
+    """A :class:`MethodResult` of ``parts`` concatenated batches of ``runs`` runs each."""
+    return [_part(r, slice(i * runs, (i + 1) * runs)) for i in range(parts)]
 
-    def part(sl: slice) -> MethodResult:
-        return MethodResult._make(
-            _rebuilt(v, [a[sl] for a in v])
-            if isinstance(v, tuple)
-            else None
-            if v is None
-            else v[sl]
-            for v in r
-        )
 
-    return part(slice(None, runs)), part(slice(runs, None))
+def _part(r: MethodResult, sl: slice) -> MethodResult:
+    """The runs ``sl`` of every per-run array of ``r``."""
+    return MethodResult._make(
+        _rebuilt(v, [a[sl] for a in v]) if isinstance(v, tuple) else None if v is None else v[sl]
+        for v in r
+    )
 
 
 def join_results(parts: Sequence[ScenarioResult]) -> ScenarioResult:
