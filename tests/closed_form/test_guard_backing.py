@@ -64,8 +64,6 @@ def _setup(witness: str, nu_a: np.ndarray, nu_w: np.ndarray) -> tuple[Guard, Gua
                 A,
                 R,
                 zero,
-                np.zeros((B, 1, 1)),
-                np.ones((B, 1, 1, 1)),
                 zero,
                 zero.astype(int),
             )

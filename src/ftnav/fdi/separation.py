@@ -55,6 +55,7 @@ __all__ = [
     "map_others",
     "map_others_numpy",
     "propagate",
+    "propagate_numpy",
     "rotate",
     "measured",
     "separation",
@@ -85,7 +86,55 @@ def init_pulls(batch: int, aids: int, blocks: int, n: int, coarse: int = 0) -> P
 
 
 def propagate(p: Pulls, F: np.ndarray) -> Pulls:
-    """The time update ``c ← Φ c``, ``Γ ← Φ Γ Φᵀ``; F (n, n) or per run (B, n, n)."""
+    """The time update ``c ← Φ c``, ``Γ ← Φ Γ Φᵀ``; F (n, n) or per run (B, n, n).
+
+    One compiled serial loop over the runs and blocks (no BLAS call per small block; Φ's
+    zeros skipped in ``Φ Γ``, half of ``(Φ Γ) Φᵀ`` formed and mirrored, so ``Γ`` comes out
+    exactly symmetric).  :func:`propagate_numpy` is its oracle.
+    """
+    B = p.c.shape[0]
+    Fb = np.ascontiguousarray(np.broadcast_to(F, (B,) + F.shape[-2:]), dtype=np.float64)
+    c, G = np.empty_like(p.c), np.empty_like(p.G)
+    _propagate_rows(np.ascontiguousarray(p.c), np.ascontiguousarray(p.G), Fb, c, G)
+    return Pulls(c, G)
+
+
+@numba.njit(**_JIT)
+def _propagate_rows(
+    c: np.ndarray, G: np.ndarray, F: np.ndarray, c_out: np.ndarray, G_out: np.ndarray
+) -> None:  # pragma: no cover - compiled
+    B, A, J, n = c.shape
+    FG = np.empty((n, n))
+    for b in range(B):
+        Fb = F[b]
+        for a in range(A):
+            for j in range(J):
+                cv, g = c[b, a, j], G[b, a, j]
+                co, go = c_out[b, a, j], G_out[b, a, j]
+                for i in range(n):  # Φ c
+                    s = 0.0
+                    for k in range(n):
+                        s += Fb[i, k] * cv[k]
+                    co[i] = s
+                for i in range(n):  # Φ Γ, row by row of Γ (Φ's zeros skipped)
+                    for q in range(n):
+                        FG[i, q] = 0.0
+                    for k in range(n):
+                        f = Fb[i, k]
+                        if f != 0.0:
+                            for q in range(n):
+                                FG[i, q] += f * g[k, q]
+                for i in range(n):  # (Φ Γ) Φᵀ: rows against rows, upper triangle mirrored
+                    for q in range(i, n):
+                        s = 0.0
+                        for k in range(n):
+                            s += FG[i, k] * Fb[q, k]
+                        go[i, q] = s
+                        go[q, i] = s
+
+
+def propagate_numpy(p: Pulls, F: np.ndarray) -> Pulls:
+    """:func:`propagate` as dense NumPy products: its oracle (equal to rounding)."""
     if F.ndim == 2:
         c = p.c @ F.T
         G = F @ p.G @ F.T
@@ -96,21 +145,24 @@ def propagate(p: Pulls, F: np.ndarray) -> Pulls:
     return Pulls(c, G)
 
 
-def map_others(p: Pulls, aid: int, K: np.ndarray, H: np.ndarray, use: np.ndarray) -> Pulls:
+def map_others(
+    p: Pulls, aid: int, K: np.ndarray, H: np.ndarray, use: np.ndarray, *, copy: bool = True
+) -> Pulls:
     """Aid ``aid``'s update maps every *other* aid's pulls by ``M = I − K H`` where ``use``:
     ``c ← c − K (H c)``, ``Γ ← Γ − K H Γ − (K H Γ)ᵀ + K (H Γ Hᵀ) Kᵀ`` (symmetrized).
 
     K (B, n, m), H (B, m, n) or (m, n), use (B,) bool.  One compiled serial loop over
     the runs (:mod:`ftnav.core.linalg`'s rule: no thread pool per epoch); the low-rank
     form costs ``O(J n² m)`` per aid instead of the ``O(J n³)`` of ``M Γ Mᵀ``.
-    :func:`map_others_numpy` is its oracle.
+    :func:`map_others_numpy` is its oracle.  ``copy=False`` maps ``p``'s (C-contiguous)
+    arrays in place, for a caller that owns them.
     """
     A = p.c.shape[1]
     if A < 2 or not use.any():
         return p
     B = K.shape[0]
     Hb = np.ascontiguousarray(np.broadcast_to(H, (B,) + H.shape[-2:]), dtype=np.float64)
-    c, G = p.c.copy(), p.G.copy()
+    c, G = (p.c.copy(), p.G.copy()) if copy else (p.c, p.G)
     _map_rows(c, G, np.ascontiguousarray(K, dtype=np.float64), Hb, np.ascontiguousarray(use), aid)
     return Pulls(c, G)
 
@@ -119,14 +171,16 @@ def map_others(p: Pulls, aid: int, K: np.ndarray, H: np.ndarray, use: np.ndarray
 def _map_rows(
     c: np.ndarray, G: np.ndarray, K: np.ndarray, H: np.ndarray, use: np.ndarray, aid: int
 ) -> None:  # pragma: no cover - compiled
+    # Γ − K H Γ − (K H Γ)ᵀ + K S Kᵀ = Γ − K U − (K U)ᵀ with U = H Γ − ½ S Kᵀ (Γ, S
+    # symmetric): one n × n product per block instead of three, exactly symmetric;
+    # H's zeros skipped (a measurement reads few states)
     B, A, J, n = c.shape
     m = K.shape[2]
     Hc = np.empty(m)
     HG = np.empty((m, n))
     S = np.empty((m, m))
-    KS = np.empty((n, m))
-    KHG = np.empty((n, n))
-    T = np.empty((n, n))
+    U = np.empty((m, n))
+    KU = np.empty((n, n))
     for b in range(B):
         if not use[b]:
             continue
@@ -136,49 +190,52 @@ def _map_rows(
                 continue
             for j in range(J):
                 cv, g = c[b, a, j], G[b, a, j]
-                for r in range(m):
+                for r in range(m):  # c ← c − K (H c)
                     s = 0.0
                     for k in range(n):
-                        s += Hb[r, k] * cv[k]
+                        h = Hb[r, k]
+                        if h != 0.0:
+                            s += h * cv[k]
                     Hc[r] = s
                 for i in range(n):
                     s = 0.0
                     for r in range(m):
                         s += Kb[i, r] * Hc[r]
                     cv[i] -= s
-                HG[:] = 0.0  # H Γ, row by row of Γ (contiguous inner loops)
-                for r in range(m):
+                for r in range(m):  # H Γ, row by row of Γ
+                    for k in range(n):
+                        HG[r, k] = 0.0
                     for i in range(n):
                         h = Hb[r, i]
-                        for k in range(n):
-                            HG[r, k] += h * g[i, k]
-                for r in range(m):  # H Γ Hᵀ
+                        if h != 0.0:
+                            for k in range(n):
+                                HG[r, k] += h * g[i, k]
+                for r in range(m):  # S = H Γ Hᵀ
                     for q in range(m):
                         s = 0.0
                         for k in range(n):
-                            s += HG[r, k] * Hb[q, k]
+                            h = Hb[q, k]
+                            if h != 0.0:
+                                s += HG[r, k] * h
                         S[r, q] = s
-                for i in range(n):  # K H Γ and K (H Γ Hᵀ)
-                    for k in range(n):
-                        KHG[i, k] = 0.0
-                    for r in range(m):
-                        w = Kb[i, r]
-                        for k in range(n):
-                            KHG[i, k] += w * HG[r, k]
-                    for q in range(m):
-                        s = 0.0
-                        for r in range(m):
-                            s += Kb[i, r] * S[r, q]
-                        KS[i, q] = s
-                for i in range(n):  # Γ − K H Γ − (K H Γ)ᵀ + K S Kᵀ
+                for r in range(m):  # U = H Γ − ½ S Kᵀ
                     for k in range(n):
                         s = 0.0
                         for q in range(m):
-                            s += KS[i, q] * Kb[k, q]
-                        T[i, k] = g[i, k] - KHG[i, k] - KHG[k, i] + s
+                            s += S[r, q] * Kb[k, q]
+                        U[r, k] = HG[r, k] - 0.5 * s
+                for i in range(n):  # K U
+                    for k in range(n):
+                        KU[i, k] = 0.0
+                    for r in range(m):
+                        w = Kb[i, r]
+                        for k in range(n):
+                            KU[i, k] += w * U[r, k]
                 for i in range(n):
                     for k in range(i, n):
-                        g[i, k] = g[k, i] = 0.5 * (T[i, k] + T[k, i])
+                        v = g[i, k] - KU[i, k] - KU[k, i]
+                        g[i, k] = v
+                        g[k, i] = v
 
 
 def map_others_numpy(p: Pulls, aid: int, K: np.ndarray, H: np.ndarray, use: np.ndarray) -> Pulls:
@@ -204,9 +261,10 @@ def map_others_numpy(p: Pulls, aid: int, K: np.ndarray, H: np.ndarray, use: np.n
     return Pulls(c, G)
 
 
-def with_own(p: Pulls, aid: int, d: np.ndarray, D: np.ndarray) -> Pulls:
-    """Aid ``aid``'s own update: ``d`` (B, n) and ``D`` (B, n, n) added to its current block."""
-    c, G = p.c.copy(), p.G.copy()
+def with_own(p: Pulls, aid: int, d: np.ndarray, D: np.ndarray, *, copy: bool = True) -> Pulls:
+    """Aid ``aid``'s own update: ``d`` (B, n) and ``D`` (B, n, n) added to its current block
+    (``copy=False``: in place, as :func:`map_others`)."""
+    c, G = (p.c.copy(), p.G.copy()) if copy else (p.c, p.G)
     c[:, aid, -1] += d
     G[:, aid, -1] += D
     return Pulls(c, G)
@@ -231,11 +289,14 @@ def rotate(p: Pulls, coarse: int = 0, close_coarse: bool = False) -> Pulls:
     return Pulls(out[0], out[1])
 
 
-def windows(p: Pulls, aid: int) -> tuple[np.ndarray, np.ndarray]:
+def windows(p: Pulls, aid: int, first: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(B, nb + 1, n), (B, nb + 1, n, n): the pull and its covariance of the windows
-    "current block + the last j full blocks", j = 0..nb (shortest first)."""
-    c = np.cumsum(p.c[:, aid, ::-1], axis=1)
-    G = np.cumsum(p.G[:, aid, ::-1], axis=1)
+    "current block + the last j full blocks", j = 0..nb (shortest first); with
+    ``first``, the ``first`` shortest only (the same sums: a prefix of the others)."""
+    J = p.c.shape[2]
+    k = J if first is None else min(first, J)
+    c = np.cumsum(p.c[:, aid, : J - k - 1 : -1] if k < J else p.c[:, aid, ::-1], axis=1)
+    G = np.cumsum(p.G[:, aid, : J - k - 1 : -1] if k < J else p.G[:, aid, ::-1], axis=1)
     return c, G
 
 

@@ -270,8 +270,6 @@ class _AidTest(NamedTuple):
     A: np.ndarray  # (B, m, m) H P Hᵀ
     R: np.ndarray  # (B, m, m)
     nis: np.ndarray  # (B,) against the prior
-    e: np.ndarray  # (B, J, m) the applied pulls as the aid measures them, H c
-    T: np.ndarray  # (B, J, m, m) their covariance, H Γ Hᵀ
     ratio: np.ndarray  # (B,) separation alarm statistic over its threshold (0: none)
     window: np.ndarray  # (B,) int, the window of the largest ratio
 
@@ -623,46 +621,33 @@ class Guard:
             if not use.any():  # nothing to test: the aid has no measurement this epoch
                 eye = np.broadcast_to(np.eye(m), (B, m, m))
                 zero = np.zeros(B)
-                out.append(
-                    _AidTest(
-                        np.zeros((B, m)),
-                        eye,
-                        eye,
-                        zero,
-                        *self._no_windows(B, m),
-                        zero,
-                        zero.astype(int),
-                    )
-                )
+                out.append(_AidTest(np.zeros((B, m)), eye, eye, zero, zero, zero.astype(int)))
                 continue
             nu = np.where(use[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
             K, A = _gain(P, Ha, Ra)
             nis = np.where(use, _chi2(nu, A + Ra), 0.0)
             ratio = np.zeros(B)
             if not self.rollback:
-                out.append(
-                    _AidTest(nu, A, Ra, nis, *self._no_windows(B, m), ratio, ratio.astype(int))
-                )
+                out.append(_AidTest(nu, A, Ra, nis, ratio, ratio.astype(int)))
                 continue
-            cw, Gw = sep.windows(pulls[g], s)
-            e, T = sep.measured(cw, Gw, Ha)
             window = np.zeros(B, int)
             if self.Jd:  # the separation detector: the pulls with this epoch's update
+                cw, Gw = sep.windows(pulls[g], s, self.Jd)
                 d = kf.mv(K, nu)
                 D = reduction(K, A, Ra)
-                e_d, T_d = sep.measured(
-                    cw[:, : self.Jd] + d[:, None], Gw[:, : self.Jd] + D[:, None], Ha
-                )
+                e_d, T_d = sep.measured(cw + d[:, None], Gw + D[:, None], Ha)
                 lam, dof = sep.separation_of(e_d, T_d)
                 r = np.where(use[:, None], lam / _thresholds(self.pfa_d, dof), 0.0)
                 ratio, window = r.max(1), r.argmax(1)
-            out.append(_AidTest(nu, A, Ra, nis, e, T, ratio, window))
+            out.append(_AidTest(nu, A, Ra, nis, ratio, window))
         return GuardTest(pulls, alt, tuple(out), tuple(p.P for p in priors), tuple(Hs), tuple(F))
 
-    def _no_windows(self, B: int, m: int) -> tuple[np.ndarray, np.ndarray]:
-        """Empty windows: no pull to roll back."""
-        J = self.J if self.rollback else 1
-        return np.zeros((B, J, m)), np.broadcast_to(np.eye(m), (B, J, m, m))
+    def _measured(self, test: GuardTest, a: int) -> tuple[np.ndarray, np.ndarray]:
+        """Aid ``a``'s applied pulls of every window as it measures them: ``H c``
+        (B, J, m) and their covariance ``H Γ Hᵀ`` (B, J, m, m).  Only an onset reads
+        them, so they are formed there, not every epoch."""
+        cw, Gw = sep.windows(test.pulls[self.group_of[a]], self.slot[a])
+        return sep.measured(cw, Gw, test.H[a])
 
     # -------------------------------------------------------------------------- decide
     def decide(
@@ -892,12 +877,13 @@ class Guard:
             # significant pull too large for its covariance (a drag still on); none:
             # nothing to roll back.  A window whose covariance merely swallows the jump
             # (a filter that converged from its start) explains nothing
-            lam, dof = sep.separation_of(t.e, t.T)
+            e, T = self._measured(test, a)
+            lam, dof = sep.separation_of(e, T)
             r = lam / _thresholds(self.pfa / self.J, dof)
             sig = r > 1.0
-            S_w = (t.A + t.R)[:, None] + t.T
-            after_ = _chi2(t.nu[:, None] + t.e, S_w)
-            before_ = _chi2(np.broadcast_to(t.nu[:, None], t.e.shape), S_w)
+            S_w = (t.A + t.R)[:, None] + T
+            after_ = _chi2(t.nu[:, None] + e, S_w)
+            before_ = _chi2(np.broadcast_to(t.nu[:, None], e.shape), S_w)
             fits = (after_ <= self.T1[a]) & (before_ - after_ > self.T1[a])
             fits &= (t.nis > self.T1[a])[:, None]
             # a pull merely too large for its covariance is no evidence where no other aid
@@ -1442,6 +1428,9 @@ class Guard:
             x, P = priors[gi]
             B, n = x.shape
             idx = np.arange(B)
+            # updated in place below: with the rollback the test's pulls are this epoch's
+            # own, fresh from :func:`~ftnav.fdi.separation.propagate` (nothing reads them
+            # after the record; without it they are only read)
             p, alt = pulls[gi], alts[gi]
             for s, a in enumerate(grp):  # the aids the group used, in order
                 use = usable[:, a] & ~out.hold[:, a]
@@ -1452,12 +1441,12 @@ class Guard:
                 nu = np.where(use[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
                 d = np.where(use[:, None], kf.mv(K, nu), 0.0)
                 D = np.where(use[:, None, None], reduction(K, A, Ra), 0.0)
-                p = sep.with_own(sep.map_others(p, s, K, Ha, use), s, d, D)
-                alt = sep.map_others(alt, s, K, Ha, use)
+                p = sep.with_own(sep.map_others(p, s, K, Ha, use, copy=False), s, d, D, copy=False)
+                alt = sep.map_others(alt, s, K, Ha, use, copy=False)
                 x, P = x + d, kf.symmetrize(P - D)
             dx, dP, dP_undo = np.zeros((B, n)), np.zeros((B, n, n)), np.zeros((B, n, n))
             where = np.zeros(B, bool)
-            c_alt, G_alt = alt.c.copy(), alt.G.copy()
+            c_alt, G_alt = alt.c, alt.G
             for s, a in enumerate(grp):
                 back = out.rollback[:, a]
                 if back.any():  # the rollback of a newly isolated aid
@@ -1527,7 +1516,7 @@ class Guard:
                     dx -= d
                     dP += np.where(rel[:, None, None], grow, 0.0) - D
                     if self.rollback:
-                        p = sep.with_own(p, s, d, D)
+                        p = sep.with_own(p, s, d, D, copy=False)
                     x, P = x + d, kf.symmetrize(P_in - D)
                     where |= rel
             for s, a in enumerate(grp):
@@ -1547,7 +1536,7 @@ class Guard:
                     D = np.where(on[:, None, None], reduction(K, A_d, 2.0 * Ra), 0.0)
                     dx -= d
                     dP -= D
-                    p = sep.with_own(p, s, d, D)
+                    p = sep.with_own(p, s, d, D, copy=False)
                     x, P = x + d, kf.symmetrize(P - D)
                     where |= on
             for s, a in enumerate(grp):
@@ -1563,7 +1552,7 @@ class Guard:
                     D = np.where(on[:, None, None], reduction(K, A_n, Rn), 0.0)
                     dx -= d
                     dP -= D
-                    p = sep.with_own(p, s, d, D)
+                    p = sep.with_own(p, s, d, D, copy=not self.rollback)
                     x, P = x + d, kf.symmetrize(P - D)
                     where |= on
                     informed[:, a] = on
