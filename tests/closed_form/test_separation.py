@@ -198,3 +198,41 @@ def test_compiled_propagate_equals_the_numpy_form(per_run):
         np.testing.assert_allclose(got.c, want.c, rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(got.G, want.G, rtol=1e-12, atol=1e-12)
         assert np.array_equal(got.G, np.swapaxes(got.G, -1, -2))
+
+
+def test_the_lazy_form_equals_the_explicit_one():
+    # the lazy form (closed blocks stored as at the last rotation, one map T per aid)
+    # against every block mapped every epoch, through time updates, other aids' updates,
+    # own updates, rotations into coarse blocks, clears and windows: equal to rounding
+    rng = np.random.default_rng(21)
+    B, A, n, m, nb, nc = 3, 3, 6, 2, 3, 2
+    lazy = sep.init_pulls(B, A, nb, n, nc)
+    assert lazy.T is not None
+    plain = sep.Pulls(lazy.c.copy(), lazy.G.copy())  # the explicit form
+    for k in range(40):
+        F = np.eye(n) + 0.05 * rng.normal(size=(B, n, n))
+        lazy, plain = sep.propagate(lazy, F), sep.propagate(plain, F)
+        for aid in range(A):
+            K = 0.2 * rng.normal(size=(B, n, m))
+            H = rng.normal(size=(m, n))
+            use = rng.uniform(size=B) < 0.8
+            L = rng.normal(size=(B, n, n)) * 0.1
+            d, D = rng.normal(size=(B, n)), L @ np.swapaxes(L, -1, -2)
+            lazy = sep.with_own(sep.map_others(lazy, aid, K, H, use), aid, d, D)
+            plain = sep.with_own(sep.map_others(plain, aid, K, H, use), aid, d, D)
+        if k == 23:
+            where, window = np.array([True, False, True]), np.array([1, 0, 4])
+            lazy, plain = sep.clear(lazy, 1, where, window), sep.clear(plain, 1, where, window)
+        if k % 2 == 1:
+            close = k % 6 == 5
+            lazy, plain = sep.rotate(lazy, nc, close), sep.rotate(plain, nc, close)
+        for aid in range(A):
+            for first in (None, 2):
+                (cl, Gl), (cp, Gp) = sep.windows(lazy, aid, first), sep.windows(plain, aid, first)
+                scale = np.abs(Gp).max()
+                np.testing.assert_allclose(cl, cp, rtol=1e-9, atol=1e-9 * np.abs(cp).max())
+                np.testing.assert_allclose(Gl, Gp, rtol=1e-9, atol=1e-9 * scale)
+                assert np.array_equal(Gl, np.swapaxes(Gl, -1, -2))
+    e = sep.explicit(lazy)
+    assert e.T is None
+    np.testing.assert_allclose(e.G, plain.G, rtol=1e-9, atol=1e-9 * np.abs(plain.G).max())

@@ -51,6 +51,7 @@ _JIT: JitOptions = dict(
 __all__ = [
     "Pulls",
     "clear",
+    "explicit",
     "init_pulls",
     "map_others",
     "map_others_numpy",
@@ -70,33 +71,144 @@ class Pulls(NamedTuple):
 
     Attributes
     ----------
-    c : (B, A, nb + 1, n) pulls, oldest block first, the current partial block last.
-    G : (B, A, nb + 1, n, n) their covariances under H0.
+    c : (B, A, J, n) pulls, oldest block first, the current partial block last.
+    G : (B, A, J, n, n) their covariances under H0.
+    T : (B, A, n, n) or None.  None: every block is as of now (the *explicit* form).
+        Else the *lazy* form: the closed blocks (all but the current one) are stored as
+        they were at the last :func:`rotate`, and ``T`` is the map every closed block of
+        the aid has taken since (the time updates Φ and the other aids' ``I − K H``, in
+        order), so a closed block now is ``T c``, ``T Γ Tᵀ``.  Every closed block takes
+        the same maps, so one ``T`` per aid stands for all of them: an epoch costs one
+        block and one ``T`` instead of J blocks.  :func:`explicit` forms the blocks.
     """
 
     c: np.ndarray
     G: np.ndarray
+    T: np.ndarray | None = None
 
 
 def init_pulls(batch: int, aids: int, blocks: int, n: int, coarse: int = 0) -> Pulls:
     """Empty accumulators: ``blocks`` fine blocks and the current one, and with ``coarse``
-    that many coarse blocks and their partial one (``blocks = -1``: none at all)."""
+    that many coarse blocks and their partial one (``blocks = -1``: none at all); in the
+    lazy form when there is a closed block (:class:`Pulls`)."""
     J = blocks + 1 + (coarse + 1 if coarse else 0)
-    return Pulls(np.zeros((batch, aids, J, n)), np.zeros((batch, aids, J, n, n)))
+    T = np.broadcast_to(np.eye(n), (batch, aids, n, n)).copy() if J > 1 else None
+    return Pulls(np.zeros((batch, aids, J, n)), np.zeros((batch, aids, J, n, n)), T)
 
 
-def propagate(p: Pulls, F: np.ndarray) -> Pulls:
+def _mapped(T: np.ndarray, c: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Blocks c (B, A, J, n), G (B, A, J, n, n) mapped by each aid's T (B, A, n, n): new
+    arrays, ``T c`` and ``T Γ Tᵀ`` (exactly symmetric)."""
+    c, G = np.array(c, dtype=np.float64), np.array(G, dtype=np.float64)
+    _map_blocks(c, G, np.ascontiguousarray(T, dtype=np.float64), 0, c.shape[2])
+    return c, G
+
+
+@numba.njit(**_JIT)
+def _map_blocks(
+    c: np.ndarray, G: np.ndarray, T: np.ndarray, j0: int, j1: int
+) -> None:  # pragma: no cover - compiled
+    # in place: the blocks j0 .. j1 - 1 of aid a in run b by T[b, a]
+    B, A, J, n = c.shape
+    TX = np.empty((n, n))
+    tmp = np.empty(n)
+    for b in range(B):
+        for a in range(A):
+            t = T[b, a]
+            for j in range(j0, j1):
+                cv, g = c[b, a, j], G[b, a, j]
+                for i in range(n):
+                    s = 0.0
+                    for k in range(n):
+                        s += t[i, k] * cv[k]
+                    tmp[i] = s
+                for i in range(n):
+                    cv[i] = tmp[i]
+                _times(t, g, TX)
+                for i in range(n):  # (T Γ) Tᵀ, the upper triangle mirrored
+                    for q in range(i, n):
+                        s = 0.0
+                        for k in range(n):
+                            s += TX[i, k] * t[q, k]
+                        g[i, q] = s
+                        g[q, i] = s
+
+
+def explicit(p: Pulls) -> Pulls:
+    """The explicit form of ``p``: every block as of now (new arrays; ``p`` itself when
+    it is explicit already)."""
+    if p.T is None:
+        return p
+    c, G = p.c.copy(), p.G.copy()
+    _map_blocks(c, G, np.ascontiguousarray(p.T, dtype=np.float64), 0, c.shape[2] - 1)
+    return Pulls(c, G)
+
+
+def propagate(p: Pulls, F: np.ndarray, *, copy: bool = True) -> Pulls:
     """The time update ``c ← Φ c``, ``Γ ← Φ Γ Φᵀ``; F (n, n) or per run (B, n, n).
 
     One compiled serial loop over the runs and blocks (no BLAS call per small block; Φ's
     zeros skipped in ``Φ Γ``, half of ``(Φ Γ) Φᵀ`` formed and mirrored, so ``Γ`` comes out
-    exactly symmetric).  :func:`propagate_numpy` is its oracle.
+    exactly symmetric).  :func:`propagate_numpy` is its oracle.  A lazy ``p`` takes the map
+    in its current block and ``T`` only; ``copy=False`` does that in place, for a caller
+    that owns ``p`` and does not read it again.
     """
     B = p.c.shape[0]
     Fb = np.ascontiguousarray(np.broadcast_to(F, (B,) + F.shape[-2:]), dtype=np.float64)
+    if p.T is not None:  # the lazy form: the current block and T only
+        c, G, T = (p.c.copy(), p.G.copy(), p.T.copy()) if copy else (p.c, p.G, p.T)
+        _propagate_now(c, G, T, Fb)
+        return Pulls(c, G, T)
     c, G = np.empty_like(p.c), np.empty_like(p.G)
     _propagate_rows(np.ascontiguousarray(p.c), np.ascontiguousarray(p.G), Fb, c, G)
     return Pulls(c, G)
+
+
+@numba.njit(**_JIT)
+def _times(F: np.ndarray, X: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
+    """``out = F X`` row by row of X (F's zeros skipped)."""
+    n = F.shape[0]
+    for i in range(n):
+        for q in range(n):
+            out[i, q] = 0.0
+        for k in range(n):
+            f = F[i, k]
+            if f != 0.0:
+                for q in range(n):
+                    out[i, q] += f * X[k, q]
+
+
+@numba.njit(**_JIT)
+def _propagate_now(
+    c: np.ndarray, G: np.ndarray, T: np.ndarray, F: np.ndarray
+) -> None:  # pragma: no cover - compiled
+    # in place: each aid's current block (c ← Φ c, Γ ← Φ Γ Φᵀ) and its T ← Φ T
+    B, A, J, n = c.shape
+    FX = np.empty((n, n))
+    tmp = np.empty(n)
+    for b in range(B):
+        Fb = F[b]
+        for a in range(A):
+            cv, g, t = c[b, a, J - 1], G[b, a, J - 1], T[b, a]
+            for i in range(n):
+                s = 0.0
+                for k in range(n):
+                    s += Fb[i, k] * cv[k]
+                tmp[i] = s
+            for i in range(n):
+                cv[i] = tmp[i]
+            _times(Fb, g, FX)
+            for i in range(n):  # (Φ Γ) Φᵀ, the upper triangle mirrored
+                for q in range(i, n):
+                    s = 0.0
+                    for k in range(n):
+                        s += FX[i, k] * Fb[q, k]
+                    g[i, q] = s
+                    g[q, i] = s
+            _times(Fb, t, FX)
+            for i in range(n):
+                for q in range(n):
+                    t[i, q] = FX[i, q]
 
 
 @numba.njit(**_JIT)
@@ -134,7 +246,9 @@ def _propagate_rows(
 
 
 def propagate_numpy(p: Pulls, F: np.ndarray) -> Pulls:
-    """:func:`propagate` as dense NumPy products: its oracle (equal to rounding)."""
+    """:func:`propagate` as dense NumPy products on the explicit form: its oracle (equal
+    to rounding; the result is explicit)."""
+    p = explicit(p)
     if F.ndim == 2:
         c = p.c @ F.T
         G = F @ p.G @ F.T
@@ -153,7 +267,8 @@ def map_others(
 
     K (B, n, m), H (B, m, n) or (m, n), use (B,) bool.  One compiled serial loop over
     the runs (:mod:`ftnav.core.linalg`'s rule: no thread pool per epoch); the low-rank
-    form costs ``O(J n² m)`` per aid instead of the ``O(J n³)`` of ``M Γ Mᵀ``.
+    form costs ``O(n² m)`` per block instead of the ``O(n³)`` of ``M Γ Mᵀ``, and the lazy
+    form maps the current block and ``T`` only (:class:`Pulls`).
     :func:`map_others_numpy` is its oracle.  ``copy=False`` maps ``p``'s (C-contiguous)
     arrays in place, for a caller that owns them.
     """
@@ -163,17 +278,60 @@ def map_others(
     B = K.shape[0]
     Hb = np.ascontiguousarray(np.broadcast_to(H, (B,) + H.shape[-2:]), dtype=np.float64)
     c, G = (p.c.copy(), p.G.copy()) if copy else (p.c, p.G)
-    _map_rows(c, G, np.ascontiguousarray(K, dtype=np.float64), Hb, np.ascontiguousarray(use), aid)
-    return Pulls(c, G)
+    Kc, u = np.ascontiguousarray(K, dtype=np.float64), np.ascontiguousarray(use)
+    if p.T is None:
+        _map_rows(c, G, Kc, Hb, u, aid, c.shape[2])
+        return Pulls(c, G)
+    T = p.T.copy() if copy else p.T
+    _map_rows(c, G, Kc, Hb, u, aid, 1)  # the current block; the closed ones through T
+    _map_T(T, Kc, Hb, u, aid)
+    return Pulls(c, G, T)
+
+
+@numba.njit(**_JIT)
+def _map_T(
+    T: np.ndarray, K: np.ndarray, H: np.ndarray, use: np.ndarray, aid: int
+) -> None:  # pragma: no cover - compiled
+    # T ← (I − K H) T for every aid but ``aid``, in the runs ``use``
+    B, A, n, _ = T.shape
+    m = K.shape[2]
+    HT = np.empty((m, n))
+    for b in range(B):
+        if not use[b]:
+            continue
+        Kb, Hb = K[b], H[b]
+        for a in range(A):
+            if a == aid:
+                continue
+            t = T[b, a]
+            for r in range(m):
+                for k in range(n):
+                    HT[r, k] = 0.0
+                for i in range(n):
+                    h = Hb[r, i]
+                    if h != 0.0:
+                        for k in range(n):
+                            HT[r, k] += h * t[i, k]
+            for i in range(n):
+                for r in range(m):
+                    w = Kb[i, r]
+                    for k in range(n):
+                        t[i, k] -= w * HT[r, k]
 
 
 @numba.njit(**_JIT)
 def _map_rows(
-    c: np.ndarray, G: np.ndarray, K: np.ndarray, H: np.ndarray, use: np.ndarray, aid: int
+    c: np.ndarray,
+    G: np.ndarray,
+    K: np.ndarray,
+    H: np.ndarray,
+    use: np.ndarray,
+    aid: int,
+    newest: int,
 ) -> None:  # pragma: no cover - compiled
     # Γ − K H Γ − (K H Γ)ᵀ + K S Kᵀ = Γ − K U − (K U)ᵀ with U = H Γ − ½ S Kᵀ (Γ, S
     # symmetric): one n × n product per block instead of three, exactly symmetric;
-    # H's zeros skipped (a measurement reads few states)
+    # H's zeros skipped (a measurement reads few states).  The ``newest`` blocks only
     B, A, J, n = c.shape
     m = K.shape[2]
     Hc = np.empty(m)
@@ -188,7 +346,7 @@ def _map_rows(
         for a in range(A):
             if a == aid:
                 continue
-            for j in range(J):
+            for j in range(J - newest, J):
                 cv, g = c[b, a, j], G[b, a, j]
                 for r in range(m):  # c ← c − K (H c)
                     s = 0.0
@@ -239,8 +397,10 @@ def _map_rows(
 
 
 def map_others_numpy(p: Pulls, aid: int, K: np.ndarray, H: np.ndarray, use: np.ndarray) -> Pulls:
-    """:func:`map_others` in NumPy einsums: the oracle of the compiled form (the same
-    products, summed in another order: equal to rounding, ``tests/closed_form``)."""
+    """:func:`map_others` in NumPy einsums on the explicit form: the oracle of the compiled
+    form (the same products, summed in another order: equal to rounding,
+    ``tests/closed_form``; the result is explicit)."""
+    p = explicit(p)
     A = p.c.shape[1]
     others = [a for a in range(A) if a != aid]
     if not others or not use.any():
@@ -267,13 +427,16 @@ def with_own(p: Pulls, aid: int, d: np.ndarray, D: np.ndarray, *, copy: bool = T
     c, G = (p.c.copy(), p.G.copy()) if copy else (p.c, p.G)
     c[:, aid, -1] += d
     G[:, aid, -1] += D
-    return Pulls(c, G)
+    return Pulls(c, G, p.T)
 
 
 def rotate(p: Pulls, coarse: int = 0, close_coarse: bool = False) -> Pulls:
     """The current block becomes the newest fine block; the oldest fine block goes into
     the coarse partial one (dropped without coarse blocks).  With ``close_coarse`` the
-    coarse partial block then becomes the newest coarse block, the oldest dropped."""
+    coarse partial block then becomes the newest coarse block, the oldest dropped.  A lazy
+    ``p`` is made explicit first and stays lazy (T = I from here)."""
+    lazy = p.T is not None
+    p = explicit(p)
     first = coarse + 1 if coarse else 0  # the oldest fine block
     out = []
     for a in (p.c, p.G):
@@ -286,7 +449,10 @@ def rotate(p: Pulls, coarse: int = 0, close_coarse: bool = False) -> Pulls:
             a[:, :, :coarse] = a[:, :, 1 : coarse + 1].copy()
             a[:, :, coarse] = 0.0
         out.append(a)
-    return Pulls(out[0], out[1])
+    if not lazy:
+        return Pulls(out[0], out[1])
+    B, A, _, n = out[0].shape
+    return Pulls(out[0], out[1], np.broadcast_to(np.eye(n), (B, A, n, n)).copy())
 
 
 def windows(p: Pulls, aid: int, first: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -295,9 +461,12 @@ def windows(p: Pulls, aid: int, first: int | None = None) -> tuple[np.ndarray, n
     ``first``, the ``first`` shortest only (the same sums: a prefix of the others)."""
     J = p.c.shape[2]
     k = J if first is None else min(first, J)
-    c = np.cumsum(p.c[:, aid, : J - k - 1 : -1] if k < J else p.c[:, aid, ::-1], axis=1)
-    G = np.cumsum(p.G[:, aid, : J - k - 1 : -1] if k < J else p.G[:, aid, ::-1], axis=1)
-    return c, G
+    c_b, G_b = p.c[:, aid, J - k :], p.G[:, aid, J - k :]  # the k newest blocks
+    if p.T is not None and k > 1:  # the closed ones as of now
+        cc, GG = _mapped(p.T[:, aid : aid + 1], c_b[:, None, :-1], G_b[:, None, :-1])
+        c_b = np.concatenate([cc[:, 0], c_b[:, -1:]], axis=1)
+        G_b = np.concatenate([GG[:, 0], G_b[:, -1:]], axis=1)
+    return np.cumsum(c_b[:, ::-1], axis=1), np.cumsum(G_b[:, ::-1], axis=1)
 
 
 def clear(p: Pulls, aid: int, where: np.ndarray, window: np.ndarray | None = None) -> Pulls:
@@ -312,7 +481,7 @@ def clear(p: Pulls, aid: int, where: np.ndarray, window: np.ndarray | None = Non
     m = where[:, None] & newest  # (B, J)
     c[:, aid] = np.where(m[..., None], 0.0, c[:, aid])
     G[:, aid] = np.where(m[..., None, None], 0.0, G[:, aid])
-    return Pulls(c, G)
+    return Pulls(c, G, p.T)
 
 
 def measured(c: np.ndarray, G: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

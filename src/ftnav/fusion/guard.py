@@ -608,7 +608,9 @@ class Guard:
         """
         pulls, alt = state.pulls, state.alternative
         if self.rollback:
-            pulls = tuple(sep.propagate(p, f) for p, f in zip(pulls, F, strict=True))
+            # the state's pulls are this epoch's to take (the state is not read again for
+            # them): the lazy form's time update in place, no copy of the closed blocks
+            pulls = tuple(sep.propagate(p, f, copy=False) for p, f in zip(pulls, F, strict=True))
             alt = tuple(sep.propagate(p, f) for p, f in zip(alt, F, strict=True))
         out, Hs = [], []
         for a in range(self.N):
@@ -1429,8 +1431,8 @@ class Guard:
             B, n = x.shape
             idx = np.arange(B)
             # updated in place below: with the rollback the test's pulls are this epoch's
-            # own, fresh from :func:`~ftnav.fdi.separation.propagate` (nothing reads them
-            # after the record; without it they are only read)
+            # own (the state's, taken over by :meth:`test`'s time update; nothing reads
+            # them after the record); without it they are only read
             p, alt = pulls[gi], alts[gi]
             for s, a in enumerate(grp):  # the aids the group used, in order
                 use = usable[:, a] & ~out.hold[:, a]
