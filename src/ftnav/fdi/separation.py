@@ -114,24 +114,32 @@ def _map_blocks(
     tmp = np.empty(n)
     for b in range(B):
         for a in range(A):
-            t = T[b, a]
             for j in range(j0, j1):
-                cv, g = c[b, a, j], G[b, a, j]
-                for i in range(n):
-                    s = 0.0
-                    for k in range(n):
-                        s += t[i, k] * cv[k]
-                    tmp[i] = s
-                for i in range(n):
-                    cv[i] = tmp[i]
-                _times(t, g, TX)
-                for i in range(n):  # (T Γ) Tᵀ, the upper triangle mirrored
-                    for q in range(i, n):
-                        s = 0.0
-                        for k in range(n):
-                            s += TX[i, k] * t[q, k]
-                        g[i, q] = s
-                        g[q, i] = s
+                _sandwich(T[b, a], c[b, a, j], G[b, a, j], tmp, TX)
+
+
+@numba.njit(**_JIT)
+def _sandwich(
+    M: np.ndarray, cv: np.ndarray, g: np.ndarray, tmp: np.ndarray, MX: np.ndarray
+) -> None:  # pragma: no cover - compiled
+    """In place: ``c ← M c``, ``Γ ← M Γ Mᵀ`` (M's zeros skipped in ``M Γ``, the upper
+    triangle of ``(M Γ) Mᵀ`` formed and mirrored); ``tmp`` (n,), ``MX`` (n, n) scratch."""
+    n = M.shape[0]
+    for i in range(n):
+        s = 0.0
+        for k in range(n):
+            s += M[i, k] * cv[k]
+        tmp[i] = s
+    for i in range(n):
+        cv[i] = tmp[i]
+    _times(M, g, MX)
+    for i in range(n):
+        for q in range(i, n):
+            s = 0.0
+            for k in range(n):
+                s += MX[i, k] * M[q, k]
+            g[i, q] = s
+            g[q, i] = s
 
 
 def explicit(p: Pulls) -> Pulls:
@@ -166,15 +174,16 @@ def propagate(p: Pulls, F: np.ndarray, *, copy: bool = True) -> Pulls:
 
 @numba.njit(**_JIT)
 def _times(F: np.ndarray, X: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
-    """``out = F X`` row by row of X (F's zeros skipped)."""
-    n = F.shape[0]
-    for i in range(n):
-        for q in range(n):
+    """``out = F X`` row by row of X (F's zeros skipped); F (r, n), X (n, q)."""
+    rows, n = F.shape
+    cols = X.shape[1]
+    for i in range(rows):
+        for q in range(cols):
             out[i, q] = 0.0
         for k in range(n):
             f = F[i, k]
             if f != 0.0:
-                for q in range(n):
+                for q in range(cols):
                     out[i, q] += f * X[k, q]
 
 
@@ -189,22 +198,8 @@ def _propagate_now(
     for b in range(B):
         Fb = F[b]
         for a in range(A):
-            cv, g, t = c[b, a, J - 1], G[b, a, J - 1], T[b, a]
-            for i in range(n):
-                s = 0.0
-                for k in range(n):
-                    s += Fb[i, k] * cv[k]
-                tmp[i] = s
-            for i in range(n):
-                cv[i] = tmp[i]
-            _times(Fb, g, FX)
-            for i in range(n):  # (Φ Γ) Φᵀ, the upper triangle mirrored
-                for q in range(i, n):
-                    s = 0.0
-                    for k in range(n):
-                        s += FX[i, k] * Fb[q, k]
-                    g[i, q] = s
-                    g[q, i] = s
+            _sandwich(Fb, c[b, a, J - 1], G[b, a, J - 1], tmp, FX)
+            t = T[b, a]
             _times(Fb, t, FX)
             for i in range(n):
                 for q in range(n):
@@ -217,32 +212,14 @@ def _propagate_rows(
 ) -> None:  # pragma: no cover - compiled
     B, A, J, n = c.shape
     FG = np.empty((n, n))
+    tmp = np.empty(n)
     for b in range(B):
-        Fb = F[b]
         for a in range(A):
             for j in range(J):
-                cv, g = c[b, a, j], G[b, a, j]
                 co, go = c_out[b, a, j], G_out[b, a, j]
-                for i in range(n):  # Φ c
-                    s = 0.0
-                    for k in range(n):
-                        s += Fb[i, k] * cv[k]
-                    co[i] = s
-                for i in range(n):  # Φ Γ, row by row of Γ (Φ's zeros skipped)
-                    for q in range(n):
-                        FG[i, q] = 0.0
-                    for k in range(n):
-                        f = Fb[i, k]
-                        if f != 0.0:
-                            for q in range(n):
-                                FG[i, q] += f * g[k, q]
-                for i in range(n):  # (Φ Γ) Φᵀ: rows against rows, upper triangle mirrored
-                    for q in range(i, n):
-                        s = 0.0
-                        for k in range(n):
-                            s += FG[i, k] * Fb[q, k]
-                        go[i, q] = s
-                        go[q, i] = s
+                co[:] = c[b, a, j]
+                go[:, :] = G[b, a, j]
+                _sandwich(F[b], co, go, tmp, FG)
 
 
 def propagate_numpy(p: Pulls, F: np.ndarray) -> Pulls:
@@ -304,14 +281,7 @@ def _map_T(
             if a == aid:
                 continue
             t = T[b, a]
-            for r in range(m):
-                for k in range(n):
-                    HT[r, k] = 0.0
-                for i in range(n):
-                    h = Hb[r, i]
-                    if h != 0.0:
-                        for k in range(n):
-                            HT[r, k] += h * t[i, k]
+            _times(Hb, t, HT)
             for i in range(n):
                 for r in range(m):
                     w = Kb[i, r]
@@ -360,14 +330,7 @@ def _map_rows(
                     for r in range(m):
                         s += Kb[i, r] * Hc[r]
                     cv[i] -= s
-                for r in range(m):  # H Γ, row by row of Γ
-                    for k in range(n):
-                        HG[r, k] = 0.0
-                    for i in range(n):
-                        h = Hb[r, i]
-                        if h != 0.0:
-                            for k in range(n):
-                                HG[r, k] += h * g[i, k]
+                _times(Hb, g, HG)  # H Γ
                 for r in range(m):  # S = H Γ Hᵀ
                     for q in range(m):
                         s = 0.0
