@@ -30,6 +30,14 @@ more fine block each, then one more coarse block each; ``nc + nf + 2`` accumulat
 aid cover ``(nc + 1) · nf · L`` epochs, finely where it is recent.  The layout, oldest
 first: ``[coarse full …, coarse partial, fine full …, current]``.  Arrays carry the
 batch axis; ``A`` aids share one tracked estimate of dimension n.
+
+Every closed block of an aid takes the same maps (Φ, and each other aid's ``I − K H``),
+so :func:`init_pulls` keeps them in a *lazy* form: as they were at the last
+:func:`rotate`, with one accumulated map ``T`` per aid (:class:`Pulls`); an epoch maps
+the current block and ``T`` only (``O(n³)`` per aid instead of ``O(J n³)``), and the
+blocks are formed where they are read (:func:`windows`) and at a rotation.  The
+*explicit* form (every block as of now, ``Pulls(c, G)``) keeps the per-block kernels and
+is the lazy form's oracle (``tests/closed_form/test_separation.py``).
 """
 
 from __future__ import annotations
