@@ -411,7 +411,7 @@ def rotate(p: Pulls, coarse: int = 0, close_coarse: bool = False) -> Pulls:
     first = coarse + 1 if coarse else 0  # the oldest fine block
     out = []
     for a in (p.c, p.G):
-        a = a.copy()
+        a = a if lazy else a.copy()  # explicit() gave new arrays
         if coarse:
             a[:, :, coarse] += a[:, :, first]
         a[:, :, first:-1] = a[:, :, first + 1 :].copy()
