@@ -37,16 +37,28 @@ def _arrays(r: MethodResult) -> list[np.ndarray]:
     return out
 
 
-def _same(got: ScenarioResult, alone: ScenarioResult) -> None:
-    assert got.runs == alone.runs and got.seed == alone.seed
+def _differences(got: ScenarioResult, alone: ScenarioResult) -> list[str]:
+    """Where ``got`` differs from ``alone``: run count, seed, methods, or any per-run
+    array bit for bit (empty when they are the same)."""
+    if got.runs != alone.runs or got.seed != alone.seed:
+        return [f"runs/seed {got.runs, got.seed} != {alone.runs, alone.seed}"]
+    out = []
     for which in ("results", "fault_free"):
         a, b = getattr(got, which), getattr(alone, which)
-        assert list(a) == list(b), which
+        if list(a) != list(b):
+            out.append(f"{which}: methods {list(a)} != {list(b)}")
+            continue
         for name in a:
             x, y = _arrays(a[name]), _arrays(b[name])
-            assert len(x) == len(y)
-            for u, v in zip(x, y, strict=True):
-                np.testing.assert_array_equal(u, v, err_msg=f"{which}[{name}]")
+            if len(x) != len(y):
+                out.append(f"{which}[{name}]: {len(x)} arrays != {len(y)}")
+                continue
+            out += [
+                f"{which}[{name}] array {i}"
+                for i, (u, v) in enumerate(zip(x, y, strict=True))
+                if not np.array_equal(u, v, equal_nan=True)
+            ]
+    return out
 
 
 def _text(metrics: dict) -> str:
@@ -82,7 +94,7 @@ def test_linear_points_in_one_batch_equal_their_own_campaigns(tmp_path):
     stacked = run_points(points, 5, 3)
     assert len(stacked) == 3
     for got, sc in zip(stacked, points, strict=True):
-        _same(got, run_scenario(sc, 5, 3))
+        assert not _differences(got, run_scenario(sc, 5, 3))
 
 
 def test_integrated_points_in_one_batch_equal_their_own_campaigns(tmp_path):
@@ -91,7 +103,7 @@ def test_integrated_points_in_one_batch_equal_their_own_campaigns(tmp_path):
     methods = tuple(m for m in points[0].methods if m.name in ("ckf", "fkf-chi2"))
     stacked = run_points(points, 2, 1, methods=methods)
     for got, sc in zip(stacked, points, strict=True):
-        _same(got, run_scenario(sc, 2, 1, methods=methods))
+        assert not _differences(got, run_scenario(sc, 2, 1, methods=methods))
 
 
 def test_a_point_without_faults_gets_no_twin(tmp_path):
@@ -99,8 +111,8 @@ def test_a_point_without_faults_gets_no_twin(tmp_path):
     clean = sc.without_faults()
     got = run_points([sc, clean], 4, 2)
     assert got[1].fault_free == {}
-    _same(got[0], run_scenario(sc, 4, 2))
-    _same(got[1], run_scenario(clean, 4, 2))
+    assert not _differences(got[0], run_scenario(sc, 4, 2))
+    assert not _differences(got[1], run_scenario(clean, 4, 2))
 
 
 def test_a_fault_sweep_gives_the_metrics_of_the_points_run_alone(tmp_path):
