@@ -46,7 +46,7 @@ import xarray as xr
 
 from ftnav.eval.evaluate import MethodMetrics, evaluate
 from ftnav.eval.intervals import CONFIDENCE, Interval
-from ftnav.eval.montecarlo import run_points, run_scenario
+from ftnav.eval.montecarlo import run_points
 from ftnav.eval.resources import available_memory_bytes, max_runs_within
 from ftnav.io.common import ScenarioError, read_toml
 from ftnav.io.ins_scenario_file import parse_ins_scenario
@@ -208,16 +208,14 @@ def run_sweep(
     if workers is not None:
         options["workers"] = workers
     scenarios = [sc for _, sc in points]
-    if len(scenarios) > 1 and faults_only(axes):
-        size = _points_per_batch(first, runs, len(scenarios), workers)
-        for i in range(0, len(scenarios), size):
-            group = scenarios[i : i + size]
-            scaled = None if progress is None else _scaled(progress, len(group))
-            for result in run_points(group, runs, seed, progress=scaled, **options):
-                metrics.append(evaluate(result))
-    else:
-        for sc in scenarios:
-            metrics.append(evaluate(run_scenario(sc, runs, seed, progress=progress, **options)))
+    # points that differ in their faults only run together; any other sweep one by one
+    together = len(scenarios) > 1 and faults_only(axes)
+    size = _points_per_batch(first, runs, len(scenarios), workers) if together else 1
+    for i in range(0, len(scenarios), size):
+        group = scenarios[i : i + size]
+        scaled = None if progress is None else _scaled(progress, len(group))
+        for result in run_points(group, runs, seed, progress=scaled, **options):
+            metrics.append(evaluate(result))
     return SweepResult(
         first.name,
         tuple(axes),
@@ -250,7 +248,7 @@ def _points_per_batch(
 
 def _scaled(progress: Callable[[int], None], points: int) -> Callable[[int], None]:
     """The progress of ``points`` points stepped together: each epoch counts for each."""
-    return lambda n: progress(n * points)
+    return progress if points == 1 else lambda n: progress(n * points)
 
 
 def _bounds(i: Interval | None, value: float | None = None) -> list[float]:

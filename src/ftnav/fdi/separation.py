@@ -100,8 +100,13 @@ def init_pulls(batch: int, aids: int, blocks: int, n: int, coarse: int = 0) -> P
     that many coarse blocks and their partial one (``blocks = -1``: none at all); in the
     lazy form when there is a closed block (:class:`Pulls`)."""
     J = blocks + 1 + (coarse + 1 if coarse else 0)
-    T = np.broadcast_to(np.eye(n), (batch, aids, n, n)).copy() if J > 1 else None
+    T = _identity(batch, aids, n) if J > 1 else None
     return Pulls(np.zeros((batch, aids, J, n)), np.zeros((batch, aids, J, n, n)), T)
+
+
+def _identity(batch: int, aids: int, n: int) -> np.ndarray:
+    """Each aid's map T at a rotation: the identity (B, A, n, n)."""
+    return np.broadcast_to(np.eye(n), (batch, aids, n, n)).copy()
 
 
 def _mapped(T: np.ndarray, c: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -423,7 +428,7 @@ def rotate(p: Pulls, coarse: int = 0, close_coarse: bool = False) -> Pulls:
     if not lazy:
         return Pulls(out[0], out[1])
     B, A, _, n = out[0].shape
-    return Pulls(out[0], out[1], np.broadcast_to(np.eye(n), (B, A, n, n)).copy())
+    return Pulls(out[0], out[1], _identity(B, A, n))
 
 
 def windows(p: Pulls, aid: int, first: int | None = None) -> tuple[np.ndarray, np.ndarray]:
