@@ -27,7 +27,10 @@ and decides the method's isolation from its detector's flags:
    One aid at a time: no rollback while another aid is isolated (the pulls of one aid
    are measured against filters that hold every other).  The removed pull is kept as
    the *alternative* when the separation detector alone raised the isolation (the
-   measurement itself agreeing with the filter: a model error can do that).
+   measurement itself agreeing with the filter: a model error can do that), and when a
+   pull merely too large for its covariance was removed in rows no other aid responds
+   to (:meth:`Guard._unseen`): nothing but the aid's own pull speaks for it (a false
+   alarm 500 s after a SINS fault found the corrections the aid made then "too large").
 2. **Re-admission.**  After ``n_off`` consecutive tests whose innovation passes its χ²
    against the estimate, with the method's detector quiet (the aid was faulty and its
    fault ended); or after ``confirm`` consecutive tests against the alternative, the
@@ -900,7 +903,15 @@ class Guard:
             # a separation alarm removes the window that raised it
             fired = new & alarm[:, a]
             choose[:, a] = explain | fired
-            doubt[:, a] = fired
+            # a drag's rollback in rows no other aid responds to (seed002's horizontal
+            # GNSS positions beside its star tracker and altimeter) rests on the aid's own
+            # pull: a false alarm after the SINS's fault found its large correcting pulls
+            # "too large" and rolled 576 m back.  Kept as a hypothesis, as a separation
+            # alarm's: undone when the aid keeps agreeing with the estimate without it
+            drag = explain & ~fits.any(1)
+            if drag.any():
+                drag &= self._unseen(a, usable & ~state.hold, test).any(-1)
+            doubt[:, a] = fired | drag
             windows[:, a] = np.where(fired, t.window, w)
         hold = (hold_before & ~release) | rising
         reset = rising | release
