@@ -97,3 +97,42 @@ def test_a_noisy_fix_beside_the_odometer_comes_back_as_for_the_plain_filter(nois
     sc, result = noisy
     plain = _after(sc, result.results["ckf"])
     assert _after(sc, result.results[name]) <= 1.5 * plain
+
+
+LONG = ("ckf-chi2", "ckf-separation")
+
+
+@pytest.fixture(scope="module")
+def long_step():
+    """``slowramp`` with its ramp replaced by a 20 m step of the fix over [300, 700) s,
+    longer than the guard's ``lasting_s`` (300 s): the held fix keeps one offset beside
+    the odometer, which cannot judge it."""
+    path = builtin_path("slowramp")
+    doc = read_toml(path)
+    doc["faults"] = [
+        {"sensor": "gnss", "kind": "bias", "start": 300.0, "end": 700.0, "magnitude": [20.0]}
+    ]
+    sc = parse_scenario(doc, "slowramp, a long step of the fix", Path(path).parent)
+    sc = dataclasses.replace(sc, methods=tuple(m for m in sc.methods if m.name in ("ckf", *LONG)))
+    return sc, run_scenario(sc, 10, 1, fault_free=False)
+
+
+@pytest.mark.parametrize("name", LONG)
+def test_a_step_that_outlasts_lasting_s_is_taken_and_its_end_comes_home(long_step, name):
+    """Past ``lasting_s`` the held fix's offset is taken (as the plain filter follows a
+    step), and the jump back at the step's end cancels it: the fix is used again at
+    once.  The separation method alarms on the pull of the jump back rather than
+    flagging it; before the jump back came home without a flag its fix was held 300 s
+    more after the step (19.9 m after it against ``ckf``'s 0.50 m)."""
+    sc, result = long_step
+    res = result.results[name]
+    assert res.guard is not None
+    t = sc.times
+    taken = res.guard.taken[:, :, 0]
+    assert taken[:, (t > 590.0) & (t < 620.0)].any(1).all()  # lasting_s after the onset
+    back = (t >= 708.0) & (t < 720.0)  # home at 700 (the separation's alarm after: 5 s)
+    assert not res.guard.hold[:, back, 0].any()
+    after = t >= 720.0
+    plain = float(np.sqrt(np.mean(result.results["ckf"].error[:, after, 0] ** 2)))
+    got = float(np.sqrt(np.mean(res.error[:, after, 0] ** 2)))
+    assert got <= 1.5 * plain, (got, plain)

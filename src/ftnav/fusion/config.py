@@ -215,7 +215,9 @@ class GuardSettings(Settings):
     ``override`` passes after which the guard re-admits against a detector still
     alarming; ``patience_s`` the longest a sole source is held after its last jump once
     its increments are consistent again (past it, the jump is taken as the aid's new
-    value, as the plain filter takes it; the jump back cancels it).
+    value, as the plain filter takes it; the jump back cancels it); ``lasting_s`` the
+    longest an aid beside aids of its rate only is held at one constant offset from the
+    estimate (past it, the offset is taken in the rows no other aid reads).
     """
 
     window_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 600.0
@@ -228,6 +230,7 @@ class GuardSettings(Settings):
     confirm: Count = 20
     override: Count = 50
     patience_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 10.0
+    lasting_s: Annotated[float, Field(gt=0.0, allow_inf_nan=False)] = 300.0
 
     @model_validator(mode="after")
     def _check(self) -> GuardSettings:

@@ -106,7 +106,17 @@ and decides the method's isolation from its detector's flags:
    that sum in every row it moves, rows no other measuring aid reads directly, is
    *home* (:meth:`Guard._home`): the estimate follows the jump back in the measured
    quantity and takes the aid, relaxed (the drive's 2 m GNSS step for 60 s: its end was
-   held 40 s, 0.93 m after the fault against ``ckf``'s 0.10 m; now 0.06 m).
+   held 40 s, 0.93 m after the fault against ``ckf``'s 0.10 m; now 0.06 m).  And a held
+   aid beside aids of its rate only (a position beside velocities, an odometer, the
+   vehicle constraints) that keeps one constant offset from the estimate for
+   ``lasting_s`` has its offset taken (:meth:`Guard._lasting`): its innovation compared
+   with its level when its present run of consistent increments began, against its two
+   noises and the coast's growth since, never departed from it, so the offset is neither
+   the aid's ramp nor the estimate's drift; the estimate moves by it in the rows no
+   other aid reads and the aid is re-admitted, relaxed, its jump sum kept for the jump
+   back at a step's end.  The rate aids cannot tell one constant offset from another:
+   without this a false alarm's rollback of the aid's pulls (an unmodelled manoeuvre's
+   corrections found "too large") held it to the end.
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
@@ -208,6 +218,9 @@ class GuardState(NamedTuple):
     support : the other aids' backing of a held aid (module docstring, 6), zero where
         not held.
     length : epochs since the hold's onset (0 where not held).
+    level, level_A : per aid, (B, m) a held aid's innovation when its present run of
+        consistent increments began, and (B, m, m) ``H P Hᵀ`` then: the offset it keeps.
+    level_age : epochs that run has kept the level (-1: none; not held).
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -233,6 +246,9 @@ class GuardState(NamedTuple):
     jumps: np.ndarray
     support: np.ndarray
     length: np.ndarray
+    level: tuple[np.ndarray, ...]
+    level_A: tuple[np.ndarray, ...]
+    level_age: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -306,6 +322,9 @@ class Guarded(NamedTuple):
         moves by their jump back in the measured quantity before their relaxed update.
     increments : per aid, the epoch's increment ``(B, m)`` and its covariance
         ``(B, m, m)`` (:meth:`Guard._increments`): a home aid's jump back.
+    lasting : per aid, (B, m) the rows of a lasting offset to take now (:meth:`Guard._lasting`;
+        False elsewhere): the estimate moves by the aid's innovation there before its
+        relaxed update.
     """
 
     before: GuardState
@@ -319,6 +338,7 @@ class Guarded(NamedTuple):
     noise: tuple[np.ndarray, ...]
     home: np.ndarray
     increments: tuple[tuple[np.ndarray, np.ndarray], ...]
+    lasting: tuple[np.ndarray, ...]
 
 
 class Amend(NamedTuple):
@@ -521,6 +541,7 @@ class Guard:
         self.nc = max(0, int(math.ceil(config.window_s / dt / span)) - 1)
         self.J = self.nb + 1 + (self.nc + 1 if self.nc else 0)
         self.patience = max(1, int(math.ceil(config.patience_s / dt)))
+        self.lasting = max(1, int(math.ceil(config.lasting_s / dt)))
         self.pfa = float(config.false_alarm_probability)
         self.T1 = np.array([_threshold(self.pfa, m) for m in self.dims])
         self.detector = detector
@@ -585,6 +606,9 @@ class Guard:
             zi.copy(),
             np.zeros((B, N)),
             zi.copy(),
+            tuple(np.zeros((B, m)) for m in self.dims),
+            tuple(np.zeros((B, m, m)) for m in self.dims),
+            zi.copy() - 1,
         )
 
     @staticmethod
@@ -672,6 +696,7 @@ class Guard:
         tuple[np.ndarray, ...],
         np.ndarray,
         tuple[tuple[np.ndarray, np.ndarray], ...],
+        tuple[np.ndarray, ...],
     ]:
         """The epoch's flags (B, N): the aids the method isolates this epoch.
 
@@ -815,9 +840,18 @@ class Guard:
         # gyro bias step: the star tracker flagged, the GNSS velocities confirming it)
         support, backed = self._support(state, test, usable & fresh)
         settled |= backed & ~undone
+        # a held aid beside aids of its rate only, at one constant offset from the
+        # estimate for ``lasting_s``: that offset is taken (a rollback the rate aids could
+        # not judge, or a lasting step: the plain filter's choice)
+        level, level_A, level_age, offset = self._lasting(
+            state, test, judged & ~only & ~shows & ~settled & ~undone, usable
+        )
+        lasting = np.stack([o.any(-1) for o in offset], 1) if N else np.zeros((B, 0), bool)
+        settled |= lasting
         # a jump's hold: the jump is taken, not a drift (a hold whose sum holds no jump, a
-        # freeze's, ends relaxed with nothing to take)
-        taken = settled & ~steady & (state.jumps > 0)
+        # freeze's, ends relaxed with nothing to take); a lasting offset is taken too,
+        # its jump sum kept for the jump back at the fault's end
+        taken = (settled & ~steady & (state.jumps > 0)) | lasting
         returned &= ~undone & ~settled
         release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
         relaxed = (release & ~undone & ~strict) | settled | returned
@@ -845,7 +879,10 @@ class Guard:
         # jump back; never an aid whose increments show a noise increase: its jumps
         # cancel by chance)
         far = np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
-        due = det_flag & far & ~state.hold & fresh
+        # (or not flagged at all, where the estimate took the jump the sum keeps: a
+        # separation test does not flag the jump back, it alarms on its pull after)
+        kept = np.stack([(state.taken[a] != 0).any(-1) for a in range(N)], 1)
+        due = (det_flag | kept) & far & ~state.hold & fresh
         due &= ~self._loud(due & usable, spread, test)[0]
         home = self._home(state, inc, good, due, usable, test)
         welcome = welcome | home
@@ -967,7 +1004,11 @@ class Guard:
         pending = np.where(reset, doubt, state.pending)
         support = np.where(reset, 0.0, support)
         length = np.where(hold & ~rising, state.length + 1, 0)
+        level_age = np.where(hold & ~rising & ~release, level_age, -1)
         new_state = state._replace(
+            level=level,
+            level_A=level_A,
+            level_age=level_age,
             support=support,
             length=length,
             pulls=test.pulls,
@@ -995,7 +1036,59 @@ class Guard:
         # moves as the vehicle does, offset) still tells the estimate's rate, once
         # ``n_off`` in a row were consistent; never a repeated output's (a frozen receiver
         # looks like a stop at a crawl, and would hold the estimate still)
-        return new_state, out, flags, windows, rate, noise, home, inc
+        return new_state, out, flags, windows, rate, noise, home, inc, offset
+
+    def _lasting(
+        self,
+        state: GuardState,
+        test: GuardTest,
+        judged: np.ndarray,
+        usable: np.ndarray,
+    ) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...], np.ndarray, tuple[np.ndarray, ...]]:
+        """A held aid's lasting offset (module docstring, 3): the new ``level``,
+        ``level_A``, ``level_age`` and, per aid, the rows (B, m) of an offset to take now.
+
+        Where a held aid measures (``judged``: held, fresh, beside other aids, no noise
+        shown), its innovation is compared with its level, the innovation when its
+        present run began: ``ν − ν₀`` against ``2R + κ² H(P − P₀)Hᵀ`` (its two noises
+        and the coast's growth since).  A departure (a jump, a ramp, a drift the coast did
+        not foresee) starts a new run at the present innovation.  A run that has kept its
+        level for ``lasting_s`` is a constant offset between the aid and the estimate:
+        neither the aid's ramp nor the estimate's drift.  Its rows that moved beyond
+        chance are taken when no other aid measuring responds to an offset of them
+        (:meth:`_unseen` with ``offset``: a position beside velocities, an odometer or the
+        vehicle constraints, which cannot tell one constant position offset from another;
+        not a star tracker's tilt beside GNSS velocities, whose rate the tilt moves) and
+        the rows they respond to did not move."""
+        B, N = judged.shape
+        k2 = self.config.kappa**2
+        t1 = _threshold(self.pfa, 1)
+        level, level_A = list(state.level), list(state.level_A)
+        age = state.level_age.copy()
+        offset = []
+        for a, t in enumerate(test.aids):
+            j = judged[:, a] & self.rollback
+            rows = np.zeros((B, self.dims[a]), bool)
+            if not j.any():
+                age[:, a] = np.where(state.hold[:, a], age[:, a], -1)
+                offset.append(rows)
+                continue
+            restart = j & (age[:, a] < 0)  # a jump departs from the level: it restarts
+            S = 2.0 * t.R + k2 * _psd(kf.symmetrize(t.A - level_A[a]))
+            keeps = j & ~restart & (_chi2(t.nu - level[a], S) <= self.T1[a])
+            new = j & ~keeps
+            level[a] = np.where(new[:, None], t.nu, level[a])
+            level_A[a] = np.where(new[:, None, None], t.A, level_A[a])
+            age[:, a] = np.where(j, np.where(keeps, age[:, a] + 1, 0), age[:, a])
+            ripe = keeps & (age[:, a] >= self.lasting)
+            if ripe.any():
+                var = np.diagonal(t.A + t.R, axis1=-2, axis2=-1)
+                moved = t.nu**2 / np.where(var > 0, var, np.inf) > t1
+                read = ~self._unseen(a, usable & ~state.hold, test, offset=True)
+                ok = ripe & moved.any(-1) & ~(moved & read).any(-1)
+                rows = ok[:, None] & moved
+            offset.append(rows)
+        return tuple(level), tuple(level_A), age, tuple(offset)
 
     def _loud(
         self, candidate: np.ndarray, spread: Sequence[np.ndarray], test: GuardTest
@@ -1262,7 +1355,12 @@ class Guard:
         return out
 
     def _unseen(
-        self, a: int, witnesses: np.ndarray, test: GuardTest, rates: bool = True
+        self,
+        a: int,
+        witnesses: np.ndarray,
+        test: GuardTest,
+        rates: bool = True,
+        offset: bool = False,
     ) -> np.ndarray:
         """(B, m) the rows of aid ``a`` that no other aid of its group in ``witnesses``
         (B, N) responds to.  A row's quantity is carried by the states of ``H_a`` and of
@@ -1274,7 +1372,11 @@ class Guard:
         the velocity's rate).  Every row where no witness measures.  Without ``rates``
         the rows no witness *reads*: the quantity is carried by ``H_a``'s states and a
         witness reads those of ``H_j`` only (a rate or a constraint reads none of a
-        position's: it cannot tell one constant offset from another)."""
+        position's: it cannot tell one constant offset from another).  With ``offset`` the
+        rows where a constant offset of the quantity itself (``H_a``'s states, not their
+        rate) moves nothing a witness responds to, rates included: a position beside a
+        velocity aid (a constant position offset has no rate), not a star tracker's tilt
+        beside GNSS velocities (a tilt moves their rate)."""
         g = self.group_of[a]
         others = [j for j in self.groups[g] if j != a]
         present = np.zeros(witnesses.shape[0], bool)
@@ -1286,13 +1388,13 @@ class Guard:
         P, Ha = test.P[g], test.H[a]
         D = np.broadcast_to(test.F[g], P.shape) - np.eye(P.shape[-1])
         quantity = _carries(Ha, P)  # (B, m, n)
-        if rates:
+        if rates and not offset:
             quantity = quantity | _carries(Ha @ D, P)
         seen = np.zeros(P.shape[:2], bool)
         for j in others:
             Hj = test.H[j]
             moves = _carries(Hj, P)
-            if rates:
+            if rates or offset:
                 HjD = Hj @ D
                 moves = moves | _carries(HjD, P) | _carries(HjD @ D, P)
             seen |= witnesses[:, j, None] & moves.any(1)
@@ -1386,7 +1488,7 @@ class Guard:
         (the epoch's :attr:`~ftnav.model.system.Epoch.repeated`), or None.
         """
         test = self.test(state, priors, F, z, H, R, usable)
-        after, out, flags, windows, rate, noise, home, inc = self.decide(
+        after, out, flags, windows, rate, noise, home, inc, lasting = self.decide(
             state, test, detection, usable, keep, repeated
         )
         B, N = usable.shape
@@ -1394,7 +1496,9 @@ class Guard:
             detection = DetectorOutput(out.statistic, np.ones((B, N)), out.alarm, flags)
         else:
             detection = detection._replace(raw=detection.raw | out.alarm, flag=flags)
-        return Guarded(state, after, test, out, flags, detection, windows, rate, noise, home, inc)
+        return Guarded(
+            state, after, test, out, flags, detection, windows, rate, noise, home, inc, lasting
+        )
 
     def finish(
         self,
@@ -1492,9 +1596,10 @@ class Guard:
                 rel = out.relaxed[:, a] & usable[:, a]
                 if rel.any():
                     Ha, Ra = self._matrices(H[a], R[a], B)
-                    jumped = out.taken[:, a]
+                    lasted = rel[:, None] & g.lasting[a]
+                    jumped = out.taken[:, a] & ~lasted.any(-1)
                     homed = rel & g.home[:, a]
-                    if jumped.any() or homed.any():
+                    if jumped.any() or homed.any() or lasted.any():
                         # a sole source's jump taken, or an aid's jump back home: the
                         # estimate moves by it in the measured quantity only, with its
                         # covariance; the rest of the innovation is the coast's drift
@@ -1511,12 +1616,16 @@ class Guard:
                         d, Cd = g.increments[a]
                         J = np.where(homed[:, None], d, J)
                         C = np.where(homed[:, None, None], Cd, C)
+                        # a lasting offset: the innovation in its rows, with the aid's R
+                        nu_l = np.nan_to_num(z[a]) - kf.mv(Ha, x)
+                        J = np.where(lasted, nu_l, J)
+                        C = np.where(lasted[:, :, None] & lasted[:, None, :], Ra, C)
                         shift = kf.mv(M, J)
                         spread = kf.symmetrize(M @ C @ kf.mT(M))
                         x, P = x + shift, kf.symmetrize(P + spread)
                         dx -= shift
                         dP += spread
-                        where |= jumped | homed
+                        where |= jumped | homed | lasted.any(-1)
                     A = kf.symmetrize(Ha @ P @ kf.mT(Ha))
                     nu = np.where(rel[:, None], np.nan_to_num(z[a]) - kf.mv(Ha, x), 0.0)
                     gam = np.where(rel, inflation(nu, A, Ra), 0.0)
