@@ -386,3 +386,27 @@ def test_after_a_lasting_step_taken_back_through_the_allowance_the_gnss_comes_ho
     for name, (back, err, ckf) in _recovery_from_north(tmp_path, "bias", metres).items():
         assert back <= 2.0, name
         assert err <= 1.5 * ckf, (name, err, ckf)
+
+
+@pytest.mark.parametrize("metres", [5.0, 2.0])
+def test_gnss_alone_a_false_alarm_during_a_long_step_keeps_its_jump_back(tmp_path, metres):
+    """GNSS positions alone, a north step of ``metres`` from 100 s to 480 s: the step is
+    followed (taken after the patience, or let back in through the allowance), and the
+    GLR's false alarms in the turns (255, 266, 430 s) each held the fix for about a
+    second.  Such a hold, with no jump of its own, used to clear the hold's jump sum, so
+    the step's end was a new jump, held 10.1 s (5 m) and 5.8 s (2 m: 0.78 m after the
+    step against ``ckf``'s 0.22 m); a 5 m step ending at 500 s was held to the drive's
+    end (4.99 m after it against 0.95 m).  The sum now outlives a false alarm's hold and
+    the jump back cancels it."""
+    end = 480.0
+    path = _short(tmp_path, ("ckf", "fkf-glr"), span=549.0)
+    t0 = load_recording(path, methods=["ckf"]).recording.t_start
+    step = Fault("gnss", "bias", t0 + T_FAULT, t0 + end, np.array([0.0, metres, 0, 0, 0, 0]))
+    loaded, traces, _ = process(path, aids=["gnss"], faults=[step])
+    times = loaded.recording.times
+    assert _readmitted_after(times, _flags(loaded, traces["fkf-glr"]), end) <= 2.0
+    t_ref, ckf = _horizontal(loaded, traces["ckf"])
+    _, err = _horizontal(loaded, traces["fkf-glr"])
+    after = t_ref >= end
+    rms = lambda e: float(np.sqrt(np.mean(e[after] ** 2)))  # noqa: E731
+    assert rms(err) <= 1.5 * rms(ckf), (rms(err), rms(ckf))

@@ -75,6 +75,18 @@ def test_fault_free_twins_are_within_10_percent_of_the_plain_filter(slowramp, na
 NOISY = ("ckf-chi2", "fkf-chi2", "dkf-chi2")
 
 
+def _slowramp_with(fault, label, methods, runs):
+    """``slowramp`` with its own ramp replaced by ``fault``: ``ckf`` and ``methods``,
+    ``runs`` runs without the fault-free twins."""
+    path = builtin_path("slowramp")
+    doc = read_toml(path)
+    doc["faults"] = [fault]
+    sc = parse_scenario(doc, f"slowramp, {label}", Path(path).parent)
+    keep = ("ckf", *methods)
+    sc = dataclasses.replace(sc, methods=tuple(m for m in sc.methods if m.name in keep))
+    return sc, run_scenario(sc, runs, 1, fault_free=False)
+
+
 @pytest.fixture(scope="module")
 def noisy():
     """``slowramp`` with its ramp replaced by the fix's noise at 10 times its σ over
@@ -82,14 +94,8 @@ def noisy():
     not apply; a noisy fix that passed the coasting allowance by chance was taken whole,
     relaxed (ckf-chi2 1.40 m after the noise against ckf's 0.30 m, 3 runs of 20 some
     8 m off for 100 s)."""
-    path = builtin_path("slowramp")
-    doc = read_toml(path)
-    doc["faults"] = [
-        {"sensor": "gnss", "kind": "noise-scale", "start": 300.0, "end": 500.0, "magnitude": [10.0]}
-    ]
-    sc = parse_scenario(doc, "slowramp, the fix noisy", Path(path).parent)
-    sc = dataclasses.replace(sc, methods=tuple(m for m in sc.methods if m.name in ("ckf", *NOISY)))
-    return sc, run_scenario(sc, 20, 1, fault_free=False)
+    fault = {"sensor": "gnss", "kind": "noise-scale", "start": 300.0, "end": 500.0}
+    return _slowramp_with({**fault, "magnitude": [10.0]}, "the fix noisy", NOISY, 20)
 
 
 @pytest.mark.parametrize("name", NOISY)
@@ -107,14 +113,8 @@ def long_step():
     """``slowramp`` with its ramp replaced by a 20 m step of the fix over [300, 700) s,
     longer than the guard's ``lasting_s`` (300 s): the held fix keeps one offset beside
     the odometer, which cannot judge it."""
-    path = builtin_path("slowramp")
-    doc = read_toml(path)
-    doc["faults"] = [
-        {"sensor": "gnss", "kind": "bias", "start": 300.0, "end": 700.0, "magnitude": [20.0]}
-    ]
-    sc = parse_scenario(doc, "slowramp, a long step of the fix", Path(path).parent)
-    sc = dataclasses.replace(sc, methods=tuple(m for m in sc.methods if m.name in ("ckf", *LONG)))
-    return sc, run_scenario(sc, 10, 1, fault_free=False)
+    fault = {"sensor": "gnss", "kind": "bias", "start": 300.0, "end": 700.0}
+    return _slowramp_with({**fault, "magnitude": [20.0]}, "a long step of the fix", LONG, 10)
 
 
 @pytest.mark.parametrize("name", LONG)

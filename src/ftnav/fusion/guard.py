@@ -970,19 +970,37 @@ class Guard:
             calm[:, a] = np.where(back & only[:, a], self.patience, calm[:, a])
         # a jump taken stays in the sum; a sum that cancelled is gone
         clear = (release & ((settled & ~taken) | returned)) | home
+        # but a steady hold (a false alarm: no jump of its own) that ends settled leaves
+        # the sum it found: a step the estimate followed or took before it still has its
+        # jump back to come (the drive's GNSS alone, a 5 m step for 400 s taken after the
+        # patience: a GLR false alarm in a turn cleared the sum, and the step's end was
+        # held to the drive's end)
+        carry = clear & release & settled & state.steady & ~returned & ~home
         jump = tuple(
-            np.where(clear[:, a, None], 0.0, jump[a] + np.where(onset[:, a, None], inc[a][0], 0.0))
+            np.where(
+                carry[:, a, None],
+                state.jump[a],
+                np.where(
+                    clear[:, a, None], 0.0, jump[a] + np.where(onset[:, a, None], inc[a][0], 0.0)
+                ),
+            )
             for a in range(N)
         )
         jump_cov = tuple(
             np.where(
-                clear[:, a, None, None],
-                0.0,
-                jump_cov[a] + np.where(onset[:, a, None, None], inc[a][1], 0.0),
+                carry[:, a, None, None],
+                state.jump_cov[a],
+                np.where(
+                    clear[:, a, None, None],
+                    0.0,
+                    jump_cov[a] + np.where(onset[:, a, None, None], inc[a][1], 0.0),
+                ),
             )
             for a in range(N)
         )
-        jumps = np.where(clear, 0, state.jumps + (judged & ~good) + onset)
+        jumps = np.where(
+            carry, state.jumps, np.where(clear, 0, state.jumps + (judged & ~good) + onset)
+        )
         # a held only aid whose increments show much more noise than its R (a noise
         # increase: no jump, no drift) is used with that noise; coasting without it
         # would trade the aid's noise for the INS's drift.  Its jump sum stays: a jump
@@ -995,7 +1013,7 @@ class Guard:
         )
         taken_sum = tuple(
             np.where(
-                clear[:, a, None],
+                clear[:, a, None] & ~carry[:, a, None],
                 0.0,
                 np.where(taken[:, a, None], jump[a], state.taken[a]),
             )
