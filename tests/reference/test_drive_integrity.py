@@ -395,9 +395,8 @@ def test_gnss_alone_a_false_alarm_during_a_long_step_keeps_its_jump_back(tmp_pat
     GLR's false alarms in the turns (255, 266, 430 s) each held the fix for about a
     second.  Such a hold, with no jump of its own, used to clear the hold's jump sum, so
     the step's end was a new jump, held 10.1 s (5 m) and 5.8 s (2 m: 0.78 m after the
-    step against ``ckf``'s 0.22 m); a 5 m step ending at 500 s was held to the drive's
-    end (4.99 m after it against 0.95 m).  The sum now outlives a false alarm's hold and
-    the jump back cancels it."""
+    step against ``ckf``'s 0.22 m): the patience.  The sum now outlives a false alarm's
+    hold and the jump back cancels it."""
     end = 480.0
     path = _short(tmp_path, ("ckf", "fkf-glr"), span=549.0)
     t0 = load_recording(path, methods=["ckf"]).recording.t_start
