@@ -29,13 +29,15 @@ from ftnav.scenarios import builtin_path
 
 RUNS = 60
 GUARDED = ("ckf-chi2", "fkf-chi2", "dkf-chi2", "ckf-cusum", "ckf-glr", "ckf-separation")
+#: independent locals keep no pulls or jump sums: no rollback, patience or home
+NO_RESET = "fkf-nr-chi2"
 END = 500.0  # the ramp's end
 
 
 @pytest.fixture(scope="module")
 def slowramp():
     sc = load_scenario(builtin_path("slowramp"))
-    keep = ("ckf", "ckf-chi2-unguarded", *GUARDED)
+    keep = ("ckf", "ckf-chi2-unguarded", *GUARDED, NO_RESET)
     sc = dataclasses.replace(sc, methods=tuple(m for m in sc.methods if m.name in keep))
     result = run_scenario(sc, RUNS, 1)
     return sc, result, evaluate(result)
@@ -47,7 +49,20 @@ def _after(sc, res) -> float:
     return float(np.sqrt(np.mean(res.error[:, after, 0] ** 2)))
 
 
-@pytest.mark.parametrize("name", GUARDED)
+@pytest.mark.parametrize(
+    "name",
+    (
+        *GUARDED,
+        pytest.param(
+            NO_RESET,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="open (docs/integrity.md §1.3, §5): the no-reset federated method holds "
+                "the fix's jump back 69 s on average after the ramp, 10.9 m after it against 0.51 m",
+            ),
+        ),
+    ),
+)
 def test_the_fix_comes_back_after_the_ramp_in_every_run(slowramp, name):
     sc, result, metrics = slowramp
     assert metrics[name].detection["gnss"]["readmitted"] == 1.0
