@@ -58,7 +58,7 @@ def _after(sc, res) -> float:
             marks=pytest.mark.xfail(
                 strict=True,
                 reason="open (docs/integrity.md §1.3, §5): the no-reset federated method holds "
-                "the fix's jump back 69 s on average after the ramp, 10.9 m after it against 0.51 m",
+                "the fix's jump back 69 s on average after the ramp, 10.9 m after it (ckf 0.51 m)",
             ),
         ),
     ),
