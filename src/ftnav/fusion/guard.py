@@ -846,7 +846,7 @@ class Guard:
         level, level_A, level_age, offset = self._lasting(
             state, test, judged & ~only & ~shows & ~settled & ~undone, usable
         )
-        lasting = np.stack([o.any(-1) for o in offset], 1) if N else np.zeros((B, 0), bool)
+        lasting = np.stack([o.any(-1) for o in offset], 1)
         settled |= lasting
         # a jump's hold: the jump is taken, not a drift (a hold whose sum holds no jump, a
         # freeze's, ends relaxed with nothing to take); a lasting offset is taken too,
@@ -972,9 +972,9 @@ class Guard:
         clear = (release & ((settled & ~taken) | returned)) | home
         # but a steady hold (a false alarm: no jump of its own) that ends settled leaves
         # the sum it found: a step the estimate followed or took before it still has its
-        # jump back to come (the drive's GNSS alone, a 5 m step for 400 s taken after the
-        # patience: a GLR false alarm in a turn cleared the sum, and the step's end was
-        # held to the drive's end)
+        # jump back to come (the drive's GNSS alone, a 5 m step from 100 to 480 s: a GLR
+        # false alarm in a turn cleared the sum, and the step's end was held for the
+        # patience, 10.1 s, where it now comes back at once)
         carry = clear & release & settled & state.steady & ~returned & ~home
         jump = tuple(
             np.where(
@@ -1022,7 +1022,7 @@ class Guard:
         pending = np.where(reset, doubt, state.pending)
         support = np.where(reset, 0.0, support)
         length = np.where(hold & ~rising, state.length + 1, 0)
-        level_age = np.where(hold & ~rising & ~release, level_age, -1)
+        level_age = np.where(hold & ~rising, level_age, -1)  # a new or ended hold: none
         new_state = state._replace(
             level=level,
             level_A=level_A,
@@ -1088,10 +1088,9 @@ class Guard:
             j = judged[:, a] & self.rollback
             rows = np.zeros((B, self.dims[a]), bool)
             if not j.any():
-                age[:, a] = np.where(state.hold[:, a], age[:, a], -1)
                 offset.append(rows)
                 continue
-            restart = j & (age[:, a] < 0)  # a jump departs from the level: it restarts
+            restart = j & (age[:, a] < 0)  # no level yet (a departure fails ``keeps``)
             S = 2.0 * t.R + k2 * _psd(kf.symmetrize(t.A - level_A[a]))
             keeps = j & ~restart & (_chi2(t.nu - level[a], S) <= self.T1[a])
             new = j & ~keeps
