@@ -49,7 +49,7 @@ from ftnav.fusion.config import (
     config_error,
 )
 from ftnav.fusion.detection import Detection, epoch_features, features_needed
-from ftnav.fusion.guard import Amend, Guard, GuardState
+from ftnav.fusion.guard import Amend, Guard, GuardState, devices_of
 from ftnav.fusion.isolation import IsolationPolicy
 from ftnav.fusion.locals import (
     LocalBank,
@@ -285,7 +285,16 @@ class FederatedFilter:
             if self.local_guard:  # independent locals: tested against the fused prior
                 sizes = [self.bank.models[i].n for i in range(N)]
                 groups = [(i,) for i in range(N)]
-                self.guard = Guard(g, groups, sizes, dims, dt, rollback=False)
+                self.guard = Guard(
+                    g,
+                    groups,
+                    sizes,
+                    dims,
+                    dt,
+                    rollback=False,
+                    devices=devices_of(system.sensors),
+                    common=self.nc,
+                )
             else:
                 self.guard = Guard.fused(g, system.sensors, self.nc, dt, sd)
         self.features = features_needed(
@@ -409,7 +418,7 @@ class FederatedFilter:
             det_out, flag = guarded.detection, guarded.flags
             if self.local_guard:  # each local takes its own aid's rollback
                 guard_state, amends = self.guard.finish(guarded, *_without_F(gin), meas.usable)
-                loc = _amended(loc, amends)
+                loc = _amended(loc, amends, gin[0], state.share, self.nc)
         xg, Pg, master = self._fuse(state, loc, flag, prior_g, F, Q)
         if guarded is not None and not self.local_guard:  # the fused estimate takes it
             assert self.guard is not None and gin is not None
@@ -717,14 +726,33 @@ def _without_F(
     return priors, z, H, R
 
 
-def _amended(loc: _Locals, amends: tuple[Amend, ...]) -> _Locals:
-    """Each local's prior and posterior less its own aid's rollback (no-reset guard)."""
+def _amended(
+    loc: _Locals,
+    amends: tuple[Amend, ...],
+    bases: list[Gaussian],
+    share: np.ndarray,
+    nc: int,
+) -> _Locals:
+    """Each local after its guard's amend (no-reset guard: a relaxed re-admission's
+    update and inflation, made on the reference its aid was tested against, ``bases``).
+
+    The local restarts from that reference, as a fusion reset restarts every local
+    (spec §1.5): its common block's covariance divided by its share β_i (``share``,
+    (B, N)), so that the fused estimate does not count the reference's information once
+    more for each local restarted from it.  Its own coast may lie far from where the
+    aid's innovation was measured (an isolated aid beside another one's fault: the
+    reference followed that fault)."""
     priors, updates = list(loc.priors), list(loc.updates)
     for i, a in enumerate(amends):
         if not a.where.any():
             continue
         x, P = priors[i]
-        priors[i] = Gaussian(select(a.where, x - a.dx, x), select(a.where, P + a.dP, P))
+        xb, Pb = bases[i]
+        beta = np.where(share[:, i] > 0, share[:, i], 1.0)
+        scale = np.ones(P.shape[:2])
+        scale[:, :nc] = 1.0 / np.sqrt(beta)[:, None]
+        P_new = scale[:, :, None] * (Pb + a.dP) * scale[:, None, :]
+        priors[i] = Gaussian(select(a.where, xb - a.dx, x), select(a.where, P_new, P))
         u = updates[i]
         updates[i] = u._replace(
             x=select(a.where, u.x - a.dx, u.x), P=select(a.where, u.P + a.dP, u.P)

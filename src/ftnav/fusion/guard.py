@@ -141,7 +141,12 @@ and decides the method's isolation from its detector's flags:
    a jump no longer says "the aid's own fault" (one fault at a time: the estimate is
    the common cause), so the held aids back each other too, from the patience after
    the hold's onset, and a backed jump is taken.  Not two aids of one device (a
-   receiver's positions and velocities), which may fail together.
+   receiver's positions and velocities), which may fail together.  Independent locals
+   (no-reset federated, ``common``): two held aids of different devices back each other
+   across the locals, the other locals' aids witnessing through the shared states (a
+   healthy fix held beside an odometer's ramp, whose fused reference followed the
+   odometer 100 m off: re-admitted at the ramp's end); a single held aid's jump is its
+   own (they keep no increments).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
@@ -507,6 +512,11 @@ class Guard:
         each hold only their own aid, tested against the method's reference: the guard
         then keeps the holds, the coasting allowance and the override, module docstring
         2-3).
+    devices : the device each aid comes from (:func:`devices_of`), or None.
+    common : independent locals (each group one aid, each tested against the method's
+        reference in its first ``common`` states): the other groups' aids then witness a
+        held aid through those states in the backing of two held aids (module docstring,
+        6).
     """
 
     def __init__(
@@ -519,8 +529,12 @@ class Guard:
         detector: Separation | None = None,
         rollback: bool = True,
         devices: Sequence[str] | None = None,
+        common: int | None = None,
     ):
         self.config = config
+        #: independent locals (one aid per group): the first ``common`` states are every
+        #: group's, and the other groups' aids witness a held aid through them
+        self.common = None if common is None else int(common)
         #: the device each aid comes from (:func:`devices_of`): two halves of one
         #: receiver do not back each other
         self.devices = tuple(str(d) for d in devices) if devices is not None else None
@@ -851,7 +865,8 @@ class Guard:
         # a jump's hold: the jump is taken, not a drift (a hold whose sum holds no jump, a
         # freeze's, ends relaxed with nothing to take); a lasting offset is taken too,
         # its jump sum kept for the jump back at the fault's end
-        taken = (settled & ~steady & (state.jumps > 0)) | lasting
+        # (independent locals keep no increments: a hold of theirs takes no jump)
+        taken = (settled & ~steady & (state.jumps > 0) & self.rollback) | lasting
         returned &= ~undone & ~settled
         release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
         relaxed = (release & ~undone & ~strict) | settled | returned
@@ -1161,7 +1176,7 @@ class Guard:
         support = state.support.copy()  # zero where not held: reset at every hold's ends
         backed = np.zeros((B, N), bool)
         held = state.hold & usable
-        if not self.rollback or not held.any():
+        if (not self.rollback and self.common is None) or not held.any():
             return support, backed
         # another held aid of the group, of another device, measuring now: under a
         # single fault, two devices' aids held at once are not both faulty, so a jump of
@@ -1170,11 +1185,12 @@ class Guard:
         # coast's drift, and they would back each other on it)
         co = np.zeros((B, N), bool)
         for a in range(N):
-            for j in self.groups[self.group_of[a]]:
+            for j in self._peers(a):
                 if self._apart(a, j):
                     co[:, a] |= held[:, j]
         co &= held
-        cand = held & ((state.jumps == 0) | co)
+        # (independent locals keep no increments: only two held aids back each other)
+        cand = held & (((state.jumps == 0) & self.rollback) | co)
         if not cand.any():
             return support, backed
         for a in range(N):
@@ -1187,9 +1203,7 @@ class Guard:
             dx = kf.mv(K, ta.nu)
             P_a = P - reduction(K, A, ta.R)  # the estimate updated by the held aid
             gain, seen_any = np.zeros(B), np.zeros(B, bool)
-            for j in self.groups[g]:
-                if j == a:
-                    continue
+            for j in self._peers(a):
                 # a held witness only for an aid held beside it (the two back each other)
                 w = ca & usable[:, j]
                 w &= ~state.hold[:, j] | (co[:, a] & self._apart(a, j))
@@ -1200,9 +1214,10 @@ class Guard:
                 w &= ~self._unseen(a, only_j, test).all(-1)
                 if not w.any():
                     continue
-                tj, Hj = test.aids[j], test.H[j]
+                tj, Hj = test.aids[j], self._on(j, g, test.H[j])
                 S0 = tj.A + tj.R
-                S1 = kf.symmetrize(Hj @ P_a @ kf.mT(Hj)) + tj.R
+                # (another local's: its private states' part of S0 stays)
+                S1 = S0 - kf.symmetrize(Hj @ (P - P_a) @ kf.mT(Hj))
                 q0 = _chi2(tj.nu, S0) + np.linalg.slogdet(S0)[1]
                 q1 = _chi2(tj.nu - kf.mv(Hj, dx), S1) + np.linalg.slogdet(S1)[1]
                 gain += np.where(w, q0 - q1, 0.0)
@@ -1360,6 +1375,23 @@ class Guard:
             ok &= ~w | (q_b <= np.maximum(self.T1[j], q_a))
         return np.asarray(ok, bool)
 
+    def _peers(self, a: int) -> list[int]:
+        """The aids that may witness aid ``a``: the others of its group, or, for
+        independent locals (``common``), every other aid."""
+        if self.common is None:
+            return [j for j in self.groups[self.group_of[a]] if j != a]
+        return [j for j in range(self.N) if j != a]
+
+    def _on(self, j: int, g: int, Hj: np.ndarray) -> np.ndarray:
+        """Aid ``j``'s ``H`` on group ``g``'s states: itself in its own group, else its
+        columns of the shared states (the first ``common``), zero on the rest."""
+        if self.group_of[j] == g or self.common is None:
+            return Hj
+        c = self.common
+        out = np.zeros(Hj.shape[:-1] + (self.sizes[g],))
+        out[..., :c] = Hj[..., :c]
+        return out
+
     def _witness_present(
         self, a: int, usable: np.ndarray, state: GuardState | None = None
     ) -> np.ndarray:
@@ -1395,7 +1427,7 @@ class Guard:
         velocity aid (a constant position offset has no rate), not a star tracker's tilt
         beside GNSS velocities (a tilt moves their rate)."""
         g = self.group_of[a]
-        others = [j for j in self.groups[g] if j != a]
+        others = self._peers(a)
         present = np.zeros(witnesses.shape[0], bool)
         for j in others:
             present |= witnesses[:, j]
@@ -1409,7 +1441,7 @@ class Guard:
             quantity = quantity | _carries(Ha @ D, P)
         seen = np.zeros(P.shape[:2], bool)
         for j in others:
-            Hj = test.H[j]
+            Hj = self._on(j, g, test.H[j])
             moves = _carries(Hj, P)
             if rates or offset:
                 HjD = Hj @ D
