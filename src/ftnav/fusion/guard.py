@@ -1216,8 +1216,19 @@ class Guard:
                     continue
                 tj, Hj = test.aids[j], self._on(j, g, test.H[j])
                 S0 = tj.A + tj.R
-                # (another local's: its private states' part of S0 stays)
-                S1 = S0 - kf.symmetrize(Hj @ (P - P_a) @ kf.mT(Hj))
+                R_j = tj.R
+                if self.group_of[j] != g:  # another local's: its private part of S0 stays
+                    R_j = kf.symmetrize(S0 - Hj @ P @ kf.mT(Hj))
+                    R_j = np.where(_pd_rows(R_j)[:, None, None], R_j, tj.R)
+                S1 = kf.symmetrize(Hj @ P_a @ kf.mT(Hj)) + R_j
+                # no evidence from a covariance gone singular (a diverged run)
+                fine = _pd_rows(S0) & _pd_rows(S1)
+                w &= fine
+                if not w.any():
+                    continue
+                eye = np.eye(S0.shape[-1])
+                S0 = np.where(fine[:, None, None], S0, eye)
+                S1 = np.where(fine[:, None, None], S1, eye)
                 q0 = _chi2(tj.nu, S0) + np.linalg.slogdet(S0)[1]
                 q1 = _chi2(tj.nu - kf.mv(Hj, dx), S1) + np.linalg.slogdet(S1)[1]
                 gain += np.where(w, q0 - q1, 0.0)
