@@ -805,10 +805,26 @@ class Guard:
         shows, shown_R = self._loud(state.hold & usable & fresh, spread, test)
         loud = shows & only
         # a held aid beside others whose increments show a noise far above its R passes
-        # only the strict test: a noisy fix that passes the coasting allowance by chance
-        # is taken whole, relaxed, and the estimate left that far off (slowramp's fix at
-        # 10 times its noise: 8 m off for 100 s after it)
-        passes = np.where(tested & shows & ~only & ~strict, 0, passes)
+        # only the strict test with a consistent increment: a noisy fix that passes the
+        # coasting allowance by chance is taken whole, relaxed, and the estimate left that
+        # far off (slowramp's fix at 10 times its noise: 8 m off for 100 s after it).  And
+        # none while they show a noise past NOISE_RATIO² times R (its σ four times the
+        # declared): there the coast has grown so that n_off strict passes in a row come
+        # by chance, and a sequential detector, quiet after its alarm, lets them count
+        # (slowramp's fix at 10 times its σ: CUSUM and GLR 1.17 and 1.01 m after it,
+        # ckf 0.30 m).  A milder show may be the estimate's own moves after a relaxed
+        # re-admission, which a healthy aid's consistent increments end
+        very = np.stack(
+            [
+                (
+                    np.diagonal(shown_R[a], axis1=-2, axis2=-1)
+                    > NOISE_RATIO**2 * np.diagonal(t.R, axis1=-2, axis2=-1)
+                ).any(-1)
+                for a, t in enumerate(test.aids)
+            ],
+            1,
+        )
+        passes = np.where(tested & shows & ~only & (very | ~(strict & good)), 0, passes)
         steady, steps = state.steady, state.steps
         calm = np.where(state.hold, np.where(judged & ~good, 0, state.calm + 1), state.calm)
         # consistent increments in a row of every hold (a steady one's: its steps)
