@@ -784,8 +784,20 @@ class Guard:
         # takes a lasting 5 m east step after 10 s; requiring the aid to measure traded
         # the first for the second, and was not kept)
         only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
+        # no aid of the method other than ``a`` measures (independent locals: the other
+        # locals' aids too; else ``only``)
+        only_m = (
+            only
+            if self.common is None
+            else np.stack([~self._witness_present(a, usable, method=True) for a in range(N)], 1)
+        )
         # the increments matter where an aid is held or may be isolated now
-        need = (state.hold | det_flag | (ratio > 1.0)) if self.rollback else None
+        # (independent locals: where held or flagged, for the noise rule below)
+        need = (
+            (state.hold | det_flag | (ratio > 1.0))
+            if self.rollback
+            else ((state.hold | det_flag) if self.common is not None else None)
+        )
         # a repeated output is no measurement for the increments: it is neither tested
         # nor their reference, so a freeze is an outage to them, and the first fresh
         # output is tested against the last one before it (the walk's 15 s freeze of its
@@ -803,7 +815,8 @@ class Guard:
             for a in range(N)
         )
         shows, shown_R = self._loud(state.hold & usable & fresh, spread, test)
-        loud = shows & only
+        # (an independent local is not used with its noise: its estimate is the fused one)
+        loud = shows & only & self.rollback
         # a held aid beside others whose increments show a noise far above its R passes
         # only the strict test with a consistent increment: a noisy fix that passes the
         # coasting allowance by chance is taken whole, relaxed, and the estimate left that
@@ -818,13 +831,13 @@ class Guard:
             [
                 (
                     np.diagonal(shown_R[a], axis1=-2, axis2=-1)
-                    > NOISE_RATIO**2 * np.diagonal(t.R, axis1=-2, axis2=-1)
+                    > NOISE_RATIO**2 * self._floor(a, test)
                 ).any(-1)
-                for a, t in enumerate(test.aids)
+                for a in range(N)
             ],
             1,
         )
-        passes = np.where(tested & shows & ~only & (very | ~(strict & good)), 0, passes)
+        passes = np.where(tested & shows & ~only_m & (very | ~(strict & good)), 0, passes)
         steady, steps = state.steady, state.steps
         calm = np.where(state.hold, np.where(judged & ~good, 0, state.calm + 1), state.calm)
         # consistent increments in a row of every hold (a steady one's: its steps)
@@ -1150,16 +1163,30 @@ class Guard:
         given at least half the window."""
         loud = np.zeros(candidate.shape, bool)
         noise = [t.R for t in test.aids]
-        if not self.rollback or not candidate.any():
+        if (not self.rollback and self.common is None) or not candidate.any():
             return loud, tuple(noise)
-        for a, t in enumerate(test.aids):
+        for a in range(len(test.aids)):
             if not candidate[:, a].any():
                 continue
             shown, enough = _shown_noise(spread[a])
-            r = np.diagonal(t.R, axis1=-2, axis2=-1)
+            r = self._floor(a, test)
             loud[:, a] = candidate[:, a] & enough & (shown > NOISE_RATIO * r).any(-1)
             noise[a] = np.maximum(shown, r)[..., None] * np.eye(self.dims[a])
         return loud, tuple(noise)
+
+    def _floor(self, a: int, test: GuardTest) -> np.ndarray:
+        """(B, m) the noise variance aid ``a``'s increments are judged against: its R,
+        and for an independent local its private states' part, ``H_p P_p H_pᵀ`` (a GNSS
+        position's augmented Markov error moves its innovation as its noise does; the
+        fused guard folds it into R the same way)."""
+        t = test.aids[a]
+        r = np.diagonal(t.R, axis1=-2, axis2=-1)
+        c = self.common
+        g = self.group_of[a]
+        if c is None or self.sizes[g] <= c:
+            return np.asarray(r)
+        Hp, Pp = test.H[a][..., c:], test.P[g][:, c:, c:]
+        return np.asarray(r + np.diagonal(Hp @ Pp @ kf.mT(Hp), axis1=-2, axis2=-1))
 
     def _support(
         self, state: GuardState, test: GuardTest, usable: np.ndarray
@@ -1420,12 +1447,13 @@ class Guard:
         return out
 
     def _witness_present(
-        self, a: int, usable: np.ndarray, state: GuardState | None = None
+        self, a: int, usable: np.ndarray, state: GuardState | None = None, method: bool = False
     ) -> np.ndarray:
         """(B,) whether another aid of ``a``'s group has a measurement and is not isolated
-        (with ``state``; without: whether another aid has a measurement)."""
+        (with ``state``; without: whether another aid has a measurement); with ``method``
+        another aid of the method (:meth:`_peers`)."""
         out = np.zeros(usable.shape[0], bool)
-        for j in self.groups[self.group_of[a]]:
+        for j in self._peers(a) if method else self.groups[self.group_of[a]]:
             if j != a:
                 out |= usable[:, j] & (True if state is None else ~state.hold[:, j])
         return out
