@@ -21,15 +21,14 @@ START, END, DURATION = 300.0, 500.0, 800.0
 GUARDED = ("fkf-chi2", "fkf-cusum")
 
 
+def _gnss(kind: str, magnitude: list[float]) -> dict:
+    """A fault of the GNSS over [START, END)."""
+    return {"sensor": "gnss", "kind": kind, "start": START, "end": END, "magnitude": magnitude}
+
+
 @pytest.fixture(scope="module")
 def stepped():
-    fault = {
-        "sensor": "gnss",
-        "kind": "bias",
-        "start": START,
-        "end": END,
-        "magnitude": [0.0, 20.0, 0.0, 0.0, 0.0, 0.0],
-    }
+    fault = _gnss("bias", [0.0, 20.0, 0.0, 0.0, 0.0, 0.0])
     return run_seed002(fault, DURATION, RUNS, ("ckf", *GUARDED), "a 20 m north step")
 
 
@@ -60,13 +59,7 @@ def test_fault_free_twins_are_within_10_percent_of_the_plain_filter(stepped, nam
 
 @pytest.fixture(scope="module")
 def noisy():
-    fault = {
-        "sensor": "gnss",
-        "kind": "noise-scale",
-        "start": START,
-        "end": END,
-        "magnitude": [20.0],
-    }
+    fault = _gnss("noise-scale", [20.0])
     return run_seed002(fault, DURATION, RUNS, ("ckf", *GUARDED), "the GNSS noisy (x20)")
 
 
