@@ -63,6 +63,11 @@ increments show in the rows no other aid responds to): only seed002 ``fkf-chi2``
 horizontal rows the star tracker and altimeter do not see (horizontal RMSE 44.42 → 1.339,
 43.11 → 1.336 and 1.243 → 1.235 m, ``ckf`` 1.397 m; ANEES 9.37 → 10.71, 9.56 → 10.50;
 their fault-free twins by under 1e-3 relative); every other method unchanged to 1e-9.
+
+Recorded again for issue 20 (independent locals keep their jump sums, and an aid's jump
+back that undoes the one it was re-admitted with comes home at once): only seed001
+``fkf-nr-chi2-keep``'s second flight changed (horizontal RMSE 20.65 → 21.44 m, ``ckf``
+23.6 m); every other method unchanged to 1e-9.
 """
 
 from __future__ import annotations

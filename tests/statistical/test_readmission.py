@@ -29,7 +29,7 @@ from ftnav.scenarios import builtin_path
 
 RUNS = 60
 GUARDED = ("ckf-chi2", "fkf-chi2", "dkf-chi2", "ckf-cusum", "ckf-glr", "ckf-separation")
-#: independent locals keep no pulls or jump sums: no rollback, patience or home
+#: independent locals keep no pulls: no rollback, no patience
 NO_RESET = "fkf-nr-chi2"
 END = 500.0  # the ramp's end
 
@@ -191,5 +191,29 @@ def test_independent_locals_take_a_healthy_held_fix_back_after_another_aids_faul
     assert held[:, (t > 300.0) & (t < 500.0)].any(1).mean() >= 0.5  # the premise
     back = ~held[:, (t >= END) & (t <= END + 30.0)]
     assert back.any(1).all()  # back within 30 s of the fault's end in every run
+    plain = _after(sc, result.results["ckf"])
+    assert _after(sc, res) <= 1.5 * plain, (_after(sc, res), plain)
+
+
+@pytest.fixture(scope="module")
+def fix_step():
+    """``slowramp`` with its ramp replaced by a 20 m step of the fix over [300, 500) s,
+    under the no-reset federated χ² method: the coasting allowance let the step in about
+    60 s after its onset (the estimate followed it), and its end was held as long again
+    (6.35 m after the step against ``ckf``'s 0.42 m).  Its locals now keep their jump
+    sums, so the jump back that undoes the one the fix was re-admitted with comes home
+    at once (``Guard._home``), as for the fused estimates."""
+    fault = {"sensor": "gnss", "kind": "bias", "start": 300.0, "end": 500.0}
+    return _slowramp_with({**fault, "magnitude": [20.0]}, "a step of the fix", (NO_RESET,), 20)
+
+
+def test_independent_locals_take_a_step_back_home_at_its_end(fix_step):
+    sc, result = fix_step
+    res = result.results[NO_RESET]
+    assert res.guard is not None
+    t = sc.times
+    held = res.guard.hold[:, :, 0]
+    assert held[:, (t >= 300.0) & (t < 310.0)].any(1).all()  # the premise: held at onset
+    assert not held[:, (t >= END + 10.0) & (t < END + 20.0)].any()  # home at the end
     plain = _after(sc, result.results["ckf"])
     assert _after(sc, res) <= 1.5 * plain, (_after(sc, res), plain)

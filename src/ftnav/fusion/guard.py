@@ -146,7 +146,8 @@ and decides the method's isolation from its detector's flags:
    across the locals, the other locals' aids witnessing through the shared states (a
    healthy fix held beside an odometer's ramp, whose fused reference followed the
    odometer 100 m off: re-admitted at the ramp's end); a single held aid's jump is its
-   own (they keep no increments).
+   own (they keep no pulls; their increments and jump sums serve the noise rule and
+   the home rule of 3 only).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
@@ -905,7 +906,7 @@ class Guard:
         # a jump's hold: the jump is taken, not a drift (a hold whose sum holds no jump, a
         # freeze's, ends relaxed with nothing to take); a lasting offset is taken too,
         # its jump sum kept for the jump back at the fault's end
-        # (independent locals keep no increments: a hold of theirs takes no jump)
+        # (independent locals keep no pulls: a hold of theirs takes no jump)
         taken = (settled & ~steady & (state.jumps > 0) & self.rollback) | lasting
         returned &= ~undone & ~settled
         release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
@@ -1264,7 +1265,7 @@ class Guard:
                 if self._apart(a, j):
                     co[:, a] |= held[:, j]
         co &= held
-        # (independent locals keep no increments: only two held aids back each other)
+        # (independent locals: only two held aids back each other, no steady hold)
         cand = held & (((state.jumps == 0) & self.rollback) | co)
         if not cand.any():
             return support, backed
@@ -1350,7 +1351,7 @@ class Guard:
         moves (a rollback, a jump taken) left in the held aid's increments."""
         B, N = usable.shape
         out = np.zeros((B, N), bool)
-        if not self.rollback:  # independent locals: no increments, no sums
+        if not self.rollback and self.common is None:  # the neuron centre: no sums
             return out
         for a in range(N):
             cand = candidate[:, a] & usable[:, a] & (state.since[:, a] >= 0) & ~good[:, a]
