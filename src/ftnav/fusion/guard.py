@@ -826,7 +826,7 @@ class Guard:
             )
             for a in range(N)
         )
-        shows, shown_R = self._loud(state.hold & usable & fresh, spread, test)
+        shows, shown_R, very = self._loud(state.hold & usable & fresh, spread, test)
         # (an independent local is not used with its noise: its estimate is the fused one)
         loud = shows & only & self.rollback
         # a held aid beside others whose increments show a noise far above its R passes
@@ -839,16 +839,6 @@ class Guard:
         # (slowramp's fix at 10 times its σ: CUSUM and GLR 1.17 and 1.01 m after it,
         # ckf 0.30 m).  A milder show may be the estimate's own moves after a relaxed
         # re-admission, which a healthy aid's consistent increments end
-        very = np.stack(
-            [
-                (
-                    np.diagonal(shown_R[a], axis1=-2, axis2=-1)
-                    > NOISE_RATIO**2 * self._floor(a, test)
-                ).any(-1)
-                for a in range(N)
-            ],
-            1,
-        )
         passes = np.where(tested & shows & ~only_m & (very | ~(strict & good)), 0, passes)
         steady, steps = state.steady, state.steps
         calm = np.where(state.hold, np.where(judged & ~good, 0, state.calm + 1), state.calm)
@@ -1186,26 +1176,29 @@ class Guard:
 
     def _loud(
         self, candidate: np.ndarray, spread: Sequence[np.ndarray], test: GuardTest
-    ) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+    ) -> tuple[np.ndarray, tuple[np.ndarray, ...], np.ndarray]:
         """(B, N) the candidates whose increments show a noise variance above
         :data:`NOISE_RATIO` times their R in some component, and per aid the noise to
         use them with (B, m, m): the larger of R and the shown noise per component.  The
         shown noise is robust to a jump and to the estimate's drift: from the median
         absolute deviation of the last increments about their median,
         ``R̂ = (MAD_SIGMA · MAD)² / 2`` (an increment of white noise has variance 2R),
-        given at least half the window."""
+        given at least half the window; and (B, N) the loud ones whose shown noise passes
+        ``NOISE_RATIO²`` times it."""
         loud = np.zeros(candidate.shape, bool)
+        very = np.zeros(candidate.shape, bool)
         noise = [t.R for t in test.aids]
         if (not self.rollback and self.common is None) or not candidate.any():
-            return loud, tuple(noise)
+            return loud, tuple(noise), very
         for a in range(len(test.aids)):
             if not candidate[:, a].any():
                 continue
             shown, enough = _shown_noise(spread[a])
             r = self._floor(a, test)
             loud[:, a] = candidate[:, a] & enough & (shown > NOISE_RATIO * r).any(-1)
+            very[:, a] = loud[:, a] & (shown > NOISE_RATIO**2 * r).any(-1)
             noise[a] = np.maximum(shown, r)[..., None] * np.eye(self.dims[a])
-        return loud, tuple(noise)
+        return loud, tuple(noise), very
 
     def _floor(self, a: int, test: GuardTest) -> np.ndarray:
         """(B, m) the noise variance aid ``a``'s increments are judged against: its R,
