@@ -1,14 +1,17 @@
-"""A fault sweep with its points in one batch beside the same points one after another.
+"""A sweep with its points in one batch beside the same points one after another.
 
 ``ftnav sweep`` runs the points of a sweep over fault settings together
 (:func:`ftnav.eval.montecarlo.run_points`: every point's runs and one shared fault-free
-twin in one batch); before issue 23's batching each point was a campaign of its own
+twin in one batch), and a sweep over method settings as one campaign of the union of
+the points' methods (:func:`ftnav.sweep.shared_methods`: the methods the sweep does not
+touch run once); before issue 23's batching each point was a campaign of its own
 (:func:`ftnav.eval.montecarlo.run_scenario`, the point's runs and its own twin).  Both
 are timed here in the same process, on the same grid, one worker, and their metrics
 compared (they must be identical).
 
 * ``seed000`` (paper 000's linear model, every built-in method), the fault's size at
-  five values;
+  five values; then the χ² detector's false-alarm probability of
+  ``fkf-inverse-trace-chi2`` (one of its 19 methods) at five values (an ROC sweep);
 * ``seed002`` (the integrated SINS/GNSS/CNS/ADS flight) shortened to ``--seconds``, its
   first fault's size at three values (``--integrated``).
 
@@ -70,6 +73,8 @@ def main() -> None:
     a = ap.parse_args()
     warnings.simplefilter("ignore")
     compare(builtin_path("seed000"), "faults.0.magnitude=5,10,20,40,80", a.runs, a.repeat)
+    roc = "methods.10.detector.false_alarm_probability=1e-4,1e-3,1e-2,5e-2,1e-1"
+    compare(builtin_path("seed000"), roc, a.runs, a.repeat)
     if a.integrated:
         doc = read_toml(builtin_path("seed002"))
         doc["filter"]["duration_s"] = a.seconds

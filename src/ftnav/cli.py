@@ -609,7 +609,7 @@ def _cmd_schema(args) -> int:
 
 def _cmd_sweep(args) -> int:
     from ftnav.report.sweep import sweep_report, sweep_table
-    from ftnav.sweep import grid, parse_set, run_sweep, sweep_dataset
+    from ftnav.sweep import grid, parse_set, run_sweep, sweep_dataset, sweep_work
 
     with _checking():
         source = _scenario_path(args.scenario)
@@ -627,7 +627,7 @@ def _cmd_sweep(args) -> int:
             _build_filters(point)
     kind = "integrated" if _integrated(sc) else "linear"
     _compile_note(kind, args.quiet)
-    total = sum(len(p.methods) * p.steps for _, p in points)
+    total = sweep_work(points, axes)
     t0 = time.perf_counter()
     with tqdm(
         total=total,

@@ -203,6 +203,7 @@ def run_tasks(
     workers: int,
     progress: Callable[[int], None] | None = None,
     scheduler: str | None = None,
+    units: Sequence[int] | None = None,
 ) -> list[R]:
     """``[fn(task, progress) for task in tasks]``, in up to ``workers`` processes, or on
     the Dask cluster at ``scheduler`` (:func:`run_on_cluster`).
@@ -214,6 +215,9 @@ def run_tasks(
     tasks : picklable task descriptions.
     workers : processes to use; 1 (or a single task) runs in this process.
     progress : called in this process with the units the tasks report.
+    units : the units each task reports in all: on a cluster, where the tasks' own
+        reports stay on the workers, ``progress`` is given a task's units when its
+        result arrives (None: not fed there).
 
     Returns
     -------
@@ -221,7 +225,7 @@ def run_tasks(
         here, with its own type and message.
     """
     if scheduler is not None:
-        return run_on_cluster(fn, tasks, scheduler, progress)
+        return run_on_cluster(fn, tasks, scheduler, progress, units)
     if workers <= 1 or len(tasks) <= 1:
         return [fn(t, progress) for t in tasks]
     ctx = multiprocessing.get_context("spawn")
@@ -277,14 +281,16 @@ def run_on_cluster(
     tasks: Sequence[T],
     scheduler: str,
     progress: Callable[[int], None] | None = None,
+    units: Sequence[int] | None = None,
 ) -> list[R]:
     """The tasks on an existing ``dask.distributed`` cluster (``tcp://HOST:PORT``).
 
     Each task is one Dask task (submitted with a key of its own, ``pure=False``); Dask
     recomputes a task whose worker is lost before its result reached this process, so a
     lost worker costs time, never a result, and no task is counted twice (the results
-    are gathered by task, in order).  ``progress`` is not fed on a cluster (the tasks'
-    per-epoch reports stay on the workers).  Dask moves tasks and results
+    are gathered by task, in order).  The tasks' per-epoch reports stay on the workers:
+    ``progress`` is given ``units[i]`` as task i's result arrives (in the order they
+    finish; a recomputed task once).  Dask moves tasks and results
     between this process and its workers by pickle: run it on workers you trust (your
     own machines), as with any Dask cluster; nothing a user's file names is unpickled.
     Dask is imported here only (the ``ftnav[cluster]`` extra).
@@ -301,6 +307,13 @@ def run_on_cluster(
         raise ValueError(f"--scheduler: no Dask scheduler at {scheduler} ({exc})") from None
     with client:
         futures = [client.submit(_on_worker, fn, t, pure=False) for t in tasks]
+        if progress is not None and units is not None:
+            from distributed import as_completed
+
+            order = {f.key: i for i, f in enumerate(futures)}
+            with client.as_current():  # as_completed follows the current client
+                for f in as_completed(futures):
+                    progress(units[order[f.key]])
         return list(client.gather(futures))
 
 

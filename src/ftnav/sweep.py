@@ -25,9 +25,19 @@ point's metrics equal those of its own campaign bit for bit
 (``tests/equivalence/test_sweep_batched.py``), and the per-epoch cost of a linear
 model is paid once, not P times (``benchmarks/bench_sweep.py``).  As many points go in
 one batch as the memory estimate of :mod:`ftnav.eval.resources` lets their results
-fit.  Any other key (a method's setting, a noise scale) changes the filters or the
-model: those points run one after another, each batched over its runs and spread over
-the local workers like ``ftnav run``.
+fit.
+
+A sweep of method settings (every key under ``methods.``, alone or with fault keys)
+keeps the model, the aids and the noise too: the points run as one campaign of the
+*union* of their methods (:func:`shared_methods`), a method that two points have alike
+(every method the sweep does not touch) run once, each swept method once per value,
+on one simulation of the runs per fault setting.  A false-alarm sweep of one detector
+over five values among five methods costs nine methods' filters rather than
+twenty-five, and one simulation rather than five; each point's metrics equal those of
+its own campaign bit for bit (``tests/equivalence/test_sweep_batched.py``: every method
+is its own rows of the batch, whatever runs beside it).  Any other key (a noise scale,
+the steps) changes the model: those points run one after another, each batched over
+its runs and spread over the local workers like ``ftnav run``.
 """
 
 from __future__ import annotations
@@ -37,7 +47,7 @@ import itertools
 import math
 import tomllib
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -46,7 +56,7 @@ import xarray as xr
 
 from ftnav.eval.evaluate import MethodMetrics, evaluate
 from ftnav.eval.intervals import CONFIDENCE, Interval
-from ftnav.eval.montecarlo import run_points
+from ftnav.eval.montecarlo import ScenarioResult, run_points
 from ftnav.eval.resources import available_memory_bytes, max_runs_within
 from ftnav.io.common import ScenarioError, read_toml
 from ftnav.io.ins_scenario_file import parse_ins_scenario
@@ -58,9 +68,13 @@ __all__ = [
     "SweepAxis",
     "SweepError",
     "SweepResult",
+    "SharedMethods",
     "faults_only",
     "parse_set",
     "run_sweep",
+    "shared_methods",
+    "shares_model",
+    "sweep_work",
     "sweep_dataset",
 ]
 
@@ -201,21 +215,21 @@ def run_sweep(
     scheduler: str | None = None,
 ) -> SweepResult:
     """Run the campaign of every grid point of :func:`grid` (module docstring), on the
-    Dask cluster at ``scheduler`` when given."""
-    metrics = []
+    Dask cluster at ``scheduler`` when given; ``progress`` is fed
+    :func:`sweep_work`'s units."""
     first = points[0][1]
     options: dict[str, Any] = {"scheduler": scheduler}
     if workers is not None:
         options["workers"] = workers
     scenarios = [sc for _, sc in points]
-    # points that differ in their faults only run together; any other sweep one by one
-    together = len(scenarios) > 1 and faults_only(axes)
-    size = _points_per_batch(first, runs, len(scenarios), workers) if together else 1
-    for i in range(0, len(scenarios), size):
-        group = scenarios[i : i + size]
-        scaled = None if progress is None else _scaled(progress, len(group))
-        for result in run_points(group, runs, seed, progress=scaled, **options):
-            metrics.append(evaluate(result))
+    if len(scenarios) > 1 and shares_model(axes):
+        # points that differ in their faults and methods only run together
+        metrics = _run_shared(points, axes, runs, seed, workers, progress, options)
+    else:
+        metrics = []
+        for sc in scenarios:
+            for result in run_points([sc], runs, seed, progress=progress, **options):
+                metrics.append(evaluate(result))
     return SweepResult(
         first.name,
         tuple(axes),
@@ -229,8 +243,127 @@ def run_sweep(
 
 
 def faults_only(axes: Sequence[SweepAxis]) -> bool:
-    """Whether every swept key is a fault's setting (the points then run together)."""
+    """Whether every swept key is a fault's setting."""
     return all(a.key.split(".")[0] == "faults" for a in axes)
+
+
+def shares_model(axes: Sequence[SweepAxis]) -> bool:
+    """Whether every swept key is a fault's or a method's setting: the points then share
+    the model, the aids and the noise, and run together (module docstring)."""
+    return all(a.key.split(".")[0] in ("faults", "methods") for a in axes)
+
+
+@dataclass(frozen=True, slots=True)
+class SharedMethods:
+    """The methods of several points run as one campaign (:func:`shared_methods`).
+
+    Attributes
+    ----------
+    methods : the union: each distinct method configuration once, in order of first
+        appearance (the first point's under their own names, a later point's method
+        that differs from every one before it as ``NAME@k``, k its point).
+    learned : the union's trained models, under the union's names.
+    names : per point, its method names -> their names in the union.
+    """
+
+    methods: tuple[Any, ...]
+    learned: tuple[tuple[str, Any], ...]
+    names: tuple[dict[str, str], ...]
+
+
+def shared_methods(scenarios: Sequence[Scenario | InsScenario]) -> SharedMethods:
+    """The union of the points' methods (:class:`SharedMethods`).  Two methods are the
+    same when their whole configurations are, name included (a trained model comes from
+    the file its configuration names, read against the same system: the same)."""
+    union: list[Any] = []
+    learned: list[tuple[str, Any]] = []
+    names: list[dict[str, str]] = []
+    taken = {m.name for sc in scenarios for m in sc.methods}
+    for k, sc in enumerate(scenarios):
+        alias: dict[str, str] = {}
+        for m in sc.methods:
+            same = next((u for u in union if u == m), None)
+            if same is None:
+                name = m.name if k == 0 else f"{m.name}@{k}"
+                while k and name in taken:  # a file's own name never collides
+                    name += "'"
+                taken.add(name)
+                same = m if name == m.name else m.model_copy(update={"name": name})
+                union.append(same)
+                model = sc.learned_for(m.name)
+                if model is not None:
+                    learned.append((name, model))
+            alias[m.name] = same.name
+        names.append(alias)
+    return SharedMethods(tuple(union), tuple(learned), tuple(names))
+
+
+def _fault_values(axes: Sequence[SweepAxis], values: tuple[Any, ...]) -> tuple[Any, ...]:
+    """A point's values of the fault keys: the same for points with the same faults."""
+    return tuple(repr(v) for a, v in zip(axes, values, strict=True) if a.key.startswith("faults."))
+
+
+def _variants(
+    points: Sequence[tuple[tuple[Any, ...], Scenario | InsScenario]],
+    axes: Sequence[SweepAxis],
+) -> tuple[SharedMethods, list[Scenario | InsScenario], list[int]]:
+    """The union of the methods, one scenario per distinct fault setting (with the
+    union's methods) and each point's index among them."""
+    scenarios = [sc for _, sc in points]
+    shared = shared_methods(scenarios)
+    variants: list[Scenario | InsScenario] = []
+    seen: dict[tuple[Any, ...], int] = {}
+    index = []
+    for values, sc in points:
+        key = _fault_values(axes, values)
+        if key not in seen:
+            seen[key] = len(variants)
+            variants.append(
+                replace(
+                    scenarios[0], faults=sc.faults, methods=shared.methods, learned=shared.learned
+                )
+            )
+        index.append(seen[key])
+    return shared, variants, index
+
+
+def sweep_work(
+    points: Sequence[tuple[tuple[Any, ...], Scenario | InsScenario]], axes: Sequence[SweepAxis]
+) -> int:
+    """The units of work :func:`run_sweep` reports to its ``progress`` for one batch of
+    runs: epochs × methods stepped, summed over what runs (the union of the methods for
+    each distinct fault setting when the points share the model)."""
+    if len(points) > 1 and shares_model(axes):
+        shared, variants, _ = _variants(points, axes)
+        return len(variants) * len(shared.methods) * points[0][1].steps
+    return sum(len(sc.methods) * sc.steps for _, sc in points)
+
+
+def _run_shared(
+    points: Sequence[tuple[tuple[Any, ...], Scenario | InsScenario]],
+    axes: Sequence[SweepAxis],
+    runs: int,
+    seed: int,
+    workers: int | None,
+    progress: Callable[[int], None] | None,
+    options: dict[str, Any],
+) -> list[dict[str, MethodMetrics]]:
+    """Every point's metrics, its methods run among the union of all points' on one
+    simulation per fault setting (module docstring)."""
+    shared, variants, index = _variants(points, axes)
+    size = _points_per_batch(variants[0], runs, len(variants), workers)
+    results: list[ScenarioResult] = []
+    for i in range(0, len(variants), size):
+        group = variants[i : i + size]
+        scaled = None if progress is None else _scaled(progress, len(group))
+        results += run_points(group, runs, seed, progress=scaled, **options)
+    metrics = []
+    for (_, sc), alias, v in zip(points, shared.names, index, strict=True):
+        r = results[v]
+        ff = {n: r.fault_free[u] for n, u in alias.items() if u in r.fault_free}
+        own = {n: r.results[u] for n, u in alias.items()}
+        metrics.append(evaluate(r._replace(scenario=sc, results=own, fault_free=ff)))
+    return metrics
 
 
 def _points_per_batch(

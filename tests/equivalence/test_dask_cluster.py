@@ -64,6 +64,16 @@ def test_seed000_on_the_cluster_equals_serial(cluster, serial000):
     assert _differences(serial000, evaluate(remote)) == []
 
 
+def test_the_progress_of_a_campaign_on_the_cluster_is_that_of_the_local_one(cluster):
+    sc = replace(_seed000(), steps=60)
+    here: list[int] = []
+    there: list[int] = []
+    run_scenario(sc, 6, 1, chunk=2, progress=here.append)
+    run_scenario(sc, 6, 1, chunk=2, progress=there.append, scheduler=cluster.scheduler_address)
+    # one report per batch as it arrives, for the units the batch reports locally
+    assert len(there) == 3 and sum(there) == sum(here) == 3 * 60 * len(sc.methods)
+
+
 def test_an_integrated_campaign_on_the_cluster_equals_serial(cluster):
     sc = load_scenario(builtin_path("seed002"))
     keep = tuple(m for m in sc.methods if m.name in ("ckf", "fkf-chi2"))

@@ -1,10 +1,12 @@
-"""A sweep over fault settings runs its points in one batch (issue 23 item 3).
+"""A sweep over fault and method settings runs its points in one batch (issue 23 item 3).
 
 Oracle: each point's own campaign (:func:`ftnav.eval.montecarlo.run_scenario`, the
 same scenario, runs and seed).  Runs are independent rows of one batch, so every
 per-run, per-epoch array of every method, with and without the faults, must be equal
 bit for bit, on a linear model (seed000) and an integrated one (seed002, shortened),
-and with a point that has no fault (it gets no twin, as alone).
+and with a point that has no fault (it gets no twin, as alone).  A sweep of method
+settings runs the union of the points' methods once (each method is its own rows of
+the batch, whatever runs beside it): each point's metrics must equal its campaign's.
 """
 
 from __future__ import annotations
@@ -22,7 +24,15 @@ from ftnav.eval.evaluate import evaluate
 from ftnav.eval.montecarlo import MethodResult, ScenarioResult, run_points, run_scenario
 from ftnav.io.common import read_toml
 from ftnav.scenarios import builtin_path
-from ftnav.sweep import faults_only, grid, parse_set, run_sweep
+from ftnav.sweep import (
+    faults_only,
+    grid,
+    parse_set,
+    run_sweep,
+    shared_methods,
+    shares_model,
+    sweep_work,
+)
 
 
 def _arrays(r: MethodResult) -> list[np.ndarray]:
@@ -129,3 +139,57 @@ def test_points_that_differ_in_more_than_their_faults_are_refused(tmp_path):
     (_, sc), *_ = grid(_seed000(tmp_path), [parse_set("faults.0.magnitude=20")])
     with pytest.raises(ValueError, match="points: the scenarios must differ in their faults"):
         run_points([sc, dataclasses.replace(sc, steps=sc.steps - 1)], 2, 1)
+
+
+def test_a_method_sweep_runs_the_methods_it_does_not_touch_once(tmp_path):
+    axes = [parse_set("methods.1.detector.false_alarm_probability=1e-3,1e-2,5e-2")]
+    assert shares_model(axes) and not faults_only(axes)
+    assert not shares_model([parse_set("steps=100,200")])
+    points = grid(_seed000(tmp_path), axes)
+    shared = shared_methods([sc for _, sc in points])
+    names = [m.name for m in shared.methods]
+    assert names == [
+        "ckf",
+        "fkf-inverse-trace-chi2",
+        "fkf-inverse-trace-cusum",
+        "fkf-inverse-trace-chi2@1",
+        "fkf-inverse-trace-chi2@2",
+    ]
+    assert shared.names[2] == {
+        "ckf": "ckf",
+        "fkf-inverse-trace-chi2": "fkf-inverse-trace-chi2@2",
+        "fkf-inverse-trace-cusum": "fkf-inverse-trace-cusum",
+    }
+    assert shared.methods[4].detector.false_alarm_probability == 5e-2
+    # progress: the union once (five methods), not three points of three
+    assert sweep_work(points, axes) == 5 * points[0][1].steps
+
+
+@pytest.mark.parametrize(
+    "sets",
+    [
+        ["methods.1.detector.false_alarm_probability=1e-3,1e-2"],
+        ["faults.0.magnitude=5,40", "methods.2.detector.arl0=1e3,1e4"],
+    ],
+)
+def test_a_method_sweep_gives_the_metrics_of_the_points_run_alone(tmp_path, sets):
+    axes = [parse_set(s) for s in sets]
+    points = grid(_seed000(tmp_path), axes)
+    sweep = run_sweep(points, axes, 4, 7, workers=1)
+    for metrics, (_, sc) in zip(sweep.metrics, points, strict=True):
+        alone = evaluate(run_scenario(sc, 4, 7))
+        assert list(metrics) == [m.name for m in sc.methods]
+        assert _text(metrics) == _text(alone)
+
+
+def test_an_integrated_method_sweep_gives_the_metrics_of_the_points_run_alone(tmp_path):
+    doc = read_toml(_seed002(tmp_path))
+    doc["methods"] = [m for m in doc["methods"] if m["name"] in ("ckf", "fkf-chi2")]
+    path = tmp_path / "two.toml"
+    path.write_text(tomli_w.dumps(doc))
+    index = [m["name"] for m in doc["methods"]].index("fkf-chi2")
+    axes = [parse_set(f"methods.{index}.detector.false_alarm_probability=1e-3,1e-2")]
+    points = grid(path, axes)
+    sweep = run_sweep(points, axes, 2, 1, workers=1)
+    for metrics, (_, sc) in zip(sweep.metrics, points, strict=True):
+        assert _text(metrics) == _text(evaluate(run_scenario(sc, 2, 1)))

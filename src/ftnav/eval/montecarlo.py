@@ -426,7 +426,9 @@ def run_points(
         for s in starts
         for g in groups
     ]
-    done = run_tasks(_task, tasks, workers, progress, scheduler)
+    # what each task reports: one unit per method and epoch (every point's runs at once)
+    units = [scenario.steps * len(t[3]) for t in tasks]
+    done = run_tasks(_task, tasks, workers, progress, scheduler, units)
     return [
         _merge([d[i] for d in done], len(groups), methods, p, runs, seed)
         for i, p in enumerate(points)
