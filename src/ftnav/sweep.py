@@ -31,7 +31,9 @@ A sweep of method settings (every key under ``methods.``, alone or with fault ke
 keeps the model, the aids and the noise too: the points run as one campaign of the
 *union* of their methods (:func:`shared_methods`), a method that two points have alike
 (every method the sweep does not touch) run once, each swept method once per value,
-on one simulation of the runs per fault setting.  A false-alarm sweep of one detector
+on one simulation of the runs per fault setting (a key under ``evaluation.``, the
+grace after a fault or the convergence time, changes no run at all: its points share
+every run and differ in their scoring only).  A false-alarm sweep of one detector
 over five values among five methods costs nine methods' filters rather than
 twenty-five, and one simulation rather than five; each point's metrics equal those of
 its own campaign bit for bit (``tests/equivalence/test_sweep_batched.py``: every method
@@ -247,10 +249,15 @@ def faults_only(axes: Sequence[SweepAxis]) -> bool:
     return all(a.key.split(".")[0] == "faults" for a in axes)
 
 
+#: the tables whose settings leave the model, the aids and the noise as they are
+SHARED_TABLES = ("faults", "methods", "evaluation")
+
+
 def shares_model(axes: Sequence[SweepAxis]) -> bool:
-    """Whether every swept key is a fault's or a method's setting: the points then share
-    the model, the aids and the noise, and run together (module docstring)."""
-    return all(a.key.split(".")[0] in ("faults", "methods") for a in axes)
+    """Whether every swept key is a fault's, a method's or the evaluation's setting: the
+    points then share the model, the aids and the noise, and run together (module
+    docstring)."""
+    return all(a.key.split(".")[0] in SHARED_TABLES for a in axes)
 
 
 @dataclass(frozen=True, slots=True)

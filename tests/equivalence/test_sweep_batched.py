@@ -163,6 +163,9 @@ def test_a_method_sweep_runs_the_methods_it_does_not_touch_once(tmp_path):
     assert shared.methods[4].detector.false_alarm_probability == 5e-2
     # progress: the union once (five methods), not three points of three
     assert sweep_work(points, axes) == 5 * points[0][1].steps
+    # the evaluation's settings change no run: four points, one campaign of three methods
+    scoring = [parse_set("evaluation.grace=2,30"), parse_set("evaluation.skip_initial=0,100")]
+    assert sweep_work(grid(_seed000(tmp_path), scoring), scoring) == 3 * points[0][1].steps
 
 
 @pytest.mark.parametrize(
@@ -170,6 +173,7 @@ def test_a_method_sweep_runs_the_methods_it_does_not_touch_once(tmp_path):
     [
         ["methods.1.detector.false_alarm_probability=1e-3,1e-2"],
         ["faults.0.magnitude=5,40", "methods.2.detector.arl0=1e3,1e4"],
+        ["evaluation.grace=2,30", "evaluation.skip_initial=0,100"],
     ],
 )
 def test_a_method_sweep_gives_the_metrics_of_the_points_run_alone(tmp_path, sets):
