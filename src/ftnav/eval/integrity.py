@@ -12,7 +12,10 @@ user's recording is watched exactly as a simulation is.  Per method and aid:
   which more windows than that lie above it (a binomial tail below ``p``: one run in
   ``1/p`` of a consistent filter) is *inconsistent* with that aid (its covariance is
   optimistic, or the aid is faulty and in use); reported from the end of its first
-  window above the bound.  Windows holding fewer than ``MIN_SAMPLES`` measurements are
+  window above the bound.  Judged again without the epochs the guard held the aid: if
+  that is consistent, the finding says the disagreement came only while the aid was
+  held (a faulty aid left out, or the estimate drifting without a healthy one; still a
+  finding: a lock-out looks the same).  Windows holding fewer than ``MIN_SAMPLES`` measurements are
   not judged;
 * **availability** — the fraction of the aid's scheduled epochs at which it had a
   finite measurement (an aid gated off outside its terrain, a receiver in an outage),
@@ -279,13 +282,25 @@ def watch(
         )
         aids.append(aw)
         runs = f" in {aw.runs_inconsistent} of {B} runs" if B > 1 else ""
+        # judged again on the measurements the guard did not hold: consistent there, the
+        # disagreement was the isolation's (a faulty aid left out, or the estimate
+        # drifting without a healthy one: both said, neither dismissed)
+        only_held = False
+        if first is not None and guard is not None:
+            kept = av & ~guard.hold[..., i] & judged[None]
+            only_held = _inconsistent(times, q, kept, m, w, settings.probability)[1] is None
         if first is not None:
+            why = (
+                "only while the guard held it: the aid was faulty there (left out), or the "
+                "estimate drifted without it"
+                if only_held
+                else "the filter's covariance is optimistic or the aid is faulty and in use"
+            )
             findings.append(
                 f"methods[{name}]: inconsistent with aid {sensor!r} from t = {first:.1f} s"
                 f"{runs}: its mean NIS over {settings.window_s:g} s windows above the "
                 f"{100 * (1 - settings.probability / 2):g} % bound more often than chance "
-                f"(mean NIS/dof {aw.mean_nis:.3g}): the filter's covariance is optimistic "
-                f"or the aid is faulty and in use"
+                f"(mean NIS/dof {aw.mean_nis:.3g}), {why}"
             )
         if sc.any() and availability < settings.availability:
             t_gone = _first(times, _after_first(av, sc & ~av)) or _first(times, sc & ~av)
