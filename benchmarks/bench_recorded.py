@@ -9,7 +9,11 @@ only and once with the vehicle constraints (ftnav: NHC + ZUPT; pyins: NHC), for 
 time offset of ``--imu-offsets`` (the drive file's -0.20 s, chosen on this drive, and
 upstream's -0.125 s: the sensitivity of the headline to that choice).  Printed per case: the
 RMS over outages of the maximum horizontal drift, the per-outage range, the wall time of
-each tool, and which is ahead.
+each tool, and which is ahead: the difference of the two RMS with its 95 % interval, a
+percentile bootstrap over the outages resampled in pairs (the same outage for both
+tools; :data:`ftnav.eval.intervals.BOOTSTRAP_SEED`'s generator), "ahead" or "behind"
+only when the interval excludes 0 (:func:`ftnav.eval.intervals.decide`), else
+"undecided".
 
 Same inputs for both: the GNSS epochs (Q = 1), the timing of ``rtklib-drive.toml`` (IMU
 stamps + its ``time_offset_s``; the RTKLIB velocities moved onto the position stamps by
@@ -41,6 +45,13 @@ import tempfile  # noqa: E402
 import tomli_w  # noqa: E402
 from peer_pyins_drive import run_pyins  # noqa: E402
 
+from ftnav.eval.intervals import (  # noqa: E402
+    BOOTSTRAP_REPLICATES,
+    BOOTSTRAP_SEED,
+    CONFIDENCE,
+    Interval,
+    decide,
+)
 from ftnav.io.recording_readers import read_rtklib_pos  # noqa: E402
 from ftnav.pipeline import process_recording  # noqa: E402
 from ftnav.recorded.stream import interleave, outage_schedule  # noqa: E402
@@ -65,6 +76,7 @@ def pyins_runs(length: float, every: float, start: float, nhc: bool, timing: dic
         p = run_pyins(length, every, start, nhc=nhc, outages=list(r), **timing)
         outages += p["outages"]
         wall += p["wall_s"]
+    outages.sort(key=lambda o: o["start"])
     maxima = np.array([o["max_error_m"] for o in outages])
     return {
         "count": len(outages),
@@ -72,6 +84,21 @@ def pyins_runs(length: float, every: float, start: float, nhc: bool, timing: dic
         "each": [{"max_error_m": o["max_error_m"]} for o in outages],
         "wall_s": wall,
     }
+
+
+def paired_difference(ours: np.ndarray, theirs: np.ndarray) -> Interval:
+    """RMS(ours) − RMS(theirs) of the per-outage maxima (the same outages, in order)
+    with its percentile-bootstrap interval over the outages resampled in pairs."""
+    n = len(ours)
+
+    def rms(a: np.ndarray) -> np.ndarray:
+        return np.asarray(np.sqrt(np.mean(a**2, -1)))
+
+    value = float(rms(ours) - rms(theirs))
+    pick = np.random.default_rng(BOOTSTRAP_SEED).integers(0, n, (BOOTSTRAP_REPLICATES, n))
+    d = rms(ours[pick]) - rms(theirs[pick])
+    lo, hi = np.quantile(d, [0.5 - CONFIDENCE / 2, 0.5 + CONFIDENCE / 2])
+    return Interval(value, float(lo), float(hi), n, "paired bootstrap")
 
 
 def _last_gnss_s() -> float:
@@ -151,11 +178,18 @@ def main() -> None:
                     po = pyins_runs(length, every, a.outage_start, py_nhc, timing)
                     print(_row("pyins", label, po, None, po["wall_s"]), flush=True)
                     f, q = s["outages"]["rms_max_error_m"], po["rms_max_error_m"]
-                    ahead.append((off, label, f, q))
-    print("\nftnav ahead of pyins (RMS of the maximum drift):")
-    for off, label, f, q in ahead:
-        mark = "yes" if f < q else "NO"
-        print(f"  IMU {off:+g} s  {label:<30} ftnav {f:6.2f} m  pyins {q:6.2f} m  {mark}")
+                    ours = np.array([r["max_error_m"] for r in s["outages"]["each"]])
+                    theirs = np.array([r["max_error_m"] for r in po["each"]])
+                    assert len(ours) == len(theirs), (len(ours), len(theirs))
+                    ahead.append((off, label, f, q, paired_difference(ours, theirs)))
+    print("\nftnav against pyins (RMS of the maximum drift; ftnav − pyins, 95 % interval):")
+    for off, label, f, q, d in ahead:
+        verdict = decide(d, 0.0, holds_below=True)
+        mark = {True: "ahead", False: "BEHIND", None: "undecided"}[verdict]
+        print(
+            f"  IMU {off:+g} s  {label:<30} ftnav {f:6.2f} m  pyins {q:6.2f} m  "
+            f"{d.value:+6.2f} [{d.lo:+.2f}, {d.hi:+.2f}] m over {d.runs} outages: {mark}"
+        )
 
 
 if __name__ == "__main__":
