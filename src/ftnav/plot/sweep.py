@@ -1,5 +1,8 @@
 """Figures of a parameter sweep (:mod:`ftnav.sweep`): each metric against each swept key,
-one line per method with its 95 % interval as a band.
+one line per method with its 95 % interval as a band; and for a key of a method's
+setting (a detector's false-alarm probability, its window) the ROC it traces: the
+detection probability against the false-alarm rate, one point per value, with both
+intervals.
 
 With several swept keys, the figure of one key holds the others at their first value
 (the title says which).  The detection figures show each sensor that some method's
@@ -15,7 +18,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
-__all__ = ["save_sweep_figures", "swept", "sweep_figure"]
+__all__ = ["roc_figure", "save_sweep_figures", "swept", "sweep_figure"]
 
 #: (variable, y label) of the figures, in order.
 _METRICS = (
@@ -83,8 +86,70 @@ def sweep_figure(ds: xr.Dataset, key: str, variable: str, ylabel: str) -> Figure
     return fig
 
 
+def roc_figure(ds: xr.Dataset, key: str) -> Figure | None:
+    """The detection probability against the false-alarm rate as ``key`` varies, per
+    method and sensor whose pair moves with it (95 % intervals as error bars, each point
+    labelled with its value of ``key``); None when no pair moves."""
+    pd, fa = ds["detection_rate"], ds["detection_false_alarm_rate"]
+    others = {d: 0 for d in swept(ds) if d != key}
+    pd, fa = pd.isel(others), fa.isel(others)
+    values = ds[key].values
+    series = []
+    for m in ds["method"].values:
+        for s in ds["sensor"].values:
+            y, x = pd.sel({"method": m, "sensor": s}), fa.sel({"method": m, "sensor": s})
+            yv, xv = y.sel(bound="value").values, x.sel(bound="value").values
+            ok = np.isfinite(xv) & np.isfinite(yv)
+            if ok.sum() < 2 or (np.ptp(xv[ok]) == 0 and np.ptp(yv[ok]) == 0):
+                continue
+            series.append((f"{m} ({s})", x, y, ok))
+    if not series:
+        return None
+    fig = Figure(figsize=(6.4, 4.6), layout="constrained")
+    ax = fig.add_subplot()
+    positive = []
+    for label, x, y, ok in series:
+        xv, yv = x.sel(bound="value").values[ok], y.sel(bound="value").values[ok]
+        xerr = np.abs(
+            np.stack([xv - x.sel(bound="lo").values[ok], x.sel(bound="hi").values[ok] - xv])
+        )
+        yerr = np.abs(
+            np.stack([yv - y.sel(bound="lo").values[ok], y.sel(bound="hi").values[ok] - yv])
+        )
+        order = np.argsort(xv)
+        ax.errorbar(
+            xv[order],
+            yv[order],
+            xerr=np.nan_to_num(xerr[:, order]),
+            yerr=np.nan_to_num(yerr[:, order]),
+            marker="o",
+            capsize=2,
+            label=label,
+        )
+        for xi, yi, v in zip(xv, yv, values[ok], strict=True):
+            ax.annotate(
+                f"{v:g}" if isinstance(v, float) else str(v),
+                (xi, yi),
+                fontsize=6,
+                xytext=(3, -9),
+                textcoords="offset points",
+            )
+        positive += [float(v) for v in xv if v > 0]
+    if positive and max(positive) > 20 * min(positive):
+        ax.set_xscale("symlog", linthresh=min(positive))
+    ax.set_xlabel("false alarms per clean epoch")
+    ax.set_ylabel("detection probability per epoch")
+    held = ", ".join(f"{d}={ds[d].values[0]}" for d in others)
+    title = f"{ds.attrs.get('scenario', '')}: ROC over {key}, 95 % intervals"
+    ax.set_title(title + (f"\n({held})" if held else ""), fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    return fig
+
+
 def save_sweep_figures(ds: xr.Dataset, folder: pathlib.Path) -> list[pathlib.Path]:
-    """Every figure of the sweep as ``sweep_<metric>_<key>.png`` in ``folder``."""
+    """Every figure of the sweep as ``sweep_<metric>_<key>.png`` in ``folder``, and for a
+    key of a method's setting its ROC as ``sweep_roc_<key>.png``."""
     out = []
     for key in swept(ds):
         for variable, ylabel in _METRICS:
@@ -93,6 +158,11 @@ def save_sweep_figures(ds: xr.Dataset, folder: pathlib.Path) -> list[pathlib.Pat
                 continue
             name = f"sweep_{variable.removeprefix('detection_')}_{_safe(key)}.png"
             fig.savefig(folder / name, dpi=110)
+            out.append(folder / name)
+        roc = roc_figure(ds, key) if key.startswith("methods.") else None
+        if roc is not None:
+            name = f"sweep_roc_{_safe(key)}.png"
+            roc.savefig(folder / name, dpi=110)
             out.append(folder / name)
     return out
 
