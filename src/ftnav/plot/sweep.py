@@ -76,14 +76,19 @@ def sweep_figure(ds: xr.Dataset, key: str, variable: str, ylabel: str) -> Figure
             ax.fill_between(pos[ok], lo[ok], hi[ok], color=h.get_color(), alpha=0.2, lw=0)
     if not numeric:
         ax.set_xticks(pos, [str(v) for v in x])
-    ax.set_xlabel(key)
-    ax.set_ylabel(ylabel)
+    _finish(ax, ds, others, key, ylabel, f"{ds.attrs.get('runs', '')} runs per point, 95 % bands")
+    return fig
+
+
+def _finish(ax: Any, ds: xr.Dataset, others: dict[str, int], x: str, y: str, what: str) -> None:
+    """Axis labels, the title (the scenario, ``what``, the keys held), grid and legend."""
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
     held = ", ".join(f"{d}={ds[d].values[0]}" for d in others)
-    title = f"{ds.attrs.get('scenario', '')}: {ds.attrs.get('runs', '')} runs per point, 95 % bands"
+    title = f"{ds.attrs.get('scenario', '')}: {what}"
     ax.set_title(title + (f"\n({held})" if held else ""), fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    return fig
 
 
 def roc_figure(ds: xr.Dataset, key: str) -> Figure | None:
@@ -137,13 +142,8 @@ def roc_figure(ds: xr.Dataset, key: str) -> Figure | None:
         positive += [float(v) for v in xv if v > 0]
     if positive and max(positive) > 20 * min(positive):
         ax.set_xscale("symlog", linthresh=min(positive))
-    ax.set_xlabel("false alarms per clean epoch")
-    ax.set_ylabel("detection probability per epoch")
-    held = ", ".join(f"{d}={ds[d].values[0]}" for d in others)
-    title = f"{ds.attrs.get('scenario', '')}: ROC over {key}, 95 % intervals"
-    ax.set_title(title + (f"\n({held})" if held else ""), fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    x_label, y_label = "false alarms per clean epoch", "detection probability per epoch"
+    _finish(ax, ds, others, x_label, y_label, f"ROC over {key}, 95 % intervals")
     return fig
 
 
