@@ -114,19 +114,13 @@ def roc_figure(ds: xr.Dataset, key: str) -> Figure | None:
     ax = fig.add_subplot()
     positive = []
     for label, x, y, ok in series:
-        xv, yv = x.sel(bound="value").values[ok], y.sel(bound="value").values[ok]
-        xerr = np.abs(
-            np.stack([xv - x.sel(bound="lo").values[ok], x.sel(bound="hi").values[ok] - xv])
-        )
-        yerr = np.abs(
-            np.stack([yv - y.sel(bound="lo").values[ok], y.sel(bound="hi").values[ok] - yv])
-        )
+        (xv, xerr), (yv, yerr) = _bars(x, ok), _bars(y, ok)
         order = np.argsort(xv)
         ax.errorbar(
             xv[order],
             yv[order],
-            xerr=np.nan_to_num(xerr[:, order]),
-            yerr=np.nan_to_num(yerr[:, order]),
+            xerr=xerr[:, order],
+            yerr=yerr[:, order],
             marker="o",
             capsize=2,
             label=label,
@@ -145,6 +139,14 @@ def roc_figure(ds: xr.Dataset, key: str) -> Figure | None:
     x_label, y_label = "false alarms per clean epoch", "detection probability per epoch"
     _finish(ax, ds, others, x_label, y_label, f"ROC over {key}, 95 % intervals")
     return fig
+
+
+def _bars(da: xr.DataArray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The values of ``da`` where ``ok`` and their (2, n) error bars to ``lo`` and ``hi``
+    (0 where a bound is missing)."""
+    v = da.sel(bound="value").values[ok]
+    lo, hi = da.sel(bound="lo").values[ok], da.sel(bound="hi").values[ok]
+    return v, np.nan_to_num(np.abs(np.stack([v - lo, hi - v])))
 
 
 def save_sweep_figures(ds: xr.Dataset, folder: pathlib.Path) -> list[pathlib.Path]:
