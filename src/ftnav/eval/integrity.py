@@ -9,13 +9,17 @@ user's recording is watched exactly as a simulation is.  Per method and aid:
   ``skip_initial``): under a consistent filter the sum of ``n`` NIS of dimension ``m``
   is ``χ²(n m)``, so a window's mean lies above ``χ²_{nm}(1 − p/2) / n`` with probability
   ``p/2``, independently from window to window (the innovations are white).  A run in
-  which more windows than that lie above it (a binomial tail below ``p``: one run in
-  ``1/p`` of a consistent filter) is *inconsistent* with that aid (its covariance is
-  optimistic, or the aid is faulty and in use); reported from the end of its first
-  window above the bound.  Judged again without the epochs the guard held the aid: if
-  that is consistent, the finding says the disagreement came only while the aid was
-  held (a faulty aid left out, or the estimate drifting without a healthy one; still a
-  finding: a lock-out looks the same).  Windows holding fewer than ``MIN_SAMPLES`` measurements are
+  which more windows than that lie above it (a binomial tail below ``p/2``), or one
+  window whose NIS sum alone lies beyond chance among the run's windows (its χ² tail
+  times the number of windows below ``p/2``: a fault's end the filter had followed,
+  one window 200 times the band, in a run of eight), is *inconsistent* with that aid
+  (its covariance is optimistic, or the aid is faulty and in use): together at most
+  one run in ``1/p`` of a consistent filter (``tests/statistical/test_integrity_level.py``);
+  reported from the end of the first window that decided it.  Judged again without
+  the epochs the guard held the aid: if that is consistent, the finding says the
+  disagreement came only while the aid was held (a faulty aid left out, or the estimate
+  drifting without a healthy one; still a finding: a lock-out looks the same).  Windows
+  holding fewer than ``MIN_SAMPLES`` measurements are
   not judged;
 * **availability** — the fraction of the aid's scheduled epochs at which it had a
   finite measurement (an aid gated off outside its terrain, a receiver in an outage),
@@ -179,15 +183,21 @@ def _inconsistent(
     n = av[:, sl].reshape(B, n_win, w).sum(-1)
     s = np.where(av, q, 0.0)[:, sl].reshape(B, n_win, w).sum(-1)
     _, hi = nis_band(n, m, probability)
-    above = (n >= MIN_SAMPLES) & (s / np.maximum(n, 1) > hi)
-    judged = (n >= MIN_SAMPLES).sum(1)
+    full = n >= MIN_SAMPLES
+    above = full & (s / np.maximum(n, 1) > hi)
+    judged = full.sum(1)
     count = above.sum(1)
-    # P(X >= count) for X ~ Binomial(judged windows, p/2)
+    # P(X >= count) for X ~ Binomial(judged windows, p/2): more windows above than chance
     tail = binom.sf(count - 1, judged, probability / 2)
-    bad = (count > 0) & (tail < probability)
+    many = (count > 0) & (tail < probability / 2)
+    # one window whose NIS sum alone is beyond chance among the run's windows (Bonferroni)
+    p_win = chi2.sf(s, np.maximum(n, 1) * m)
+    extreme = full & (p_win * np.maximum(judged, 1)[:, None] < probability / 2)
+    bad = many | extreme.any(1)
     first = None
     if bad.any():
-        ends = times[start + (np.argmax(above, 1) + 1) * w - 1]
+        which = np.where(many[:, None], above, extreme)
+        ends = times[start + (np.argmax(which, 1) + 1) * w - 1]
         first = float(ends[bad].min())
     return bad, first
 
