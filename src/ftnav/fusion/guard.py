@@ -570,6 +570,7 @@ class Guard:
         self.lasting = max(1, int(math.ceil(config.lasting_s / dt)))
         self.pfa = float(config.false_alarm_probability)
         self.T1 = np.array([_threshold(self.pfa, m) for m in self.dims])
+        self.gain = _threshold(self.pfa, 1)
         self.detector = detector
         self.rollback = bool(rollback)
         if detector is not None and not self.rollback:
@@ -964,7 +965,13 @@ class Guard:
             # at the jump: a drag now over, the measurement jumped back), else the most
             # significant pull too large for its covariance (a drag still on); none:
             # nothing to roll back.  A window whose covariance merely swallows the jump
-            # (a filter that converged from its start) explains nothing
+            # (a filter that converged from its start) explains nothing.  "More than
+            # chance": the gain ``before − after = −2 νᵀS⁻¹e − eᵀS⁻¹e`` of a pull e that
+            # has nothing to do with ν is at most z² (z ~ N(0, 1), the maximum of
+            # 2|z|√q − q over q), a χ²₁ variate whatever the aid's dimension: the gain
+            # must pass χ²₁'s quantile (χ²_m's, 21.1 for a 3-D fix, missed the drive's
+            # 0.05 m/s ramps ending at 150-244 s: their gain 16.5-17.4, and 3 m held for
+            # the patience: 1.65-1.85 m after them against ckf's 0.11)
             e, T = self._measured(test, a)
             lam, dof = sep.separation_of(e, T)
             r = lam / _thresholds(self.pfa / self.J, dof)
@@ -972,7 +979,7 @@ class Guard:
             S_w = (t.A + t.R)[:, None] + T
             after_ = _chi2(t.nu[:, None] + e, S_w)
             before_ = _chi2(np.broadcast_to(t.nu[:, None], e.shape), S_w)
-            fits = (after_ <= self.T1[a]) & (before_ - after_ > self.T1[a])
+            fits = (after_ <= self.T1[a]) & (before_ - after_ > self.gain)
             fits &= (t.nis > self.T1[a])[:, None]
             # a pull merely too large for its covariance is no evidence where no other aid
             # sees the estimate: a sole source's pulls are as large as the model's
