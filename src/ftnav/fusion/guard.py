@@ -985,11 +985,21 @@ class Guard:
             # sees the estimate: a sole source's pulls are as large as the model's
             # optimism makes them (real noise), and removing them is an outage
             sig &= ~alone[:, a, None]
-            explain = new & (fits.any(1) | sig.any(1))
+            # the other aids witness: a rollback they disagree with is no rollback.  Of
+            # the windows that explain the jump, the best one every witness accepts (the
+            # longest such pull also holds corrections of the INS a witness disputes:
+            # the drive's fixes with its velocities alone, a 0.05 m/s ramp ending at
+            # 480 s, whose best window moved the velocity 0.24 m/s against them)
+            fitted = new & fits.any(1)
+            for wi in np.flatnonzero((fitted[:, None] & fits).any(0)):
+                at = np.full(B, wi)
+                fits[:, wi] &= ~fitted | self._witnessed(a, at, test, state, usable)
+            explain = new & (fits.any(1) | (sig.any(1) & ~fitted))
             best = np.argmin(np.where(fits, after_, np.inf), 1)
             w = np.where(fits.any(1), best, np.argmax(r, 1))
-            if explain.any():  # the other aids witness: a rollback they disagree with is no
-                explain &= self._witnessed(a, w, test, state, usable)
+            pulled = explain & ~fits.any(1)  # a drag still on: its window witnessed too
+            if pulled.any():
+                explain &= ~pulled | self._witnessed(a, w, test, state, usable)
             # a separation alarm removes the window that raised it
             fired = new & alarm[:, a]
             choose[:, a] = explain | fired
