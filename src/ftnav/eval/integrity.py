@@ -309,7 +309,8 @@ def watch(
             findings.append(
                 f"methods[{name}]: inconsistent with aid {sensor!r} from t = {first:.1f} s"
                 f"{runs}: its mean NIS over {settings.window_s:g} s windows above the "
-                f"{100 * (1 - settings.probability / 2):g} % bound more often than chance "
+                f"{100 * (1 - settings.probability / 2):g} % bound more often than chance, "
+                f"or once far beyond it "
                 f"(mean NIS/dof {aw.mean_nis:.3g}), {why}"
             )
         if sc.any() and availability < settings.availability:
