@@ -995,15 +995,16 @@ class Guard:
             # the drive's fixes with its velocities alone, a 0.05 m/s ramp ending at
             # 480 s, whose best window moved the velocity 0.24 m/s against them)
             fitted = new & fits.any(1)
-            for wi in np.flatnonzero((fitted[:, None] & fits).any(0)):
-                at = np.full(B, wi)
-                fits[:, wi] &= ~fitted | self._witnessed(a, at, test, state, usable)
-            explain = new & (fits.any(1) | (sig.any(1) & ~fitted))
+            explain = new & (fitted | sig.any(1))
+            if explain.any():  # (B, J): the windows whose removal every witness accepts
+                accepted = self._witnessed(a, test, state, usable)
+                fits &= ~fitted[:, None] | accepted
+                explain = new & (fits.any(1) | (sig.any(1) & ~fitted))
             best = np.argmin(np.where(fits, after_, np.inf), 1)
             w = np.where(fits.any(1), best, np.argmax(r, 1))
             pulled = explain & ~fits.any(1)  # a drag still on: its window witnessed too
             if pulled.any():
-                explain &= ~pulled | self._witnessed(a, w, test, state, usable)
+                explain &= ~pulled | accepted[np.arange(B), w]
             # a separation alarm removes the window that raised it
             fired = new & alarm[:, a]
             choose[:, a] = explain | fired
@@ -1591,10 +1592,10 @@ class Guard:
         return np.asarray(only | (moved.any(-1) & still))
 
     def _witnessed(
-        self, a: int, w: np.ndarray, test: GuardTest, state: GuardState, usable: np.ndarray
+        self, a: int, test: GuardTest, state: GuardState, usable: np.ndarray
     ) -> np.ndarray:
-        """(B,) whether no other aid of ``a``'s group that has a measurement (and is not
-        isolated) speaks against removing ``a``'s pull over window ``w`` (B,).
+        """(B, J) whether no other aid of ``a``'s group that has a measurement (and is not
+        isolated) speaks against removing ``a``'s pull over each window.
 
         Each witness ``j`` weighs the two hypotheses by their likelihoods: its innovation
         ``ν_j`` against ``S_j`` as the estimate is, and ``ν_j + H_j c`` against
@@ -1608,9 +1609,7 @@ class Guard:
         there: docs/integrity.md)."""
         g = self.group_of[a]
         cw, Gw = sep.windows(test.pulls[g], self.slot[a])
-        idx = np.arange(cw.shape[0])
-        c, G = cw[idx, w], Gw[idx, w]
-        ok = np.ones(cw.shape[0], bool)
+        ok = np.ones(cw.shape[:2], bool)
         for j in self.groups[g]:
             if j == a:
                 continue
@@ -1618,13 +1617,13 @@ class Guard:
             seen = usable[:, j] & ~state.hold[:, j]
             if not seen.any():
                 continue
-            Hj = test.H[j]
+            e, T = sep.measured(cw, Gw, test.H[j])  # H_j c, H_j G H_jᵀ of every window
             S_j = tj.A + tj.R
-            q_before = _chi2(tj.nu, S_j)
-            S_a = S_j + kf.symmetrize(Hj @ G @ kf.mT(Hj))
-            q_after = _chi2(tj.nu + kf.mv(Hj, c), S_a)
-            grow = np.linalg.slogdet(S_a)[1] - np.linalg.slogdet(S_j)[1]
-            ok &= ~seen | (q_after - q_before + grow <= WITNESS_LLR)
+            q_before = _chi2(tj.nu, S_j)[:, None]
+            S_a = S_j[:, None] + T
+            q_after = _chi2(tj.nu[:, None] + e, S_a)
+            grow = np.linalg.slogdet(S_a)[1] - np.linalg.slogdet(S_j)[1][:, None]
+            ok &= ~seen[:, None] | (q_after - q_before + grow <= WITNESS_LLR)
         return ok
 
     # ----------------------------------------------------------------------- one epoch
