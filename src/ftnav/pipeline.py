@@ -428,9 +428,9 @@ def process_recording(
         file (``docs/recording-format.md``), or a :class:`LoadedRecording`.
     methods, aids : names of the file's methods and aids to keep (default all).
     outages : GNSS outages ``(length, every, start)`` s (:class:`Outages`), or None.
-    faults : faults injected into recorded GNSS aids, as :class:`~ftnav.model.scenario.Fault`
-        (times relative to the processed start) or ``"SENSOR:KIND:START:END[:MAGNITUDE]"``
-        on the recording's time base (:func:`parse_fault`).
+    faults : faults injected into recorded GNSS aids (or the SINS), as
+        :class:`~ftnav.model.scenario.Fault` or ``"SENSOR:KIND:START:END[:MAGNITUDE]"``
+        (:func:`parse_fault`), both with START and END on the recording's time base.
     smooth : also run the RTS smoother (:attr:`RecordingResult.smoothed`, scores under
         ``scores[method]["smoothed"]``).
     progress : called with the number of engine steps done (epochs × methods × runs).
