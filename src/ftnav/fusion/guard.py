@@ -883,11 +883,26 @@ class Guard:
             [self._unwitnessed(a, usable, test, state, only[:, a], ripe[:, a]) for a in range(N)],
             1,
         )
+        # (between the fixes no aid measures, so every held aid is "only" there; but a
+        # jump an aid that measured since the held aid's last fix sees as an offset is
+        # not the held aid's new value: a velocity step beside the positions, which
+        # integrate it.  The drive's GNSS velocities biased 0.5 m/s east for 60 s were
+        # taken so 10 s in, the detector overruled; the healthy positions were then
+        # held: 35 m after the fault against ckf's 0.06 m)
+        for b in np.flatnonzero((ripe & unwitnessed & only).any(0)).tolist():
+            unwitnessed[:, b] &= ~self._offset_seen(b, usable, test, state)
         expired = ripe & unwitnessed
         settled |= expired & ~undone & self.rollback
         # a hold the other aids back: the aid was right, the estimate (the INS) wrong (a
         # gyro bias step: the star tracker flagged, the GNSS velocities confirming it)
         support, backed = self._support(state, test, usable & fresh)
+        # never an aid whose own device's other half, unheld, sees its offset at its own
+        # rate and agrees with the estimate: the device disagrees with itself and the INS
+        # sides with that half (the drive's GNSS velocities biased 0.5 m/s: their
+        # positions' per-epoch evidence drifted to a backing 14 s in, the bias was taken,
+        # and the healthy positions were then held: 21 m after the fault)
+        for b in np.flatnonzero(backed.any(0)).tolist():
+            backed[:, b] &= ~self._offset_seen(b, usable, test, state, device=True)
         settled |= backed & ~undone
         # a held aid beside aids of its rate only, at one constant offset from the
         # estimate for ``lasting_s``: that offset is taken (a rollback the rate aids could
@@ -1590,6 +1605,32 @@ class Guard:
         k = seen.sum(-1)
         still = _chi2(np.where(seen, J, 0.0), C_s) <= _thresholds(self.pfa, k)
         return np.asarray(only | (moved.any(-1) & still))
+
+    def _offset_seen(
+        self,
+        a: int,
+        usable: np.ndarray,
+        test: GuardTest,
+        state: GuardState,
+        device: bool = False,
+    ) -> np.ndarray:
+        """(B,) whether an unheld aid of held aid ``a``'s group that measured since
+        ``a``'s last measurement (now, or at the same fix) responds to a constant offset
+        of one of ``a``'s rows (:meth:`_unseen` with ``offset``): a witness of whatever
+        offset ``a`` holds, at its own rate, though none measures now (GNSS positions of
+        their velocities; not GNSS velocities, an odometer or the constraints of a
+        position).  With ``device`` only the aids of ``a``'s own device witness
+        (:func:`devices_of`)."""
+        since = state.since
+        recent = (usable | ((since >= 0) & (since <= since[:, a, None]))) & ~state.hold
+        recent[:, a] = False
+        if device:
+            for j in range(self.N):
+                recent[:, j] &= not self._apart(a, j)
+        if not recent.any():
+            return np.zeros(usable.shape[0], bool)
+        unseen = self._unseen(a, recent, test, offset=True)
+        return np.asarray(~unseen.all(-1) & recent.any(-1))
 
     def _witnessed(
         self, a: int, test: GuardTest, state: GuardState, usable: np.ndarray
