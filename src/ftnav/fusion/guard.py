@@ -574,6 +574,8 @@ class Guard:
         self.pfa = float(config.false_alarm_probability)
         self.T1 = np.array([_threshold(self.pfa, m) for m in self.dims])
         self.gain = _threshold(self.pfa, 1)
+        # a sole source's rollback: its move across the jump (dimension m − 1)
+        self.T_across = np.array([_threshold(self.pfa, max(m - 1, 1)) for m in self.dims])
         self.detector = detector
         self.rollback = bool(rollback)
         if detector is not None and not self.rollback:
@@ -1012,7 +1014,7 @@ class Guard:
                 along = np.einsum("bjm,bm->bj", e, Si_nu) / q_nu[:, None]
                 e_x = e - along[..., None] * t.nu[:, None, :]
                 q_x = _chi2(e_x, np.broadcast_to(S0[:, None], T.shape))
-                across = q_x <= _threshold(self.pfa, max(self.dims[a] - 1, 1))
+                across = q_x <= self.T_across[a]
                 fits &= across | ~alone[:, a, None]
             fits &= (t.nis > self.T1[a])[:, None]
             # a pull merely too large for its covariance is no evidence where no other aid
@@ -1644,8 +1646,8 @@ class Guard:
                 recent[:, j] &= not self._apart(a, j)
         if not recent.any():
             return np.zeros(usable.shape[0], bool)
-        unseen = self._unseen(a, recent, test, offset=True)
-        return np.asarray(~unseen.all(-1) & recent.any(-1))
+        # (a batch row without such an aid has every row unseen)
+        return np.asarray(~self._unseen(a, recent, test, offset=True).all(-1))
 
     def _witnessed(
         self, a: int, test: GuardTest, state: GuardState, usable: np.ndarray
