@@ -378,3 +378,55 @@ def test_a_rollback_beside_an_aid_of_the_rate_only_is_taken_back_once_its_offset
     assert held[back - 30].all()  # not before the offset lasted
     assert not held[back:].any(), np.flatnonzero(held.any(1))
     assert np.abs(error[back:]).max() < 3.0, np.abs(error[back:]).max(0)
+
+
+def test_a_patience_that_ends_between_the_fixes_takes_the_jump_at_the_next_fix():
+    """A position fix beside a velocity aid, both measuring every third epoch only (the
+    drive's fixes at 4 Hz, the filter at 12 Hz).  The fix ramps slowly for 300 epochs
+    (the filter follows it), then jumps back, too long after the ramp's start for a
+    rollback window: the fix is held for its patience, which ends between the fixes,
+    where nothing can be taken.  It was released there with nothing taken, and its next
+    fix, still off, started a new hold whose patience ended between the fixes again: held
+    to the end.  The jump is due at the next fix, taken once the fix's offset has kept
+    one level for the patience, and the estimate is back."""
+    rng = np.random.default_rng(11)
+    F = np.array([[1.0, 1.0], [0.0, 1.0]])
+    Q = np.diag([1e-4, 1e-4])
+    Hp, Hv = np.array([[1.0, 0.0]]), np.array([[0.0, 1.0]])
+    Rp, Rv = np.array([[0.01]]), np.array([[1e-4]])
+    B, n, every, end = 4, 2, 3, 330
+    settings = GuardSettings(window_s=30.0, fine_s=30.0, blocks=6, patience_s=10.0, n_off=5)
+    guard = Guard(settings, [(0, 1)], [n], [1, 1])
+    state = guard.init(B)
+    x, P = np.zeros((B, n)), np.broadcast_to(np.eye(n), (B, n, n)).copy()
+    flag = np.zeros(B, bool)
+    held, error = [], []
+    for k in range(1, 421):
+        fault = 0.01 * (min(k, end) - 30) if 30 <= k < end else 0.0
+        z0 = 0.1 * rng.normal(size=(B, 1)) + fault
+        z1 = 0.01 * rng.normal(size=(B, 1))
+        prior = kf.predict(x, P, F, Q)
+        usable = np.broadcast_to(np.array([k % every == 0] * 2), (B, 2)).copy()
+        if k % every == 0:  # the fix's χ² at its own epochs, held between them
+            nu = z0[:, 0] - prior[0][:, 0]
+            flag = nu**2 / (prior[1][:, 0, 0] + Rp[0, 0]) > 10.83
+        f = np.stack([flag, np.zeros(B, bool)], 1)
+        det = DetectorOutput(np.zeros((B, 2)), np.ones((B, 2)), f, f)
+        g = guard.begin(state, [prior], [F], [z0, z1], [Hp, Hv], [Rp, Rv], usable, det)
+        x, P = prior
+        for a, (z, H, R) in enumerate(((z0, Hp, Rp), (z1, Hv, Rv))):
+            use = usable[:, a] & ~g.flags[:, a]
+            up = kf.update(x, P, z, H, R)
+            x = np.where(use[:, None], up.x, x)
+            P = np.where(use[:, None, None], up.P, P)
+        state, (amend,) = guard.finish(g, [prior], [z0, z1], [Hp, Hv], [Rp, Rv], usable)
+        x = np.where(amend.where[:, None], x - amend.dx, x)
+        P = np.where(amend.where[:, None, None], P + amend.dP, P)
+        held.append(g.flags[:, 0].copy())
+        error.append(x[:, 0])
+    held, error = np.array(held), np.array(error)  # (K, B), epoch k at k - 1
+    assert held[end - 1 : end + 2].any(0).all(), "the jump back was not held"
+    # n_off consistent increments (fixes) and the patience, then the next fix
+    back = end + 5 * every + 10 + every
+    assert not held[back:].any(), np.flatnonzero(held.any(1)) + 1
+    assert np.abs(error[back + every :]).max() < 0.5, np.abs(error[back + every :]).max(0)

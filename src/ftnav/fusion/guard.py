@@ -119,7 +119,12 @@ and decides the method's isolation from its detector's flags:
    other aid reads and the aid is re-admitted, relaxed, its jump sum kept for the jump
    back at a step's end.  The rate aids cannot tell one constant offset from another:
    without this a false alarm's rollback of the aid's pulls (an unmodelled manoeuvre's
-   corrections found "too large") held it to the end.
+   corrections found "too large") held it to the end.  ``lasting_s`` counts epochs,
+   whatever the aid's rate.  And where the patience ends between the aid's measurements
+   (no aid measures there, so every held aid is "only"), nothing can be taken: the jump
+   is *due* (``GuardState.due``) and taken at the aid's next measurement, in every row,
+   once its offset has kept one level for the patience (a ramp still running moves
+   it) and while no other half of its device is held (the device is still failing).
 4. **Separation detector** (``detector = "separation"``).  An aid whose pull over a
    window of up to the detector's ``window_s`` is too large for its covariance raises an
    alarm: the solution-separation test, which sees a ramp the filter follows and no
@@ -229,7 +234,10 @@ class GuardState(NamedTuple):
     length : epochs since the hold's onset (0 where not held).
     level, level_A : per aid, (B, m) a held aid's innovation when its present run of
         consistent increments began, and (B, m, m) ``H P Hᵀ`` then: the offset it keeps.
-    level_age : epochs that run has kept the level (-1: none; not held).
+    level_age : epochs since that run began, counted while it keeps the level (-1:
+        none; not held).
+    due : a hold whose patience ended between the aid's measurements, its jump to be
+        taken at the aid's next measurement (module docstring, 3).
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -258,6 +266,7 @@ class GuardState(NamedTuple):
     level: tuple[np.ndarray, ...]
     level_A: tuple[np.ndarray, ...]
     level_age: np.ndarray
+    due: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -641,6 +650,7 @@ class Guard:
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.zeros((B, m, m)) for m in self.dims),
             zi.copy() - 1,
+            zb.copy(),
         )
 
     @staticmethod
@@ -894,6 +904,25 @@ class Guard:
         for b in np.flatnonzero((ripe & unwitnessed & only).any(0)).tolist():
             unwitnessed[:, b] &= ~self._offset_seen(b, usable, test, state)
         expired = ripe & unwitnessed
+        # an expiry between the aid's measurements would release it with nothing to
+        # take (its jump is taken where it measures), and its next measurement, still
+        # off, started a new hold whose patience ended between them again: the drive's
+        # fixes after a 0.01 m/s ramp of 300 s held to the end of the run.  The jump is
+        # due at the aid's next measurement instead, while no new jump comes
+        between = expired & ~usable & self.rollback & (state.level_age >= 0)
+        # (never while the other half of its device is held: the device is still failing,
+        # and its new level is no healthy value.  The drive's fixes stepped 5 m beside
+        # their velocities turned noisy: the step taken, the GLR held the fixes again,
+        # and the coast beside the noisy velocities reached 115 m)
+        for b in np.flatnonzero(between.any(0)).tolist():
+            for j in range(N):
+                if j != b and not self._apart(b, j):
+                    between[:, b] &= ~state.hold[:, j]
+        owed = (state.due | between) & ripe & state.hold
+        # (taken where the aid's offset has kept one level for the patience: a ramp
+        # still running moves it, and taking it then holds its end the patience more)
+        kept_level = state.level_age >= self.patience
+        expired = (expired & ~between) | (owed & usable & fresh & kept_level)
         settled |= expired & ~undone & self.rollback
         # a hold the other aids back: the aid was right, the estimate (the INS) wrong (a
         # gyro bias step: the star tracker flagged, the GNSS velocities confirming it)
@@ -1152,10 +1181,12 @@ class Guard:
         support = np.where(reset, 0.0, support)
         length = np.where(hold & ~rising, state.length + 1, 0)
         level_age = np.where(hold & ~rising, level_age, -1)  # a new or ended hold: none
+        owed = owed & hold & ~rising
         new_state = state._replace(
             level=level,
             level_A=level_A,
             level_age=level_age,
+            due=owed,
             support=support,
             length=length,
             pulls=test.pulls,
@@ -1216,6 +1247,8 @@ class Guard:
         for a, t in enumerate(test.aids):
             j = judged[:, a] & self.rollback
             rows = np.zeros((B, self.dims[a]), bool)
+            # (in epochs: ``lasting_s`` is a time, whatever the aid's rate)
+            age[:, a] += ~usable[:, a] & state.hold[:, a] & (age[:, a] >= 0)
             if not j.any():
                 offset.append(rows)
                 continue
@@ -1825,6 +1858,9 @@ class Guard:
                         J, C = np.zeros((B, self.dims[a])), np.zeros((B,) + (self.dims[a],) * 2)
                         if jumped.any():
                             free = jumped[:, None] & self._unseen(a, usable & ~out.hold, g.test)
+                            # a jump due since the patience ended between the fixes: in
+                            # every row (the others judged the level it kept meanwhile)
+                            free |= (jumped & before.due[:, a])[:, None]
                             J = np.where(free, after.jump[a] - before.taken[a], 0.0)
                             C = np.where(
                                 free[:, :, None] & free[:, None, :], after.jump_cov[a], 0.0
