@@ -59,18 +59,44 @@ def test_the_walk_runs_every_method_with_its_repeated_rows_counted():
         assert scores[name]["horizontal_rms_m"] < 0.5
 
 
-def test_a_5_m_gnss_step_is_detected_on_real_noise():
-    """The receiver's positions and velocities are two aids (rtklib-drive.toml): the
-    position aid's test isolates the step while the velocities keep the INS honest, so
-    the step stays visible for its 60 s and the aid is re-admitted once it ends.  (With
-    one 6-row aid the step was re-admitted after ~57 s of velocity-free dead reckoning,
-    and the return to the true positions read as a second fault: false alarms 0.05.)"""
+def _step_5_m():
     t0 = 1752003400.0
     fault = Fault("gnss", "bias", t0, t0 + 60.0, np.array([0.0, 5.0, 0.0, 0.0, 0.0, 0.0]))
     _, traces, scores = _process("rtklib-drive", methods=["fkf-chi2"], faults=[fault])
-    d = scores["fkf-chi2"]["detection"]["gnss"]
-    assert d["rate"] >= 0.95 and d["mean_recovery_s"] <= 5.0 and d["false_alarm_rate"] <= 0.01
-    assert scores["fkf-chi2"]["horizontal_rms_m"] <= 0.10  # the fault never reaches the solution
+    return scores["fkf-chi2"]
+
+
+def test_a_5_m_gnss_step_is_detected_on_real_noise():
+    """The receiver's positions and velocities are two aids (rtklib-drive.toml): the
+    position aid's test isolates the step at once while the velocities keep the INS
+    honest, and the aid is back once the step ends.  (With one 6-row aid the step was
+    re-admitted after ~57 s of velocity-free dead reckoning, and the return to the true
+    positions read as a second fault: false alarms 0.05.)"""
+    score = _step_5_m()
+    d = score["detection"]["gnss"]
+    assert d["event_rate"] == 1.0 and d["mean_delay_s"] <= 1.0
+    assert d["mean_recovery_s"] <= 5.0 and d["false_alarm_rate"] <= 0.01
+    assert score["horizontal_rms_m"] <= 0.10
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "a lasting step beside aids of its rate only is taken after the patience (10 s): "
+        "flagged for 18 % of the fault's epochs (docs/integrity.md §1.3, the due jump)"
+    ),
+)
+def test_a_5_m_gnss_step_stays_isolated_for_its_60_s():
+    """Held for the whole step, the fault would never reach the solution.  A lasting
+    offset of the fixes beside their velocities, NHC and ZUPT is one the other aids
+    cannot judge (a constant position offset has no rate): it looks the same as the end
+    of a slow ramp the filter had followed, whose offset must be taken within the
+    patience (the drive's 0.01 m/s ramp of 300 s held to the end of the run: 3.35 m
+    after it against ``ckf``'s 0.17 m).  This step was held for its 60 s only while the
+    hold's patience, ending between the fixes, released it with nothing taken (the
+    same step east was taken 10 s in); now it is taken 10.7 s in as well (``ckf``, which
+    follows it, 4.9 m during it; after it both back at 0.06 m)."""
+    assert _step_5_m()["detection"]["gnss"]["rate"] >= 0.95
 
 
 def test_without_a_fault_the_chi_square_test_rarely_isolates_an_aid(drive):
