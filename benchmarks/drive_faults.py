@@ -18,6 +18,8 @@ trusted; and the worst fault-tolerant method's ``after`` over ``ckf``'s (issue 2
 
     python benchmarks/drive_faults.py                       # about 6 min on 2 cores
     python benchmarks/drive_faults.py --aids gnss,gnss-vel  # the receiver alone
+    python benchmarks/drive_faults.py --aids gnss           # the positions alone
+    python benchmarks/drive_faults.py --aids gnss,nhc,zupt  # no velocities (open, §5)
 """
 
 from __future__ import annotations

@@ -42,6 +42,7 @@ SLOW = (
     "the_allowance_the_gnss_comes_home[1.0]",
     "tests/reference/test_drive_integrity.py::test_gnss_alone_a_false_alarm_during_a_long_step",
     "tests/reference/test_drive_integrity.py::test_the_end_of_a_fault_too_long_to_roll_back",
+    "tests/reference/test_drive_integrity.py::test_positions_with_the_constraints_alone",
 )
 
 
