@@ -63,15 +63,17 @@ def test_a_guard_without_flags_changes_nothing(settings):
     assert traces["off"].guard is None
 
 
-def _aids_step(guard, state, x, P, F, Q, zs, Hs, Rs, flagged, repeated=None):
+def _aids_step(guard, state, x, P, F, Q, zs, Hs, Rs, flagged, repeated=None, usable=None):
     """One epoch of a filter of several aids (one group) under the guard, the detector's
-    flags ``flagged`` (N,), the outputs ``repeated`` (N,) or None: the new state, the
-    posterior before the guard's amend, the guard's epoch, the amend."""
+    flags ``flagged`` (N,) or (B, N), the outputs ``repeated`` (N,) or None, the aids
+    measuring ``usable`` (N,) or None (every aid): the new state, the posterior before
+    the guard's amend, the guard's epoch, the amend."""
     B, N = x.shape[0], len(zs)
     prior = kf.predict(x, P, F, Q)
     flag = np.broadcast_to(np.asarray(flagged, bool), (B, N)).copy()
     det = DetectorOutput(np.zeros((B, N)), np.ones((B, N)), flag, flag)
-    usable = np.ones((B, N), bool)
+    use_all = np.ones(N, bool) if usable is None else np.asarray(usable, bool)
+    usable = np.broadcast_to(use_all, (B, N)).copy()
     rep = None if repeated is None else np.broadcast_to(np.asarray(repeated), (B, N)).copy()
     g = guard.begin(state, [prior], [F], zs, Hs, Rs, usable, det, repeated=rep)
     x, P = prior
@@ -405,21 +407,23 @@ def test_a_patience_that_ends_between_the_fixes_takes_the_jump_at_the_next_fix()
         fault = 0.01 * (min(k, end) - 30) if 30 <= k < end else 0.0
         z0 = 0.1 * rng.normal(size=(B, 1)) + fault
         z1 = 0.01 * rng.normal(size=(B, 1))
-        prior = kf.predict(x, P, F, Q)
-        usable = np.broadcast_to(np.array([k % every == 0] * 2), (B, 2)).copy()
-        if k % every == 0:  # the fix's χ² at its own epochs, held between them
-            nu = z0[:, 0] - prior[0][:, 0]
-            flag = nu**2 / (prior[1][:, 0, 0] + Rp[0, 0]) > 10.83
-        f = np.stack([flag, np.zeros(B, bool)], 1)
-        det = DetectorOutput(np.zeros((B, 2)), np.ones((B, 2)), f, f)
-        g = guard.begin(state, [prior], [F], [z0, z1], [Hp, Hv], [Rp, Rv], usable, det)
-        x, P = prior
-        for a, (z, H, R) in enumerate(((z0, Hp, Rp), (z1, Hv, Rv))):
-            use = usable[:, a] & ~g.flags[:, a]
-            up = kf.update(x, P, z, H, R)
-            x = np.where(use[:, None], up.x, x)
-            P = np.where(use[:, None, None], up.P, P)
-        state, (amend,) = guard.finish(g, [prior], [z0, z1], [Hp, Hv], [Rp, Rv], usable)
+        fix = k % every == 0
+        if fix:  # the fix's χ² at its own epochs, held between them
+            x_p, P_p = kf.predict(x, P, F, Q)
+            flag = (z0[:, 0] - x_p[:, 0]) ** 2 / (P_p[:, 0, 0] + Rp[0, 0]) > 10.83
+        state, x, P, g, amend = _aids_step(
+            guard,
+            state,
+            x,
+            P,
+            F,
+            Q,
+            [z0, z1],
+            [Hp, Hv],
+            [Rp, Rv],
+            np.stack([flag, np.zeros(B, bool)], 1),
+            usable=[fix, fix],
+        )
         x = np.where(amend.where[:, None], x - amend.dx, x)
         P = np.where(amend.where[:, None, None], P + amend.dP, P)
         held.append(g.flags[:, 0].copy())

@@ -567,6 +567,11 @@ class Guard:
         self.sizes = [int(n) for n in sizes]
         self.dims = [int(m) for m in dims]
         self.N = len(self.dims)
+        #: per aid, the other aids of its own device (the other half of its receiver)
+        self.mates = tuple(
+            tuple(j for j in range(self.N) if j != a and not self._apart(a, j))
+            for a in range(self.N)
+        )
         self.group_of = np.empty(self.N, dtype=int)
         self.slot = np.empty(self.N, dtype=int)
         for gi, g in enumerate(self.groups):
@@ -915,9 +920,8 @@ class Guard:
         # their velocities turned noisy: the step taken, the GLR held the fixes again,
         # and the coast beside the noisy velocities reached 115 m)
         for b in np.flatnonzero(between.any(0)).tolist():
-            for j in range(N):
-                if j != b and not self._apart(b, j):
-                    between[:, b] &= ~state.hold[:, j]
+            for j in self.mates[b]:
+                between[:, b] &= ~state.hold[:, j]
         owed = (state.due | between) & ripe & state.hold
         # (taken where the aid's offset has kept one level for the patience: a ramp
         # still running moves it, and taking it then holds its end the patience more)
@@ -1675,8 +1679,7 @@ class Guard:
         recent = (usable | ((since >= 0) & (since <= since[:, a, None]))) & ~state.hold
         recent[:, a] = False
         if device:
-            for j in range(self.N):
-                recent[:, j] &= not self._apart(a, j)
+            recent &= np.isin(np.arange(self.N), self.mates[a])
         if not recent.any():
             return np.zeros(usable.shape[0], bool)
         # (a batch row without such an aid has every row unseen)
