@@ -11,6 +11,15 @@ moves the east velocity's rate by g): an altimeter sees the GNSS height and noth
 else, a star tracker none of its rows, a velocity aid every row (their rates), an
 odometer heading north the north row only; a held star tracker's tilt is seen by GNSS
 velocities (their rate) and positions (their rate's rate), not by an altimeter.
+
+The rows are not the directions (:meth:`~ftnav.fusion.guard.Guard._blind`): the vehicle
+constraints of a car heading 45° read the east and the north velocity, so every GNSS
+row's rate is carried by a state they respond to, yet the along-track velocity
+(``sin ψ vE + cos ψ vN``) is outside the span of what they read at every heading.
+Oracle, by hand: beside the constraints alone a direction of the GNSS is unseen at
+every heading; beside the constraints and an odometer (the along-track motion of a car
+heading north, or the north motion of one heading 45°: together they span both
+horizontal velocities) or beside GNSS velocities, none.
 """
 
 from __future__ import annotations
@@ -33,18 +42,37 @@ def _rows(*cols: int, n: int = N_STATES) -> np.ndarray:
     return H
 
 
+def _constraints(heading_deg: float) -> np.ndarray:
+    """NHC of a vehicle heading ``heading_deg`` from north: its lateral velocity
+    (``cos ψ vE − sin ψ vN``) and its vertical velocity are zero."""
+    psi = np.radians(heading_deg)
+    H = np.zeros((2, N_STATES))
+    H[0, 3], H[0, 4] = np.cos(psi), -np.sin(psi)
+    H[1, 5] = 1.0
+    return H
+
+
 AIDS = {
     "gnss": _rows(0, 1, 2),
     "altimeter": _rows(2),
     "star tracker": _rows(6),
     "velocity": _rows(3, 4, 5),
     "odometer north": _rows(4),
+    "constraints heading 0": _constraints(0.0),
+    "constraints heading 45": _constraints(45.0),
+    "constraints heading 120": _constraints(120.0),
 }
 
 
 def _setup(names: list[str], B: int = 1) -> tuple[Guard, GuardTest]:
     Hs = [AIDS[k] for k in names]
-    guard = Guard(GuardSettings(), [tuple(range(len(names)))], [N_STATES], [h.shape[0] for h in Hs])
+    guard = Guard(
+        GuardSettings(),
+        [tuple(range(len(names)))],
+        [N_STATES],
+        [h.shape[0] for h in Hs],
+        pseudo=[k.startswith("constraints") for k in names],
+    )
     F = np.eye(N_STATES)
     F[:3, 3:6] = DT * np.eye(3)
     F[3, 6] = G * DT
@@ -134,3 +162,42 @@ def test_a_north_step_beside_an_altimeter_and_a_star_tracker_is_unwitnessed():
     usable_v[:, 1] = False
     only_v = _only(guard_v, usable_v)
     assert guard_v._unwitnessed(0, usable_v, test_v, state_v, only_v, care[:, 0]).all()
+
+
+@pytest.mark.parametrize(
+    ("witnesses", "blind"),
+    [
+        (["constraints heading 45"], True),
+        (["constraints heading 120"], True),
+        (["constraints heading 45", "odometer north"], False),
+        (["constraints heading 120", "odometer north"], False),
+        (["velocity"], False),
+        (["constraints heading 45", "velocity"], False),
+        # a sensor beside them sees what it reads: the row rules of ``_unseen`` hold
+        (["constraints heading 45", "altimeter"], False),
+    ],
+)
+def test_the_constraints_leave_the_along_track_direction_unseen(witnesses, blind):
+    guard, test = _setup(["gnss", *witnesses])
+    usable = np.ones((1, 1 + len(witnesses)), bool)
+    usable[:, 0] = False
+    # row by row every GNSS row is seen (its rate's states are read) ...
+    assert not guard._unseen(0, usable, test)[0].any()
+    # ... direction by direction the along-track one is not, beside the constraints alone
+    # (gated pseudo-measurements: a sensor measuring beside them keeps the row rules)
+    assert guard._blind(0, usable, test, np.array([True]))[0] == blind
+    usable[:, 0] = True
+    present = guard._witness_present(0, usable, test=test, care=np.array([True]))
+    assert present[0] == (not blind)
+    assert guard._witness_present(0, usable)[0]  # without the test: any aid measuring
+
+
+def test_heading_north_the_row_rule_and_the_direction_agree():
+    """A car heading north: its constraints read the east velocity, so the north row is
+    unseen row by row, and the unseen direction is the north one; with no aid
+    measuring beside the fix nothing is computed (the fix is alone anyway)."""
+    guard, test = _setup(["gnss", "constraints heading 0"])
+    usable = np.array([[False, True]])
+    np.testing.assert_array_equal(guard._unseen(0, usable, test)[0], [False, True, False])
+    assert guard._blind(0, usable, test, np.array([True]))[0]
+    assert not guard._blind(0, np.array([[False, False]]), test, np.array([True]))[0]

@@ -383,6 +383,12 @@ MAD_SIGMA = 1.482602218505602
 #: ratio above χ²₁'s 0.99 quantile): a rollback changes the estimate, so it needs the
 #: witnesses' consent more than an isolation does
 WITNESS_LLR = float(chi2.isf(0.01, 1))
+#: a direction of an aid's quantity that the others see less than this share of (of the
+#: quantity and of its rate together) leaves the aid a sole source (:meth:`Guard._blind`)
+BLIND_SHARE = 0.5
+#: the witnesses' rows span the directions whose singular value is at least this share of
+#: the largest (their rows scaled to unit length)
+BLIND_RANK = 1e-3
 
 
 def devices_of(sensors: Sequence[Sensor]) -> tuple[str, ...]:
@@ -554,8 +560,12 @@ class Guard:
         rollback: bool = True,
         devices: Sequence[str] | None = None,
         common: int | None = None,
+        pseudo: Sequence[bool] | None = None,
     ):
         self.config = config
+        #: per aid, whether it is a gated pseudo-measurement (a vehicle constraint): it
+        #: witnesses only the directions it reads (:meth:`_blind`)
+        self.pseudo = np.zeros(len(dims), bool) if pseudo is None else np.array(pseudo, bool)
         #: independent locals (one aid per group): the first ``common`` states are every
         #: group's, and the other groups' aids witness a held aid through them
         self.common = None if common is None else int(common)
@@ -619,7 +629,16 @@ class Guard:
         (:func:`devices_of`)."""
         dims = [s.dim for s in sensors]
         group = [tuple(range(len(dims)))]
-        return cls(config, group, [n_states], dims, dt, detector, devices=devices_of(sensors))
+        return cls(
+            config,
+            group,
+            [n_states],
+            dims,
+            dt,
+            detector,
+            devices=devices_of(sensors),
+            pseudo=[s.gate is not None for s in sensors],
+        )
 
     def init(self, batch: int) -> GuardState:
         B, N = batch, self.N
@@ -806,8 +825,18 @@ class Guard:
         passes = np.where(override, self.n_off, passes)
         overruled = overruled | override
         undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
-        # no other aid of the estimate measures now (a sole source in the strict sense)
-        alone = np.stack([~self._witness_present(a, usable, state) for a in range(N)], 1)
+        # where an aid's kind (a sole source or not) matters: held, or may be isolated now
+        care = state.hold | det_flag | det_raw | (ratio > 1.0)
+        care |= np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
+        # no other aid of the estimate measures now (a sole source in the strict sense),
+        # or those that do leave a direction of its quantity unseen (:meth:`_blind`)
+        alone = np.stack(
+            [
+                ~self._witness_present(a, usable, state, test=test, care=care[:, a])
+                for a in range(N)
+            ],
+            1,
+        )
         # no other aid of the estimate measures at all, held or not (the only aid now): a
         # held healthy aid must not leave a faulty one the field.  Between the fixes no
         # aid measures, so every held aid is "only" there: its patience may end its hold
@@ -816,7 +845,9 @@ class Guard:
         # re-admits the drive's GLR after a noise minute in 1.4 s rather than 14 s, and
         # takes a lasting 5 m east step after 10 s; requiring the aid to measure traded
         # the first for the second, and was not kept)
-        only = np.stack([~self._witness_present(a, usable) for a in range(N)], 1)
+        only = np.stack(
+            [~self._witness_present(a, usable, test=test, care=care[:, a]) for a in range(N)], 1
+        )
         # no aid of the method other than ``a`` measures (independent locals: the other
         # locals' aids too; else ``only``)
         only_m = (
@@ -1572,15 +1603,78 @@ class Guard:
         return out
 
     def _witness_present(
-        self, a: int, usable: np.ndarray, state: GuardState | None = None, method: bool = False
+        self,
+        a: int,
+        usable: np.ndarray,
+        state: GuardState | None = None,
+        method: bool = False,
+        test: GuardTest | None = None,
+        care: np.ndarray | None = None,
     ) -> np.ndarray:
         """(B,) whether another aid of ``a``'s group has a measurement and is not isolated
         (with ``state``; without: whether another aid has a measurement); with ``method``
-        another aid of the method (:meth:`_peers`)."""
+        another aid of the method (:meth:`_peers`).  With ``test``, where ``care`` (B,),
+        those aids must together see every direction of ``a``'s quantity
+        (:meth:`_blind`)."""
         out = np.zeros(usable.shape[0], bool)
+        present = np.zeros(usable.shape, bool)
         for j in self._peers(a) if method else self.groups[self.group_of[a]]:
             if j != a:
-                out |= usable[:, j] & (True if state is None else ~state.hold[:, j])
+                present[:, j] = usable[:, j] & (True if state is None else ~state.hold[:, j])
+                out |= present[:, j]
+        if test is not None and care is not None and (out & care).any():
+            out &= ~self._blind(a, present, test, out & care)
+        return out
+
+    def _blind(
+        self, a: int, witnesses: np.ndarray, test: GuardTest, where: np.ndarray
+    ) -> np.ndarray:
+        """(B,) whether the aids in ``witnesses`` (B, N) leave a direction of aid ``a``'s
+        measured quantity unseen: a direction ``u`` of ``a``'s measurement space whose
+        quantity ``uᵀH_a x`` and rate ``uᵀH_a D x`` (``D = Φ − I``) both lie mostly
+        outside the span of what the witnesses respond to (``H_j``, ``H_j D``,
+        ``H_j D²``, in the metric of ``P``).  The share of a direction a witness sees is
+        ``uᵀ A^{-1/2} H P^{1/2} Π P^{1/2} Hᵀ A^{-1/2} u`` with ``Π`` the projector on the
+        witnesses' rows and ``A = H P Hᵀ``, for ``H`` the quantity and for its rate; a
+        direction is unseen where the two shares add to less than :data:`BLIND_SHARE`.
+        The vehicle constraints see a position's rate across the track and up, not along
+        it: beside them alone the drive's fixes are the only source of the along-track
+        motion (docs/integrity.md §5), as seed002's horizontal GNSS is beside its star
+        tracker and altimeter.  Computed where ``where`` (B,); False elsewhere."""
+        out = np.zeros(where.shape[0], bool)
+        peers = self._peers(a)
+        real = witnesses[:, peers] & ~self.pseudo[peers]
+        rows = np.flatnonzero(where & witnesses[:, peers].any(-1) & ~real.any(-1))
+        if rows.size == 0:
+            return out
+        g = self.group_of[a]
+        P = test.P[g][rows]
+        n = P.shape[-1]
+        jitter = 1e-12 * np.maximum(np.trace(P, axis1=-2, axis2=-1), 1e-300)[:, None, None]
+        Ph = np.linalg.cholesky(kf.symmetrize(P) + jitter * np.eye(n))
+        D = np.broadcast_to(test.F[g], test.P[g].shape)[rows] - np.eye(n)
+        blocks = []
+        for j in self._peers(a):
+            Hj = self._on(j, g, test.H[j])[rows]
+            HjD = Hj @ D
+            for M in (Hj, HjD, HjD @ D):
+                W = M @ Ph
+                norm = np.linalg.norm(W, axis=-1, keepdims=True)
+                W = np.where(norm > 0, W / np.where(norm > 0, norm, 1.0), 0.0)
+                blocks.append(W * witnesses[rows, j, None, None])
+        _, sv, Vt = np.linalg.svd(np.concatenate(blocks, 1), full_matrices=False)
+        keep = sv > BLIND_RANK * sv[:, :1]
+        V = kf.mT(Vt) * keep[:, None, :]
+        Ha = test.H[a][rows]
+        share = np.zeros(Ha.shape[:-2] + (Ha.shape[-2],) * 2)
+        for Q in (Ha @ Ph, Ha @ D @ Ph):
+            A = Q @ kf.mT(Q)
+            w, U = np.linalg.eigh(A)
+            inv = np.where(w > 1e-12 * w[:, -1:], 1.0 / np.sqrt(np.maximum(w, 1e-300)), 0.0)
+            Ai = (U * inv[:, None, :]) @ kf.mT(U)
+            QV = Ai @ Q @ V
+            share += QV @ kf.mT(QV)
+        out[rows] = np.linalg.eigvalsh(kf.symmetrize(share))[:, 0] < BLIND_SHARE
         return out
 
     def _unseen(
@@ -1860,7 +1954,11 @@ class Guard:
                         M = _carrier(Ha, P)
                         J, C = np.zeros((B, self.dims[a])), np.zeros((B,) + (self.dims[a],) * 2)
                         if jumped.any():
-                            free = jumped[:, None] & self._unseen(a, usable & ~out.hold, g.test)
+                            seen_by = usable & ~out.hold
+                            free = jumped[:, None] & self._unseen(a, seen_by, g.test)
+                            # (every row where the others leave a direction unseen: the
+                            # aid is a sole source there, and its jump a sole source's)
+                            free |= self._blind(a, seen_by, g.test, jumped)[:, None]
                             # a jump due since the patience ended between the fixes: in
                             # every row (the others judged the level it kept meanwhile)
                             free |= (jumped & before.due[:, a])[:, None]
