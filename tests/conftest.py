@@ -43,6 +43,7 @@ SLOW = (
     "tests/reference/test_drive_integrity.py::test_gnss_alone_a_false_alarm_during_a_long_step",
     "tests/reference/test_drive_integrity.py::test_the_end_of_a_fault_too_long_to_roll_back",
     "tests/reference/test_drive_integrity.py::test_positions_with_the_constraints_alone",
+    "tests/reference/test_drive_integrity.py::test_beside_the_constraints_alone",
 )
 
 
