@@ -173,8 +173,6 @@ def test_a_north_step_beside_an_altimeter_and_a_star_tracker_is_unwitnessed():
         (["constraints heading 120", "odometer north"], False),
         (["velocity"], False),
         (["constraints heading 45", "velocity"], False),
-        # a sensor beside them sees what it reads: the row rules of ``_unseen`` hold
-        (["constraints heading 45", "altimeter"], False),
     ],
 )
 def test_the_constraints_leave_the_along_track_direction_unseen(witnesses, blind):
@@ -201,3 +199,18 @@ def test_heading_north_the_row_rule_and_the_direction_agree():
     np.testing.assert_array_equal(guard._unseen(0, usable, test)[0], [False, True, False])
     assert guard._blind(0, usable, test, np.array([True]))[0]
     assert not guard._blind(0, np.array([[False, False]]), test, np.array([True]))[0]
+
+
+def test_a_sensor_beside_the_constraints_keeps_the_row_rules():
+    """An altimeter beside the constraints sees the height only, so a direction stays
+    unseen; but a sensor measuring (held or not) keeps the rules by row
+    (``Guard._constrained``): ``seed002``'s GNSS beside its star tracker and altimeter
+    is judged so, and the drive's fixes beside their held velocities."""
+    guard, test = _setup(["gnss", "constraints heading 45", "altimeter"])
+    usable = np.array([[True, True, True]])
+    assert guard._blind(0, usable, test, np.array([True]))[0]
+    assert not guard._constrained(0, usable)[0]
+    assert guard._witness_present(0, usable, test=test, care=np.array([True]))[0]
+    usable[0, 2] = False  # the altimeter not measuring: the constraints alone
+    assert guard._constrained(0, usable)[0]
+    assert not guard._witness_present(0, usable, test=test, care=np.array([True]))[0]

@@ -1635,8 +1635,14 @@ class Guard:
                 present[:, j] = usable[:, j] & (True if state is None else ~state.hold[:, j])
                 out |= present[:, j]
         if test is not None and care is not None and (out & care).any():
-            out &= ~self._blind(a, present, test, out & care)
+            out &= ~self._blind(a, present, test, out & care & self._constrained(a, usable))
         return out
+
+    def _constrained(self, a: int, usable: np.ndarray) -> np.ndarray:
+        """(B,) whether every other aid that measures now, held or not, is a gated
+        pseudo-measurement (a vehicle constraint): no sensor beside aid ``a``."""
+        peers = self._peers(a)
+        return np.asarray(~(usable[:, peers] & ~self.pseudo[peers]).any(-1))
 
     def _blind(
         self, a: int, witnesses: np.ndarray, test: GuardTest, where: np.ndarray
@@ -1654,9 +1660,7 @@ class Guard:
         motion (docs/integrity.md §5), as seed002's horizontal GNSS is beside its star
         tracker and altimeter.  Computed where ``where`` (B,); False elsewhere."""
         out = np.zeros(where.shape[0], bool)
-        peers = self._peers(a)
-        real = witnesses[:, peers] & ~self.pseudo[peers]
-        rows = np.flatnonzero(where & witnesses[:, peers].any(-1) & ~real.any(-1))
+        rows = np.flatnonzero(where & witnesses[:, self._peers(a)].any(-1))
         if rows.size == 0:
             return out
         g = self.group_of[a]
@@ -1970,7 +1974,8 @@ class Guard:
                             free = jumped[:, None] & self._unseen(a, seen_by, g.test)
                             # (every row where the others leave a direction unseen: the
                             # aid is a sole source there, and its jump a sole source's)
-                            free |= self._blind(a, seen_by, g.test, jumped)[:, None]
+                            alone_by = jumped & self._constrained(a, usable)
+                            free |= self._blind(a, seen_by, g.test, alone_by)[:, None]
                             # a jump due since the patience ended between the fixes: in
                             # every row (the others judged the level it kept meanwhile)
                             free |= (jumped & before.due[:, a])[:, None]
