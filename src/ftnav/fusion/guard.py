@@ -126,7 +126,8 @@ and decides the method's isolation from its detector's flags:
    once its offset has kept one level for the patience (a ramp still running moves
    it) and while no other half of its device is held (the device is still failing).
    "No other aid measures" is read by direction beside the vehicle constraints alone
-   (gated pseudo-measurements: every aid measuring beside it is one): they read the
+   (gated pseudo-measurements: every aid measuring beside it, held or not, is one,
+   :meth:`Guard._constrained`): they read the
    velocity across the track and up, so row by row they respond to every GNSS row's
    rate, yet the along-track motion has no other source.  Where they leave a direction
    of the aid's quantity and of its rate mostly unseen (:meth:`Guard._blind`) the aid is
@@ -1657,8 +1658,8 @@ class Guard:
         direction is unseen where the two shares add to less than :data:`BLIND_SHARE`.
         The vehicle constraints see a position's rate across the track and up, not along
         it: beside them alone the drive's fixes are the only source of the along-track
-        motion (docs/integrity.md §5), as seed002's horizontal GNSS is beside its star
-        tracker and altimeter.  Computed where ``where`` (B,); False elsewhere."""
+        motion (docs/integrity.md §1.6).  Decided only where no sensor measures beside the
+        aid (:meth:`_constrained`); computed where ``where`` (B,), False elsewhere."""
         out = np.zeros(where.shape[0], bool)
         rows = np.flatnonzero(where & witnesses[:, self._peers(a)].any(-1))
         if rows.size == 0:
@@ -1666,8 +1667,9 @@ class Guard:
         g = self.group_of[a]
         P = test.P[g][rows]
         n = P.shape[-1]
-        jitter = 1e-12 * np.maximum(np.trace(P, axis1=-2, axis2=-1), 1e-300)[:, None, None]
-        Ph = np.linalg.cholesky(kf.symmetrize(P) + jitter * np.eye(n))
+        # a square root of P (the shares do not depend on which: Π turns with it)
+        w_p, U_p = np.linalg.eigh(kf.symmetrize(P))
+        Ph = U_p * np.sqrt(np.maximum(w_p, 0.0))[:, None, :]
         D = np.broadcast_to(test.F[g], test.P[g].shape)[rows] - np.eye(n)
         blocks = []
         for j in self._peers(a):
