@@ -1652,10 +1652,11 @@ class Guard:
         measured quantity unseen: a direction ``u`` of ``a``'s measurement space whose
         quantity ``uᵀH_a x`` and rate ``uᵀH_a D x`` (``D = Φ − I``) both lie mostly
         outside the span of what the witnesses respond to (``H_j``, ``H_j D``,
-        ``H_j D²``, in the metric of ``P``).  The share of a direction a witness sees is
-        ``uᵀ A^{-1/2} H P^{1/2} Π P^{1/2} Hᵀ A^{-1/2} u`` with ``Π`` the projector on the
-        witnesses' rows and ``A = H P Hᵀ``, for ``H`` the quantity and for its rate; a
-        direction is unseen where the two shares add to less than :data:`BLIND_SHARE`.
+        ``H_j D²``, each state in its own σ: ``Σ = diag(P)^{1/2}``).  The share of a
+        direction a witness sees is ``uᵀ A^{-1/2} H Σ Π Σ Hᵀ A^{-1/2} u`` with ``Π`` the
+        projector on the witnesses' rows and ``A = H Σ² Hᵀ``, for ``H`` the quantity and
+        for its rate; a direction is unseen where the two shares add to less than
+        :data:`BLIND_SHARE`.
         The vehicle constraints see a position's rate across the track and up, not along
         it: beside them alone the drive's fixes are the only source of the along-track
         motion (docs/integrity.md §1.6).  Decided only where no sensor measures beside the
@@ -1667,9 +1668,13 @@ class Guard:
         g = self.group_of[a]
         P = test.P[g][rows]
         n = P.shape[-1]
-        # a square root of P (the shares do not depend on which: Π turns with it)
-        w_p, U_p = np.linalg.eigh(kf.symmetrize(P))
-        Ph = U_p * np.sqrt(np.maximum(w_p, 0.0))[:, None, :]
+        # each state in its own σ, its correlations left out (as :func:`_carries`): what
+        # a witness reads, not what the prior happens to correlate with it (with P's
+        # square root the shares of the drive's along-track direction crossed 0.5 and
+        # back as the correlations moved, and the fixes alternated between the two rules:
+        # the GLR 0.138 m fault-free against 0.063 m so)
+        sd = np.sqrt(np.maximum(np.diagonal(P, axis1=-2, axis2=-1), 0.0))
+        Ph = sd[:, None, :] * np.eye(n)
         D = np.broadcast_to(test.F[g], test.P[g].shape)[rows] - np.eye(n)
         blocks = []
         for j in self._peers(a):
