@@ -571,7 +571,7 @@ _BESIDE_CONSTRAINTS = {
 
 @pytest.mark.parametrize(
     ("case", "method"),
-    [("ramp-300-s", "fkf-chi2"), ("ramp-300-s", "fkf-glr"), ("height-ramp", "fkf-chi2")],
+    [(case, method) for case in _BESIDE_CONSTRAINTS for method in ("fkf-chi2", "fkf-glr")],
 )
 def test_beside_the_constraints_alone_the_fixes_fare_no_worse_than_alone(tmp_path, case, method):
     """The fixes beside NHC and ZUPT only (a receiver that gives no velocities).  The
