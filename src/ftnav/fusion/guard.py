@@ -838,9 +838,12 @@ class Guard:
         passes = np.where(override, self.n_off, passes)
         overruled = overruled | override
         undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
-        # where an aid's kind (a sole source or not) matters: held, or may be isolated now
-        care = state.hold | det_flag | det_raw | (ratio > 1.0)
-        care |= np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
+        # where an aid's kind (a sole source or not) matters: held, or may be isolated
+        # now; only beside the vehicle constraints (:meth:`_blind`), else nowhere
+        care = np.zeros((B, N), bool)
+        if self.pseudo.any():
+            care = state.hold | det_flag | det_raw | (ratio > 1.0)
+            care |= np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
         # no other aid of the estimate measures now (a sole source in the strict sense),
         # or those that do leave a direction of its quantity unseen (:meth:`_blind`)
         alone = np.stack(
@@ -1673,15 +1676,14 @@ class Guard:
         # square root the shares of the drive's along-track direction crossed 0.5 and
         # back as the correlations moved, and the fixes alternated between the two rules:
         # the GLR 0.138 m fault-free against 0.063 m so)
-        sd = np.sqrt(np.maximum(np.diagonal(P, axis1=-2, axis2=-1), 0.0))
-        Ph = sd[:, None, :] * np.eye(n)
+        sd = np.sqrt(np.maximum(np.diagonal(P, axis1=-2, axis2=-1), 0.0))[:, None, :]
         D = np.broadcast_to(test.F[g], test.P[g].shape)[rows] - np.eye(n)
         blocks = []
         for j in self._peers(a):
             Hj = self._on(j, g, test.H[j])[rows]
             HjD = Hj @ D
             for M in (Hj, HjD, HjD @ D):
-                W = M @ Ph
+                W = M * sd
                 norm = np.linalg.norm(W, axis=-1, keepdims=True)
                 W = np.where(norm > 0, W / np.where(norm > 0, norm, 1.0), 0.0)
                 blocks.append(W * witnesses[rows, j, None, None])
@@ -1690,7 +1692,7 @@ class Guard:
         V = kf.mT(Vt) * keep[:, None, :]
         Ha = test.H[a][rows]
         share = np.zeros(Ha.shape[:-2] + (Ha.shape[-2],) * 2)
-        for Q in (Ha @ Ph, Ha @ D @ Ph):
+        for Q in (Ha * sd, (Ha @ D) * sd):
             A = Q @ kf.mT(Q)
             w, U = np.linalg.eigh(A)
             inv = np.where(w > 1e-12 * w[:, -1:], 1.0 / np.sqrt(np.maximum(w, 1e-300)), 0.0)
