@@ -1038,7 +1038,16 @@ class Guard:
         own = np.zeros((B, N), bool)
         for a, t in enumerate(test.aids):
             own[:, a] = overruled[:, a] & usable[:, a] & (t.nis > self.T1[a]) & ~home[:, a]
-        triggered = alarm | (det_flag & ~overruled) | own
+        # a detector's flag of an aid whose device mate is held, while the aid's own
+        # increment is consistent, is the coast's drift, not the device's: the mate's
+        # hold left the estimate to the INS, whose drift in a turn shifts this aid's
+        # innovations too (the drive's GLR held the GNSS velocities at 429 s and flagged
+        # the positions 0.25 s later, both halves held for a relaxed re-admission)
+        coasting = np.zeros((B, N), bool)
+        for a in range(N):
+            for j in self.mates[a]:
+                coasting[:, a] |= state.hold[:, j]
+        triggered = alarm | (det_flag & ~overruled & ~(coasting & good)) | own
         hold_before = state.hold
         if keep is not None:
             # the common-mode rule sees every aid isolated or flagged now: when a quorum
