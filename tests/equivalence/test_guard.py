@@ -436,20 +436,23 @@ def test_a_patience_that_ends_between_the_fixes_takes_the_jump_at_the_next_fix()
     assert np.abs(error[back + every :]).max() < 0.5, np.abs(error[back + every :]).max(0)
 
 
-def _receiver_halves(step: float) -> tuple[np.ndarray, np.ndarray]:
+def _receiver_halves(step: float, odometer: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """A receiver's position fix (σ 1) and velocity (σ 0.1), one device, on a constant
-    velocity model.  The velocity half is falsely flagged for epochs 40-49 and held; the
-    detector flags the position half for 42-44 too (on the drive: the INS's drift in a
-    turn, coasting while the velocities were held, shifted the positions' innovations).
-    The fix steps by ``step`` over 42-99.  Returns per epoch (K, B) the position half's
-    hold and the position error."""
+    velocity model, beside an odometer of its own device (velocity, σ 1) or none.  The
+    velocity half is falsely flagged for epochs 40-49 and held; the detector flags the
+    position half for 42-44 too (on the drive: the INS's drift in a turn, coasting while
+    the velocities were held, shifted the positions' innovations).  The fix steps by
+    ``step`` over 42-99.  Returns per epoch (K, B) the position half's hold and the
+    position error."""
     rng = np.random.default_rng(11)
     F = np.array([[1.0, 1.0], [0.0, 1.0]])
     Q = np.diag([1e-4, 1e-4])
     H0, H1 = np.array([[1.0, 0.0]]), np.array([[0.0, 1.0]])
     R0, R1 = np.array([[1.0]]), np.array([[0.01]])
     B, n = 4, 2
-    guard = Guard(GuardSettings(), [(0, 1)], [n], [1, 1], devices=["rx", "rx"])
+    Hs, Rs, devices = [H0, H1, H1], [R0, R1, np.eye(1)], ["rx", "rx", "odometer"]
+    N = 3 if odometer else 2
+    guard = Guard(GuardSettings(), [tuple(range(N))], [n], [1] * N, devices=devices[:N])
     state = guard.init(B)
     x, P = np.zeros((B, n)), np.broadcast_to(np.eye(n) * 10.0, (B, n, n)).copy()
     p, v = np.zeros(B), np.ones(B)
@@ -458,10 +461,10 @@ def _receiver_halves(step: float) -> tuple[np.ndarray, np.ndarray]:
         p = p + v
         z0 = (p + rng.normal(size=B) + (step if 42 <= k < 100 else 0.0))[:, None]
         z1 = (v + 0.1 * rng.normal(size=B))[:, None]
-        flags = [42 <= k < 45, 40 <= k < 50]
-        state, x, P, g, amend = _aids_step(
-            guard, state, x, P, F, Q, [z0, z1], [H0, H1], [R0, R1], flags
-        )
+        z2 = (v + rng.normal(size=B))[:, None]
+        flags = [42 <= k < 45, 40 <= k < 50, False][:N]
+        zs = [z0, z1, z2][:N]
+        state, x, P, g, amend = _aids_step(guard, state, x, P, F, Q, zs, Hs[:N], Rs[:N], flags)
         x = np.where(amend.where[:, None], x - amend.dx, x)
         P = np.where(amend.where[:, None, None], P + amend.dP, P)
         rows.append((g.flags[:, 0].copy(), x[:, 0] - p))
@@ -470,12 +473,20 @@ def _receiver_halves(step: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_a_flag_while_the_device_mate_is_held_starts_no_hold_of_a_consistent_half():
-    """The position half's increments are consistent while its mate is held: the flag is
-    the coast's, and the healthy fixes are used throughout (before: held from epoch 42,
-    both halves of the receiver out, the estimate coasting)."""
+    """The position half's increments are consistent while its mate is held and the
+    odometer measures: the flag is the coast's, and the healthy fixes are used throughout
+    (before: held from epoch 42, both halves of the receiver out, the estimate
+    coasting)."""
     held, error = _receiver_halves(step=0.0)
     assert not held.any(), np.flatnonzero(held.any(1))
     assert np.abs(error).max() < 4.0, np.abs(error).max()
+
+
+def test_where_the_receiver_is_all_that_measures_the_flag_of_its_other_half_holds_it():
+    """No odometer: the flag may be the only sign of the device's fault (a position ramp
+    the GLR blamed on the velocities), so the position half is held as before."""
+    held, _ = _receiver_halves(step=0.0, odometer=False)
+    assert held[42:45].any(0).all(), held[40:46]
 
 
 def test_a_jump_while_the_device_mate_is_held_is_still_held():

@@ -1044,14 +1044,22 @@ class Guard:
         for a, t in enumerate(test.aids):
             own[:, a] = overruled[:, a] & usable[:, a] & (t.nis > self.T1[a]) & ~home[:, a]
         # a detector's flag of an aid whose device mate is held, while the aid's own
-        # increment is consistent, is the coast's drift, not the device's: the mate's
-        # hold left the estimate to the INS, whose drift in a turn shifts this aid's
-        # innovations too (the drive's GLR held the GNSS velocities at 429 s and flagged
-        # the positions 0.25 s later, both halves held for a relaxed re-admission)
+        # increment is consistent and an aid of another device measures, is the coast's
+        # drift, not the device's: the mate's hold left the estimate to the INS, whose
+        # drift in a turn shifts this aid's innovations too (the drive's GLR held the GNSS
+        # velocities at 429 s and flagged the positions 0.25 s later, both halves held for
+        # a relaxed re-admission).  Where the device is all that measures, the flag may
+        # be the only sign of its fault (the GLR blames the velocities for a position
+        # ramp): held as before (the receiver alone, a ramp from 250 s: 0.76 -> 1.58 m)
         coasting = np.zeros((B, N), bool)
         for a in range(N):
-            for j in self.mates[a]:
-                coasting[:, a] |= state.hold[:, j]
+            beside = np.zeros(B, bool)
+            for j in range(N):
+                if j in self.mates[a]:
+                    coasting[:, a] |= state.hold[:, j]
+                elif j != a:
+                    beside |= usable[:, j]
+            coasting[:, a] &= beside
         triggered = alarm | (det_flag & ~overruled & ~(coasting & good)) | own
         hold_before = state.hold
         if keep is not None:
