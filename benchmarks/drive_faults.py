@@ -31,7 +31,6 @@ import numpy as np
 
 from ftnav import process_recording
 from ftnav.model.scenario import Fault
-from ftnav.nav.earth import enu_metres
 
 METHODS = ["ckf", "fkf-chi2", "fkf-glr"]
 RECEIVER = ("gnss", "gnss-vel")
@@ -113,7 +112,7 @@ def main() -> None:
         cells, after = [], []
         for m in METHODS:
             tr = res.traces[m]
-            e = enu_metres(tr.solution.p[0, ri], loaded.reference_p)
+            e = res.errors(m)  # at the antenna, as the scores
             h = np.hypot(e[:, 0], e[:, 1])
             over, past = (t[ri] >= a) & (t[ri] < b), t[ri] >= b
             during = float(np.sqrt(np.mean(h[over] ** 2)))

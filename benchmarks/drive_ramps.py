@@ -23,7 +23,6 @@ import warnings
 import numpy as np
 
 from ftnav import process_recording
-from ftnav.nav.earth import enu_metres
 
 METHODS = ["ckf", "fkf-chi2", "fkf-glr"]
 STARTS = (60.0, 150.0, 184.0, 250.0, 300.0, 350.0, 420.0)
@@ -56,7 +55,7 @@ def main() -> None:
             cells, after = [], []
             for m in METHODS:
                 tr = res.traces[m]
-                e = enu_metres(tr.solution.p[0, ri], loaded.reference_p)
+                e = res.errors(m)  # at the antenna, as the scores
                 h = np.hypot(e[:, 0], e[:, 1])[t[ri] >= b]
                 after.append(float(np.sqrt(np.mean(h**2))))
                 if tr.flag is None:

@@ -43,7 +43,7 @@ from ftnav.engine import navigation_model
 from ftnav.engine.driver import Trace, run
 from ftnav.engine.smoother import smooth, smoothed_trace
 from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, score_recording
+from ftnav.eval.recorded import Reference, reference_errors, score_recording
 from ftnav.io.common import MAX_NOISE_FACTOR
 from ftnav.io.ins_scenario_file import ScenarioWarning
 from ftnav.io.recording_file import (
@@ -260,6 +260,24 @@ class RecordingResult:
         if not 0 <= run < self.runs:
             raise IndexError(f"run {run}: the batch has {self.runs} run(s)")
         return solution_table(traces[method], self.times, run, method)
+
+    @property
+    def reference(self) -> Reference:
+        """The reference the scores use: its epochs, and the positions of the point it
+        measures (the GNSS antenna, its lever arm from the IMU)."""
+        L = self.loaded
+        return Reference(L.reference_index, L.reference_p, L.reference_lever_arm)
+
+    def errors(self, method: str, run: int = 0, smoothed: bool = False) -> np.ndarray:
+        """(K_r, 3) ENU metres of one method's solution minus the reference at its epochs
+        (``times[reference.index]``), at the point the reference measures: what the
+        scores are computed from (:func:`~ftnav.eval.recorded.reference_errors`)."""
+        traces = self._traces(smoothed)
+        if method not in traces:
+            raise KeyError(f"method {method!r}: processed were {list(traces)}")
+        solution = traces[method].solution
+        assert solution is not None  # a recording's trace is integrated
+        return reference_errors(solution, self.reference, run)
 
     def to_dataframe(self, run: int = 0, smoothed: bool = False) -> Any:
         """A :class:`pandas.DataFrame` of every method's solution, one row per method and

@@ -12,12 +12,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import tomli_w
 
 from ftnav.engine import navigation_model
 from ftnav.engine.driver import Trace, run
 from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, score_recording
+from ftnav.eval.recorded import Reference, reference_errors, score_recording
 from ftnav.io.recording_file import LoadedRecording, load_recording
 from ftnav.model.streams import scheduled
 from ftnav.recordings import recording_path
@@ -33,10 +34,11 @@ def traces_of(loaded: LoadedRecording, nav_covariance: bool = False) -> dict[str
 
 
 def process(path: Path, nav_covariance: bool = False, **kw: Any):
-    """``(loaded, traces, scores)`` of a recording file (``kw``: :func:`load_recording`'s)."""
+    """``(loaded, traces, scores)`` of a recording file (``kw``: :func:`load_recording`'s),
+    scored at the point the reference measures (the antenna), as ``ftnav process``."""
     loaded = load_recording(path, **kw)
     traces = traces_of(loaded, nav_covariance)
-    ref = Reference(loaded.reference_index, loaded.reference_p)
+    ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
     scores = score_recording(
         loaded.recording,
         traces,
@@ -63,3 +65,12 @@ def drive_copy(
         edit(doc)
     path.write_text(tomli_w.dumps(doc))
     return path
+
+
+def horizontal(loaded: LoadedRecording, trace: Trace) -> tuple[np.ndarray, np.ndarray]:
+    """(times of the reference epochs, horizontal error there) of the first run, at the
+    point the reference measures (the antenna), as the scores."""
+    ri = loaded.reference_index
+    ref = Reference(ri, loaded.reference_p, loaded.reference_lever_arm)
+    e = reference_errors(trace.solution, ref)
+    return loaded.recording.times[ri], np.hypot(e[:, 0], e[:, 1])

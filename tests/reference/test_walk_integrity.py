@@ -25,12 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from recording_runs import drive_copy, process
+from recording_runs import drive_copy, horizontal, process
 
 from ftnav.fusion.config import GuardSettings
 from ftnav.io.recording_file import load_recording
 from ftnav.model.scenario import Fault
-from ftnav.nav.earth import enu_metres
 
 START, END = 25.0, 40.0
 METHODS = [
@@ -67,19 +66,13 @@ def walk(tmp_path_factory):
     return path, t0
 
 
-def _horizontal(loaded, trace):
-    ri = loaded.reference_index
-    e = enu_metres(trace.solution.p[0, ri], loaded.reference_p)
-    return loaded.recording.times[ri], np.hypot(e[:, 0], e[:, 1])
-
-
 def test_without_a_fault_the_chi_square_method_is_the_plain_filter(walk):
     path, _ = walk
     loaded, traces, _ = process(path)
     g = loaded.recording.sensor_names.index("gnss")
     assert not traces["fkf-chi2"].flag[0, :, g].any()
-    _, ckf = _horizontal(loaded, traces["ckf"])
-    _, chi2 = _horizontal(loaded, traces["fkf-chi2"])
+    _, ckf = horizontal(loaded, traces["ckf"])
+    _, chi2 = horizontal(loaded, traces["fkf-chi2"])
     np.testing.assert_allclose(chi2, ckf, rtol=0, atol=1e-6)
 
 
@@ -97,12 +90,12 @@ def test_after_a_fault_of_the_only_aid_the_error_is_the_plain_filters(walk, kind
     mag = np.array(magnitude * 2 if kind == "noise-scale" else magnitude + [0.0] * 3)
     fault = Fault("gnss", kind, t0 + START, t0 + END, mag)
     loaded, traces, _ = process(path, faults=[fault])
-    t, ckf = _horizontal(loaded, traces["ckf"])
+    t, ckf = horizontal(loaded, traces["ckf"])
     after = t >= END + 2.0
     assert after.sum() > 100  # the fixes scored after the fault (Q = 1 until 72 s)
     rms = lambda e: float(np.sqrt(np.mean(e[after] ** 2)))  # noqa: E731
     for name in TESTED:
-        _, err = _horizontal(loaded, traces[name])
+        _, err = horizontal(loaded, traces[name])
         assert rms(err) <= 1.5 * rms(ckf), (name, rms(err), rms(ckf))
 
 
@@ -118,6 +111,6 @@ def test_a_followed_ramp_of_the_only_aid_is_back_within_its_patience(walk):
         assert down.any(), name
         back = times[later][np.argmax(down)] - END
         assert back <= GuardSettings().patience_s + 2.0, (name, back)
-        t, err = _horizontal(loaded, traces[name])
+        t, err = horizontal(loaded, traces[name])
         late = t >= END + GuardSettings().patience_s + 3.0
         assert err[late].max() < 0.5, name

@@ -40,8 +40,18 @@ def test_one_call_reads_the_file_once_and_returns_a_typed_result(short_drive, mo
     assert (
         "horizontal_rms_m" in r.scores["ckf"] and "prediction_horizontal_rms_m" in r.scores["ckf"]
     )
+    # the errors the scores come from: at the antenna (the reference's lever arm), not
+    # at the IMU the solution table gives
+    e = r.errors("ckf")
+    assert e.shape == (len(r.reference.index), 3)
+    h = np.hypot(e[:, 0], e[:, 1])
+    rms = np.sqrt(np.mean(h**2))  # no fault, no outage: every reference epoch
+    assert rms == pytest.approx(r.scores["ckf"]["horizontal_rms_m"], rel=1e-12)
+    assert np.any(r.reference.lever_arm)
     with pytest.raises(KeyError, match="'dkf'"):
         r.solution("dkf")
+    with pytest.raises(KeyError, match="'dkf'"):
+        r.errors("dkf")
     with pytest.raises(ValueError, match="smooth=True"):
         r.to_dataframe(smoothed=True)
 
