@@ -87,6 +87,7 @@ def test_readme_recording_snippet(tmp_path, capsys):
     scope: dict = {}
     exec(compile(code, "README.md", "exec"), scope)
     df, smoothed, result = scope["df"], scope["smoothed"], scope["result"]
+    assert scope["err"].shape == (len(result.reference.index), 3)
     assert list(df.columns[:4]) == ["method", "time_s", "lat_deg", "lon_deg"]
     assert set(df["method"]) == {"ckf"} and len(df) == result.recording.steps
     assert np.isfinite(df.drop(columns="method").to_numpy()).all()
