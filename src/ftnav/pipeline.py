@@ -275,6 +275,8 @@ class RecordingResult:
         traces = self._traces(smoothed)
         if method not in traces:
             raise KeyError(f"method {method!r}: processed were {list(traces)}")
+        if not 0 <= run < self.runs:
+            raise IndexError(f"run {run}: the batch has {self.runs} run(s)")
         solution = traces[method].solution
         assert solution is not None  # a recording's trace is integrated
         return reference_errors(solution, self.reference, run)

@@ -52,6 +52,8 @@ def test_one_call_reads_the_file_once_and_returns_a_typed_result(short_drive, mo
         r.solution("dkf")
     with pytest.raises(KeyError, match="'dkf'"):
         r.errors("dkf")
+    with pytest.raises(IndexError, match="run 1"):
+        r.errors("ckf", run=1)
     with pytest.raises(ValueError, match="smooth=True"):
         r.to_dataframe(smoothed=True)
 

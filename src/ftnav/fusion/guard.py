@@ -169,11 +169,12 @@ and decides the method's isolation from its detector's flags:
    odometer 100 m off: re-admitted at the ramp's end); a single held aid's jump is its
    own (they keep no pulls; their increments and jump sums serve the noise rule and
    the home rule of 3 only).  And a detector's flag of an aid whose device mate is
-   held, while the aid's own increment is consistent (3), starts no hold: the mate's
-   hold left the estimate coasting, and the coast's drift (the MEMS INS in a turn)
-   shifts this aid's innovations too (the drive's GLR held the GNSS velocities at 429 s
-   and flagged the positions 0.25 s later: both halves out, the coast 0.7 m; docs/
-   integrity.md §1.7).
+   held, while the aid's own increment is consistent (3) and an aid of another device
+   measures, starts no hold: the mate's hold left the estimate coasting, and the
+   coast's drift (the MEMS INS in a turn) shifts this aid's innovations too (the
+   drive's GLR held the GNSS velocities at 429 s and flagged the positions 0.25 s
+   later: both halves out, the coast 0.7 m; docs/integrity.md §1.7).  Where the device
+   is all that measures, the flag may be the only sign of its fault: held as before.
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
