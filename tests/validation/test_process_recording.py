@@ -76,3 +76,15 @@ def test_arguments_are_refused_by_name(short_drive, kw, message):
 def test_an_unknown_recording_is_refused_by_name():
     with pytest.raises(ProcessingError, match=r"^recording: 'no-such-drive' is neither"):
         process_recording("no-such-drive")
+
+
+def test_the_errors_figure_draws_the_errors_the_scores_use(short_drive):
+    """``errors.png`` plots the horizontal error at the antenna, as the scores (it plotted
+    the IMU's against the antenna's fixes: a 5 cm offset turning with the heading)."""
+    from ftnav.plot.recorded import errors_figure
+
+    r = process_recording(short_drive)
+    fig = errors_figure(r.loaded, r.traces)
+    drawn = fig.axes[0].lines[0].get_ydata()
+    e = r.errors("ckf")
+    np.testing.assert_allclose(drawn, np.maximum(np.hypot(e[:, 0], e[:, 1]), 1e-4), rtol=1e-12)

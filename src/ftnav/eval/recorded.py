@@ -70,15 +70,23 @@ class Reference:
     lever_arm: np.ndarray | None = None
 
 
+def errors_at(
+    p: np.ndarray, q: np.ndarray, reference_p: np.ndarray, lever_arm: np.ndarray | None
+) -> np.ndarray:
+    """(K_r, 3) ENU metres of IMU positions ``p`` (K_r, 3) with attitudes ``q`` (K_r, 4)
+    minus the reference positions, at the point ``lever_arm`` (3,) m from the IMU, body
+    frame (None or zeros: the IMU itself): ``p`` moved by ``C_b^n · lever_arm``."""
+    err = enu_metres(p, reference_p)
+    if lever_arm is not None and np.any(lever_arm):
+        err = err + attitude.quat_to_dcm(q) @ np.asarray(lever_arm, float)
+    return err
+
+
 def reference_errors(solution: InsState, reference: Reference, run: int = 0) -> np.ndarray:
     """(K_r, 3) ENU metres of one run's solution minus the reference, at the point the
     reference measures (:class:`Reference`)."""
     i = reference.index
-    err = enu_metres(solution.p[run, i], reference.p)
-    arm = reference.lever_arm
-    if arm is not None and np.any(arm):
-        err = err + attitude.quat_to_dcm(solution.q[run, i]) @ np.asarray(arm, float)
-    return err
+    return errors_at(solution.p[run, i], solution.q[run, i], reference.p, reference.lever_arm)
 
 
 def _outages(

@@ -4,7 +4,8 @@
   reference fix) over the reference fixes, the reference inside GNSS outages (red) and
   inside injected fault windows (purple) marked;
 * ``errors.png`` — per method (rows), the horizontal error against the reference (log
-  scale) and the vertical one, each with the filter's 3σ, outages and faults shaded;
+  scale) and the vertical one, at the point the reference measures (the antenna), as
+  the scores, each with the filter's 3σ, outages and faults shaded;
 * ``innovations.png`` — per aid (rows), for every method with a fault detector, the
   detector statistic normalized by its threshold (log scale, the threshold at 1) at the
   epochs the aid measured, its flags marked, outages and faults shaded.  The engine
@@ -28,6 +29,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ftnav.engine.driver import Trace
+from ftnav.eval.recorded import errors_at
 from ftnav.io.recording_file import LoadedRecording
 from ftnav.io.solution_file import measurement_rows
 from ftnav.nav.earth import enu_metres, radii
@@ -151,7 +153,9 @@ def errors_figure(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> Figur
     for row, (name, tr) in zip(axes, traces.items(), strict=True):
         assert tr.solution is not None
         p = _pick(tr.solution.p[:, idx], runs)
-        err = enu_metres(p, loaded.reference_p)
+        # at the point the reference measures (the antenna), as the scores
+        q = _pick(tr.solution.q[:, idx], runs)
+        err = errors_at(p, q, loaded.reference_p, loaded.reference_lever_arm)
         RM, RN = radii(p[:, 0], p[:, 2])
         var = np.maximum(_pick(tr.P_diag[:, idx], runs), 0.0)
         s_h = np.sqrt(var[:, 6] * RM**2 + var[:, 7] * (RN * np.cos(p[:, 0])) ** 2)
