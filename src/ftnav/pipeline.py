@@ -203,6 +203,11 @@ def _outages(outages: Outages | Sequence[float] | None, field: str) -> Outages |
     return o
 
 
+def _reference(loaded: LoadedRecording) -> Reference:
+    """A recording's reference at the point it measures (its lever arm from the IMU)."""
+    return Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
+
+
 @dataclass(frozen=True)
 class RecordingResult:
     """One processed recording (:func:`process_recording`): the same for a built-in and
@@ -254,30 +259,19 @@ class RecordingResult:
         """(K, 13) rows of :data:`~ftnav.io.solution_file.SOLUTION_COLUMNS` of one method
         and run (``smoothed``: the RTS solution); a diverged solution raises
         :class:`~ftnav.engine.driver.Diverged`."""
-        traces = self._traces(smoothed)
-        if method not in traces:
-            raise KeyError(f"method {method!r}: processed were {list(traces)}")
-        if not 0 <= run < self.runs:
-            raise IndexError(f"run {run}: the batch has {self.runs} run(s)")
-        return solution_table(traces[method], self.times, run, method)
+        return solution_table(self._trace(method, run, smoothed), self.times, run, method)
 
     @property
     def reference(self) -> Reference:
         """The reference the scores use: its epochs, and the positions of the point it
         measures (the GNSS antenna, its lever arm from the IMU)."""
-        L = self.loaded
-        return Reference(L.reference_index, L.reference_p, L.reference_lever_arm)
+        return _reference(self.loaded)
 
     def errors(self, method: str, run: int = 0, smoothed: bool = False) -> np.ndarray:
         """(K_r, 3) ENU metres of one method's solution minus the reference at its epochs
         (``times[reference.index]``), at the point the reference measures: what the
         scores are computed from (:func:`~ftnav.eval.recorded.reference_errors`)."""
-        traces = self._traces(smoothed)
-        if method not in traces:
-            raise KeyError(f"method {method!r}: processed were {list(traces)}")
-        if not 0 <= run < self.runs:
-            raise IndexError(f"run {run}: the batch has {self.runs} run(s)")
-        solution = traces[method].solution
+        solution = self._trace(method, run, smoothed).solution
         assert solution is not None  # a recording's trace is integrated
         return reference_errors(solution, self.reference, run)
 
@@ -311,6 +305,15 @@ class RecordingResult:
     def to_xarray(self) -> Any:
         """The whole trace as an :class:`xarray.Dataset` (what ``trace.nc`` holds)."""
         return trace_dataset(self.loaded, self.traces)
+
+    def _trace(self, method: str, run: int, smoothed: bool) -> Trace:
+        """One method's trace, ``method`` and ``run`` refused by name when absent."""
+        traces = self._traces(smoothed)
+        if method not in traces:
+            raise KeyError(f"method {method!r}: processed were {list(traces)}")
+        if not 0 <= run < self.runs:
+            raise IndexError(f"run {run}: the batch has {self.runs} run(s)")
+        return traces[method]
 
     def _traces(self, smoothed: bool) -> dict[str, Trace]:
         if not smoothed:
@@ -359,7 +362,7 @@ class Prepared:
         if self.smooth:
             smoothed = {nm: smoothed_trace(tr, smooth(tr)) for nm, tr in traces.items()}
         elapsed = time.perf_counter() - t0
-        ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
+        ref = _reference(loaded)
         sched = scheduled(loaded.stream, rec.steps)
         scores = score_recording(
             rec, traces, ref, loaded.outages, truth=loaded.truth, scheduled=sched

@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 from equivalence_problems import centralized, random_scenario, random_spd
-from recording_runs import drive_copy
+from recording_runs import drive_copy, reference
 
 from ftnav.core import kalman as kf
 from ftnav.engine import navigation_model
@@ -40,7 +40,7 @@ from ftnav.engine.linear import LinearModel as EngineModel
 from ftnav.engine.smoother import rts_smoother, smooth, smoothed_trace
 from ftnav.eval.metrics import chi2_band, nees
 from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, errors_at, score_recording
+from ftnav.eval.recorded import errors_at, score_recording
 from ftnav.fusion.registry import build, method_config
 from ftnav.io.recording_file import load_recording
 from ftnav.io.scenario_file import load_scenario
@@ -314,7 +314,7 @@ def drive(tmp_path_factory):
 
 def test_smoothing_the_drive_shrinks_the_drift_at_withheld_fixes(drive):
     loaded, tr, s = drive
-    ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
+    ref = reference(loaded)
     rec = loaded.recording
     fwd = score_recording(rec, {"ckf": tr}, ref, loaded.outages)["ckf"]["outages"]
     smo = score_recording(rec, {"ckf": smoothed_trace(tr, s)}, ref, loaded.outages)["ckf"]

@@ -38,11 +38,10 @@ def process(path: Path, nav_covariance: bool = False, **kw: Any):
     scored at the point the reference measures (the antenna), as ``ftnav process``."""
     loaded = load_recording(path, **kw)
     traces = traces_of(loaded, nav_covariance)
-    ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
     scores = score_recording(
         loaded.recording,
         traces,
-        ref,
+        reference(loaded),
         loaded.outages,
         truth=loaded.truth,
         scheduled=scheduled(loaded.stream, loaded.recording.steps),
@@ -70,7 +69,10 @@ def drive_copy(
 def horizontal(loaded: LoadedRecording, trace: Trace) -> tuple[np.ndarray, np.ndarray]:
     """(times of the reference epochs, horizontal error there) of the first run, at the
     point the reference measures (the antenna), as the scores."""
-    ri = loaded.reference_index
-    ref = Reference(ri, loaded.reference_p, loaded.reference_lever_arm)
-    e = reference_errors(trace.solution, ref)
-    return loaded.recording.times[ri], np.hypot(e[:, 0], e[:, 1])
+    e = reference_errors(trace.solution, reference(loaded))
+    return loaded.recording.times[loaded.reference_index], np.hypot(e[:, 0], e[:, 1])
+
+
+def reference(loaded: LoadedRecording) -> Reference:
+    """The recording's reference at the point it measures (the antenna), as the scores."""
+    return Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)

@@ -39,7 +39,6 @@ import numpy as np
 import pytest
 from recording_runs import drive_copy, horizontal, process
 
-from ftnav import process_recording
 from ftnav.fusion.config import GuardSettings
 from ftnav.io.recording_file import load_recording
 from ftnav.model.scenario import SINS, Fault
@@ -641,18 +640,17 @@ def test_beside_the_constraints_alone_the_fixes_fare_no_worse_than_alone(tmp_pat
 
 
 @pytest.fixture(scope="module")
-def every_aid():
-    """The product's route and scores (at the antenna, as ``ftnav process``): the
-    helper :func:`process` scores at the IMU, where the lever arm's 5 cm makes every
-    method's error alike (0.056 m ``ckf``, 0.067 m the GLR)."""
-    return process_recording("rtklib-drive", methods=["ckf", *TESTED])
+def every_aid(drive):
+    """The whole fault-free drive, scored at the antenna (at the IMU the lever arm's 5 cm
+    made every method's error alike: 0.056 m ``ckf``, 0.067 m the GLR)."""
+    return process(drive, methods=["ckf", *TESTED])
 
 
 @pytest.mark.slow
 def test_every_aid_without_a_fault_the_chi_square_method_is_the_plain_filter(every_aid):
     """The whole fault-free drive, every aid: the χ² method isolates nothing that costs
     (0.027 m as ``ckf``)."""
-    scores = every_aid.scores
+    _, _, scores = every_aid
     ckf = scores["ckf"]["horizontal_rms_m"]
     assert scores["fkf-chi2"]["horizontal_rms_m"] <= 1.05 * ckf
 
@@ -669,6 +667,6 @@ def test_every_aid_without_a_fault_the_glr_method_stays_with_the_plain_filter(ev
     """The whole fault-free drive, every aid: the GLR method within 1.5 × ``ckf``'s
     horizontal RMS.  Was 2.0 × before a flag of a consistent half beside its held device
     mate stopped starting a hold (§1.7); the holds of the velocities themselves remain."""
-    scores = every_aid.scores
+    _, _, scores = every_aid
     ckf = scores["ckf"]["horizontal_rms_m"]
     assert scores["fkf-glr"]["horizontal_rms_m"] <= 1.5 * ckf

@@ -601,6 +601,12 @@ class Guard:
             tuple(j for j in range(self.N) if j != a and not self._apart(a, j))
             for a in range(self.N)
         )
+        #: (N, N) ``mate[a, j]``: j is of aid a's device (not a itself); ``apart[a, j]``:
+        #: j is an aid of another device
+        self.mate = np.zeros((self.N, self.N), bool)
+        for a, js in enumerate(self.mates):
+            self.mate[a, list(js)] = True
+        self.apart = ~self.mate & ~np.eye(self.N, dtype=bool)
         self.group_of = np.empty(self.N, dtype=int)
         self.slot = np.empty(self.N, dtype=int)
         for gi, g in enumerate(self.groups):
@@ -844,12 +850,13 @@ class Guard:
         passes = np.where(override, self.n_off, passes)
         overruled = overruled | override
         undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
+        # each aid's innovation beyond the guard's own χ² now
+        far = np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
         # where an aid's kind (a sole source or not) matters: held, or may be isolated
         # now; only beside the vehicle constraints (:meth:`_blind`), else nowhere
         care = np.zeros((B, N), bool)
         if self.pseudo.any():
-            care = state.hold | det_flag | det_raw | (ratio > 1.0)
-            care |= np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
+            care = state.hold | det_flag | det_raw | (ratio > 1.0) | far
         # no other aid of the estimate measures now (a sole source in the strict sense),
         # or those that do leave a direction of its quantity unseen (:meth:`_blind`)
         alone = np.stack(
@@ -1031,7 +1038,6 @@ class Guard:
         # (flagged, and inconsistent now: the epoch after a re-admission's update is no
         # jump back; never an aid whose increments show a noise increase: its jumps
         # cancel by chance)
-        far = np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
         # (or not flagged at all, where the estimate took the jump the sum keeps: a
         # separation test does not flag the jump back, it alarms on its pull after)
         kept = np.stack([(state.taken[a] != 0).any(-1) for a in range(N)], 1)
@@ -1041,9 +1047,7 @@ class Guard:
         welcome = welcome | home
         overruled = overruled | welcome
         # an overruled detector's aid is watched by the guard's own χ² instead
-        own = np.zeros((B, N), bool)
-        for a, t in enumerate(test.aids):
-            own[:, a] = overruled[:, a] & usable[:, a] & (t.nis > self.T1[a]) & ~home[:, a]
+        own = overruled & usable & far & ~home
         # a detector's flag of an aid whose device mate is held, while the aid's own
         # increment is consistent and an aid of another device measures, is the coast's
         # drift, not the device's: the mate's hold left the estimate to the INS, whose
@@ -1052,16 +1056,11 @@ class Guard:
         # a relaxed re-admission).  Where the device is all that measures, the flag may
         # be the only sign of its fault (the GLR blames the velocities for a position
         # ramp): held as before (the receiver alone, a ramp from 250 s: 0.76 -> 1.58 m)
-        coasting = np.zeros((B, N), bool)
-        for a in range(N):
-            beside = np.zeros(B, bool)
-            for j in range(N):
-                if j in self.mates[a]:
-                    coasting[:, a] |= state.hold[:, j]
-                elif j != a:
-                    beside |= usable[:, j]
-            coasting[:, a] &= beside
-        triggered = alarm | (det_flag & ~overruled & ~(coasting & good)) | own
+        coast = det_flag & good
+        if coast.any():
+            coast &= (state.hold[:, None, :] & self.mate).any(-1)
+            coast &= (usable[:, None, :] & self.apart).any(-1)
+        triggered = alarm | (det_flag & ~overruled & ~coast) | own
         hold_before = state.hold
         if keep is not None:
             # the common-mode rule sees every aid isolated or flagged now: when a quorum
