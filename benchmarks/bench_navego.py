@@ -96,7 +96,8 @@ def ftnav_set(
         rec = replace(prep.recording, bias_compensation=bias_compensation)
         prep = prepare_recording(prep.loaded._replace(recording=rec))
     result = prep.run()
-    return result.scores["ckf"], time.perf_counter() - t0, prep.loaded
+    # in their JSON form, beside the peer's dicts of the same names
+    return result.scores["ckf"].as_dict(), time.perf_counter() - t0, prep.loaded
 
 
 def check_same_prior(loaded: LoadedRecording, st: PyinsSettings) -> None:

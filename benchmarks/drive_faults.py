@@ -117,7 +117,7 @@ def main() -> None:
             over, past = (t[ri] >= a) & (t[ri] < b), t[ri] >= b
             during = float(np.sqrt(np.mean(h[over] ** 2)))
             after.append(float(np.sqrt(np.mean(h[past] ** 2))))
-            watch = "T" if res.scores[m]["integrity"]["trusted"] else "U"
+            watch = "T" if res.scores[m].integrity.trusted else "U"
             back = ""
             if tr.flag is not None:
                 backs = []

@@ -100,7 +100,7 @@ def main() -> None:
                 tr = res.traces[m]
                 e = res.errors(m)  # at the antenna, as the scores
                 h = np.hypot(e[:, 0], e[:, 1])
-                rms = res.scores[m]["horizontal_rms_m"]
+                rms = res.scores[m].horizontal_rms_m
                 aft, lat = (
                     float(np.sqrt(np.mean(h[s] ** 2))) if s.any() else float("nan")
                     for s in (after, late)

@@ -108,10 +108,10 @@ def main() -> None:
         ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
         rec = loaded.recording
         scores = {
-            "forward": score_recording(rec, {"ckf": tr}, ref, loaded.outages)["ckf"],
+            "forward": score_recording(rec, {"ckf": tr}, ref, loaded.outages)["ckf"].as_dict(),
             "smoothed": score_recording(rec, {"ckf": smoothed_trace(tr, s)}, ref, loaded.outages)[
                 "ckf"
-            ],
+            ].as_dict(),
         }
         assert tr.solution is not None and tr.P_nav is not None and s.solution is not None
         consistency = {

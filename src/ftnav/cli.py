@@ -64,6 +64,7 @@ from tqdm import tqdm
 from ftnav.engine.driver import Diverged
 from ftnav.eval import resources
 from ftnav.eval.evaluate import evaluate, metrics_to_json
+from ftnav.eval.integrity import MethodWatch
 from ftnav.eval.montecarlo import ScenarioResult, build_filters, join_results, run_scenario
 from ftnav.eval.resources import (
     format_bytes,
@@ -950,10 +951,10 @@ def _cmd_merge(args) -> int:
 MAX_FINDINGS = 12
 
 
-def _integrity_warnings(watches: Iterable[dict[str, Any] | None]) -> None:
+def _integrity_warnings(watches: Iterable[MethodWatch | None]) -> None:
     """Every method's integrity findings (what it watched of itself) as warning lines,
     the first ``MAX_FINDINGS``; the count of the rest, which ``metrics.json`` holds."""
-    lines = [line for w in watches for line in (w or {}).get("findings", ())]
+    lines = [line for w in watches if w is not None for line in w.findings]
     for line in lines[:MAX_FINDINGS]:
         print(f"ftnav: warning: {_one_line(line)}", file=sys.stderr)
     if len(lines) > MAX_FINDINGS:
@@ -1027,7 +1028,7 @@ def _cmd_process(args) -> int:
         findings = [
             line
             for m in result.scores.values()
-            for line in (m.get("integrity") or {}).get("findings", ())
+            for line in (() if m.integrity is None else m.integrity.findings)
         ]
         (stage / "report.md").write_text(recording_report(loaded, result.scores, figures, findings))
         source = resolve_recording(args.recording)
@@ -1041,7 +1042,7 @@ def _cmd_process(args) -> int:
     )
     print(recording_table(result.scores))
     print(f"Results written to {out}/: {', '.join(written)}")
-    _integrity_warnings(m.get("integrity") for m in result.scores.values())
+    _integrity_warnings(m.integrity for m in result.scores.values())
     return 0
 
 

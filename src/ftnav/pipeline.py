@@ -33,7 +33,7 @@ import math
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, NamedTuple, cast
 
@@ -43,7 +43,7 @@ from ftnav.engine import navigation_model
 from ftnav.engine.driver import Trace, run
 from ftnav.engine.smoother import smooth, smoothed_trace
 from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, reference_errors, score_recording
+from ftnav.eval.recorded import RecordedScores, Reference, reference_errors, score_recording
 from ftnav.io.common import MAX_NOISE_FACTOR
 from ftnav.io.ins_scenario_file import ScenarioWarning
 from ftnav.io.recording_file import (
@@ -218,7 +218,8 @@ class RecordingResult:
     loaded : the parsed and prepared recording (stream, reference, alignment, counts).
     traces : per method, the engine's :class:`~ftnav.engine.driver.Trace` (a batch of one
         run per interleaved outage schedule).
-    scores : per method, :func:`~ftnav.eval.recorded.score_recording`'s scores.
+    scores : per method, :func:`~ftnav.eval.recorded.score_recording`'s typed scores
+        (:class:`~ftnav.eval.recorded.RecordedScores`; ``.smoothed`` with ``smooth=True``).
     smoothed : per method, the RTS-smoothed solution (``smooth=True``), else None.
     elapsed_s : wall time of the run (engine and smoother), s.
     warnings : the loader's warnings (suspicious but legal input), one line each.
@@ -226,7 +227,7 @@ class RecordingResult:
 
     loaded: LoadedRecording
     traces: dict[str, Trace]
-    scores: dict[str, dict[str, Any]]
+    scores: dict[str, RecordedScores]
     smoothed: dict[str, Trace] | None
     elapsed_s: float
     warnings: tuple[str, ...]
@@ -294,11 +295,10 @@ class RecordingResult:
 
         rows = {}
         for name, s in self.scores.items():
-            row = {k: v for k, v in s.items() if isinstance(v, (int, float)) or v is None}
-            out = s.get("outages")
-            if isinstance(out, dict):
-                row["outage_rms_max_m"] = out.get("rms_max_error_m")
-                row["outages"] = out.get("count")
+            row: dict[str, Any] = dict(s.scalars())
+            if s.outages is not None:
+                row["outage_rms_max_m"] = s.outages.rms_max_error_m
+                row["outages"] = s.outages.count
             rows[name] = row
         return pd.DataFrame.from_dict(rows, orient="index")
 
@@ -369,8 +369,7 @@ class Prepared:
         )
         if smoothed is not None:
             smooth_scores = score_recording(rec, smoothed, ref, loaded.outages, truth=loaded.truth)
-            for nm, s in smooth_scores.items():
-                scores[nm]["smoothed"] = s
+            scores = {nm: replace(s, smoothed=smooth_scores[nm]) for nm, s in scores.items()}
         return RecordingResult(loaded, traces, scores, smoothed, elapsed, tuple(loaded.warnings))
 
 
@@ -455,7 +454,7 @@ def process_recording(
         :class:`~ftnav.model.scenario.Fault` or ``"SENSOR:KIND:START:END[:MAGNITUDE]"``
         (:func:`parse_fault`), both with START and END on the recording's time base.
     smooth : also run the RTS smoother (:attr:`RecordingResult.smoothed`, scores under
-        ``scores[method]["smoothed"]``).
+        ``scores[method].smoothed``).
     progress : called with the number of engine steps done (epochs × methods × runs).
 
     Suspicious but legal input (an IMU gap, a lever arm over 10 m, …) is issued as a

@@ -93,5 +93,5 @@ def test_readme_recording_snippet(tmp_path, capsys):
     assert np.isfinite(df.drop(columns="method").to_numpy()).all()
     assert smoothed.shape == df.shape
     s = result.scores["ckf"]
-    assert 0 < s["horizontal_rms_m"] < 0.5 and s["outages"]["count"] >= 2
+    assert 0 < s.horizontal_rms_m < 0.5 and s.outages.count >= 2
     assert "ckf" in capsys.readouterr().out

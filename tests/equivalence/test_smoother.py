@@ -316,13 +316,14 @@ def test_smoothing_the_drive_shrinks_the_drift_at_withheld_fixes(drive):
     loaded, tr, s = drive
     ref = reference(loaded)
     rec = loaded.recording
-    fwd = score_recording(rec, {"ckf": tr}, ref, loaded.outages)["ckf"]["outages"]
+    fwd = score_recording(rec, {"ckf": tr}, ref, loaded.outages)["ckf"].outages
     smo = score_recording(rec, {"ckf": smoothed_trace(tr, s)}, ref, loaded.outages)["ckf"]
-    assert fwd["count"] == smo["outages"]["count"] == 3
-    for f, g in zip(fwd["each"], smo["outages"]["each"], strict=True):
-        assert g["max_error_m"] < f["max_error_m"]
-    assert smo["outages"]["rms_max_error_m"] <= 0.5 * fwd["rms_max_error_m"]
-    assert smo["horizontal_rms_m"] < 0.1  # GNSS on: at the fixes, as the forward filter
+    assert fwd is not None and smo.outages is not None
+    assert fwd.count == smo.outages.count == 3
+    for f, g in zip(fwd.each, smo.outages.each, strict=True):
+        assert g.max_error_m < f.max_error_m
+    assert smo.outages.rms_max_error_m <= 0.5 * fwd.rms_max_error_m
+    assert smo.horizontal_rms_m < 0.1  # GNSS on: at the fixes, as the forward filter
 
 
 def test_smoothed_sigma_at_withheld_fixes_is_within_the_stated_band(drive):

@@ -84,17 +84,17 @@ def test_gnss_alone_every_fault_tolerant_method_stays_with_the_plain_filter(gnss
     """Was 3 367 m against 0.074 m: the χ² test isolated the only position aid for good;
     the GLR method 225 m against 0.037 m (false alarms in turns, then coasts)."""
     _, _, scores = gnss_only
-    ckf = scores["ckf"]["horizontal_rms_m"]
+    ckf = scores["ckf"].horizontal_rms_m
     assert set(TESTED) <= set(scores)
     for name, s in scores.items():
-        assert s["horizontal_rms_m"] <= 1.5 * ckf, (name, s["horizontal_rms_m"], ckf)
+        assert s.horizontal_rms_m <= 1.5 * ckf, (name, s.horizontal_rms_m, ckf)
 
 
 def test_gnss_alone_no_method_is_left_untrusted_by_the_chi_square_test(gnss_only):
     """The self-watch: a fault-free drive gives no finding for ``ckf`` or ``fkf-chi2``."""
     _, _, scores = gnss_only
     for name in ("ckf", "fkf-chi2"):
-        assert scores[name]["integrity"]["findings"] == [], name
+        assert scores[name].integrity.findings == (), name
 
 
 def _every_aid(tmp_path, fault_at, start=T_FAULT):
@@ -298,9 +298,9 @@ def test_gnss_alone_a_fault_of_the_only_aid_is_coasted_and_recovered(
     t_end = T_FAULT + length
     patience = GuardSettings().patience_s
     # a jump taken is said (a frozen output's coast is not one)
-    watch = scores["fkf-chi2"]["integrity"]
-    said = [f for f in watch["findings"] if "taken back with its jump" in f]
-    assert (watch["aids"]["gnss"]["taken"] > 0) == (kind != "stuck") == bool(said), watch
+    watch = scores["fkf-chi2"].integrity
+    said = [f for f in watch.findings if "taken back with its jump" in f]
+    assert (watch.aid("gnss").taken > 0) == (kind != "stuck") == bool(said), watch
     t_ref, ckf = horizontal(loaded, traces["ckf"])
     _, err = horizontal(loaded, traces["fkf-chi2"])
     back = _readmitted_after(times, _flags(loaded, traces["fkf-chi2"]), t_end)
@@ -387,7 +387,7 @@ def test_gnss_alone_a_long_freeze_of_the_only_aid_is_coasted_like_an_outage(tmp_
     late = t_ref >= t_end + 5.0
     rms = lambda e: float(np.sqrt(np.mean(e[late] ** 2)))  # noqa: E731
     assert rms(err) <= 1.5 * rms(ckf), (rms(err), rms(ckf))
-    assert not scores["fkf-chi2"]["integrity"]["trusted"]
+    assert not scores["fkf-chi2"].integrity.trusted
 
 
 def _noise(t0, factor):
@@ -455,11 +455,12 @@ def test_gnss_alone_a_noise_increase_of_the_only_aid_is_used_not_coasted(tmp_pat
     bar = 1.5 if factor <= 10.0 else 2.5
     assert rms(err, after) <= bar * rms(ckf, after), (rms(err, after), rms(ckf, after))
     # the self-watch says the aid was used for its noise while held
-    watch = scores["fkf-chi2"]["integrity"]
+    watch = scores["fkf-chi2"].integrity
     fixes = loaded.recording.times[loaded.reference_index]
     in_window = int(((fixes >= T_FAULT) & (fixes < t_end)).sum())
-    assert watch["aids"]["gnss"]["noisy"] > 0.5 * in_window, (watch["aids"]["gnss"], in_window)
-    assert any("used with the noise it showed" in f for f in watch["findings"]), watch
+    gnss = watch.aid("gnss")
+    assert gnss.noisy > 0.5 * in_window, (gnss, in_window)
+    assert any("used with the noise it showed" in f for f in watch.findings), watch
 
 
 @pytest.mark.parametrize("aids", [None, ["gnss"]], ids=["every aid", "GNSS alone"])
@@ -651,8 +652,8 @@ def test_every_aid_without_a_fault_the_chi_square_method_is_the_plain_filter(eve
     """The whole fault-free drive, every aid: the χ² method isolates nothing that costs
     (0.027 m as ``ckf``)."""
     _, _, scores = every_aid
-    ckf = scores["ckf"]["horizontal_rms_m"]
-    assert scores["fkf-chi2"]["horizontal_rms_m"] <= 1.05 * ckf
+    ckf = scores["ckf"].horizontal_rms_m
+    assert scores["fkf-chi2"].horizontal_rms_m <= 1.05 * ckf
 
 
 @pytest.mark.slow
@@ -668,5 +669,5 @@ def test_every_aid_without_a_fault_the_glr_method_stays_with_the_plain_filter(ev
     horizontal RMS.  Was 2.0 × before a flag of a consistent half beside its held device
     mate stopped starting a hold (§1.7); the holds of the velocities themselves remain."""
     _, _, scores = every_aid
-    ckf = scores["ckf"]["horizontal_rms_m"]
-    assert scores["fkf-glr"]["horizontal_rms_m"] <= 1.5 * ckf
+    ckf = scores["ckf"].horizontal_rms_m
+    assert scores["fkf-glr"].horizontal_rms_m <= 1.5 * ckf

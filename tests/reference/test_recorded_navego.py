@@ -76,19 +76,19 @@ def test_the_imu_matches_the_error_free_imu_from_the_truth_up_to_its_noise():
 
 def test_adis16488_biases_within_20_percent_of_the_truth(adis16488):
     _, s = adis16488
-    b = s["truth"]["biases"]
+    b = {"gyro": s.truth.gyro_bias, "accel": s.truth.accel_bias}
     for key in ("gyro", "accel"):
-        err = np.abs(b[key]["error_percent_of_truth"])
+        err = np.abs(b[key].error_percent_of_truth)
         assert np.all(err < 20.0), (key, err)
 
 
 def test_adis16488_errors_against_the_truth_on_pyins_scale(adis16488):
     _, s = adis16488
-    r = s["truth"]["rmse"]
-    assert s["truth"]["epochs"] > 4000 and s["nan_epochs"] == 0
-    assert 0.1 < r["horizontal_m"] < 1.0  # pyins 0.56 m; GNSS σ 5 m
-    assert max(r["velocity_enu_mps"]) < 0.03  # pyins ≈ 0.015 m/s
-    assert r["heading_deg"] < 1.0 and r["roll_deg"] < 0.2 and r["pitch_deg"] < 0.2
+    r = s.truth.rmse
+    assert s.truth.epochs > 4000 and s.nan_epochs == 0
+    assert 0.1 < r.horizontal_m < 1.0  # pyins 0.56 m; GNSS σ 5 m
+    assert max(r.velocity_enu_mps) < 0.03  # pyins ≈ 0.015 m/s
+    assert r.heading_deg < 1.0 and r.roll_deg < 0.2 and r.pitch_deg < 0.2
 
 
 @pytest.mark.xfail(
@@ -103,17 +103,17 @@ def test_adis16488_errors_against_the_truth_on_pyins_scale(adis16488):
 )
 def test_adis16488_nees_inside_its_chi2_band_after_convergence(adis16488):
     _, s = adis16488
-    assert s["truth"]["nees"]["fraction_inside"] >= 0.80
+    assert s.truth.nees.fraction_inside >= 0.80
 
 
 def test_adis16405_biases_and_nees(adis16405):
     _, s = adis16405
-    b = s["truth"]["biases"]
+    b = {"gyro": s.truth.gyro_bias, "accel": s.truth.accel_bias}
     for key in ("gyro", "accel"):
-        assert np.all(np.abs(b[key]["error_percent_of_truth"]) < 20.0), key
-        assert np.all(np.abs(np.array(b[key]["truth_" + ("dps" if key == "gyro" else "mg")])))
-    assert s["truth"]["nees"]["fraction_inside"] >= 0.80
-    assert s["truth"]["rmse"]["horizontal_m"] < 1.5
+        assert np.all(np.abs(b[key].error_percent_of_truth) < 20.0), key
+        assert np.all(np.abs(np.array(b[key].truth))), key
+    assert s.truth.nees.fraction_inside >= 0.80
+    assert s.truth.rmse.horizontal_m < 1.5
 
 
 def test_a_missing_data_file_says_where_to_put_it(tmp_path, monkeypatch):
@@ -193,5 +193,5 @@ def test_the_filter_is_consistent_on_a_model_exact_imu_of_the_same_truth(tmp_pat
     path = tmp_path / "model-exact.toml"
     path.write_text(text)
     _, _, scores = process(path, nav_covariance=True, methods=["ckf"])
-    s = scores["ckf"]["truth"]
-    assert s["nees"]["fraction_inside"] >= 0.80, s["nees"]
+    s = scores["ckf"].truth
+    assert s.nees.fraction_inside >= 0.80, s.nees

@@ -137,7 +137,7 @@ class MethodMetrics:
     mean_beta: dict[str, float] | None
     nan_measurements: dict[str, int]
     nis: dict[str, float] | None = None
-    integrity: dict[str, object] | None = None
+    integrity: MethodWatch | None = None
     intervals: MetricIntervals | None = None
 
 
@@ -395,10 +395,17 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
                 s: int(res.nan_count[:, i].sum()) for i, s in enumerate(sc.sensor_names)
             },
             nis=_mean_nis(w),
-            integrity=None if w is None else w.as_dict(),
+            integrity=w,
             intervals=intervals,
         )
     return out
+
+
+def _method_json(m: MethodMetrics) -> dict[str, Any]:
+    """One method's JSON form: its fields, the watch in its own JSON form."""
+    doc = asdict(m)
+    doc["integrity"] = None if m.integrity is None else m.integrity.as_dict()
+    return doc
 
 
 def metrics_to_json(
@@ -414,7 +421,7 @@ def metrics_to_json(
         "ftnav_version": __version__,
         "states": list(result.scenario.metric_states),
         "sensors": list(result.scenario.sensor_names),
-        "methods": {name: asdict(m) for name, m in metrics.items()},
+        "methods": {name: _method_json(m) for name, m in metrics.items()},
     }
     if claims is not None:
         doc["claims"] = claims

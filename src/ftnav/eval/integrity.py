@@ -136,6 +136,19 @@ class MethodWatch(NamedTuple):
         """No finding: consistent with every aid, every aid available, within the bound."""
         return not self.findings
 
+    def aid(self, name: str) -> AidWatch:
+        """The watch of the aid ``name``.
+
+        Raises
+        ------
+        KeyError
+            No aid of that name was watched.
+        """
+        for a in self.aids:
+            if a.name == name:
+                return a
+        raise KeyError(name)
+
     def as_dict(self) -> dict[str, Any]:
         """The JSON form (``metrics.json``'s ``integrity``)."""
         return {

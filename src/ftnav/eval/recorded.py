@@ -22,6 +22,10 @@ nothing of it enters the engine.  Per method:
 * ``integrity`` — what the method watched of itself (:mod:`ftnav.eval.integrity`:
   consistency with each aid, availability, isolation, the horizontal σ against its
   bound); needs no reference.
+
+The scores are typed (:class:`RecordedScores` and the classes it holds); each has an
+``as_dict()``, its ``metrics.json`` form (``methods.<name>``, docs/recording-format.md),
+the only place they become dicts.
 """
 
 from __future__ import annotations
@@ -36,7 +40,7 @@ from scipy.stats import chi2
 from ftnav.engine.driver import N_NAV, Trace
 from ftnav.eval.evaluate import adapts, watch_settings
 from ftnav.eval.integrity import MethodWatch, watch
-from ftnav.eval.metrics import detection_stats
+from ftnav.eval.metrics import DetectionStats, detection_stats
 from ftnav.model.scenario import Recording, fault_window_mask
 from ftnav.nav import attitude
 from ftnav.nav.earth import enu_metres, radii
@@ -45,7 +49,15 @@ from ftnav.recorded.truth import Truth
 
 __all__ = [
     "CONVERGENCE_S",
+    "BiasScore",
+    "OutageScore",
+    "OutageScores",
+    "PredictionScores",
+    "RecordedScores",
     "Reference",
+    "TruthNees",
+    "TruthRmse",
+    "TruthScores",
     "navigation_errors",
     "reference_errors",
     "score_recording",
@@ -82,6 +94,247 @@ def errors_at(
     return err
 
 
+def _floats(a: np.ndarray) -> tuple[float, ...]:
+    return tuple(float(v) for v in np.asarray(a, float).ravel())
+
+
+@dataclass(frozen=True, slots=True)
+class OutageScore:
+    """One outage ``[start_s, end_s)`` (s on the processing's time base): the horizontal
+    error at its last reference epoch and the largest within it, m."""
+
+    start_s: float
+    end_s: float
+    end_error_m: float
+    max_error_m: float
+
+    def as_dict(self) -> dict[str, float]:
+        """The JSON form (one of ``outages.each``)."""
+        return {
+            "start_s": self.start_s,
+            "end_s": self.end_s,
+            "end_error_m": self.end_error_m,
+            "max_error_m": self.max_error_m,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class OutageScores:
+    """Every outage of every run (protocol a), in order of start; the RMS over them of
+    the maximum and of the end horizontal error, m (NaN without an outage)."""
+
+    each: tuple[OutageScore, ...]
+
+    @property
+    def count(self) -> int:
+        """How many outages were scored."""
+        return len(self.each)
+
+    @property
+    def rms_max_error_m(self) -> float:
+        """RMS over the outages of each one's maximum horizontal error, m."""
+        return _rms(np.array([o.max_error_m for o in self.each]))
+
+    @property
+    def rms_end_error_m(self) -> float:
+        """RMS over the outages of each one's horizontal error at its end, m."""
+        return _rms(np.array([o.end_error_m for o in self.each]))
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON form (``outages``)."""
+        return {
+            "count": self.count,
+            "rms_max_error_m": self.rms_max_error_m,
+            "rms_end_error_m": self.rms_end_error_m,
+            "each": [o.as_dict() for o in self.each],
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class PredictionScores:
+    """The solution just before each fix is used (what a user had when it arrived):
+    horizontal and vertical RMS over the GNSS-on reference epochs, m (None: none)."""
+
+    horizontal_rms_m: float | None
+    vertical_rms_m: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class TruthRmse:
+    """RMSE against a full truth over the GNSS-on epochs: position E, N, U and
+    horizontal (m), velocity E, N, U and 3-D (m/s), roll, pitch, heading (deg)."""
+
+    position_enu_m: tuple[float, float, float]
+    horizontal_m: float
+    velocity_enu_mps: tuple[float, float, float]
+    velocity_mps: float
+    roll_deg: float
+    pitch_deg: float
+    heading_deg: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON form (``truth.rmse``)."""
+        return {
+            "position_enu_m": list(self.position_enu_m),
+            "horizontal_m": self.horizontal_m,
+            "velocity_enu_mps": list(self.velocity_enu_mps),
+            "velocity_mps": self.velocity_mps,
+            "roll_deg": self.roll_deg,
+            "pitch_deg": self.pitch_deg,
+            "heading_deg": self.heading_deg,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class TruthNees:
+    """NEES of the 9 navigation error states against a full truth (:func:`score_truth`):
+    its mean over the GNSS-on epochs after ``convergence_s`` and the fractions of them
+    inside and above the two-sided 95 % band of one run's χ²(``dof``)."""
+
+    dof: int
+    band_95: tuple[float, float]
+    convergence_s: float
+    epochs: int
+    mean: float
+    fraction_inside: float
+    fraction_above: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON form (``truth.nees``)."""
+        return {
+            "dof": self.dof,
+            "band_95": list(self.band_95),
+            "convergence_s": self.convergence_s,
+            "epochs": self.epochs,
+            "mean": self.mean,
+            "fraction_inside": self.fraction_inside,
+            "fraction_above": self.fraction_above,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class BiasScore:
+    """One sensor's bias estimate at the last epoch against the truth's, per axis, in
+    ``unit`` (``dps`` or ``mg``); ``nominal`` the data set's values (None: unknown)."""
+
+    unit: str
+    estimate: tuple[float, ...]
+    sigma: tuple[float, ...]
+    truth: tuple[float, ...]
+    nominal: tuple[float, ...] | None
+    error_percent_of_truth: tuple[float, ...]
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON form (``truth.biases.gyro``, ``truth.biases.accel``)."""
+        u = self.unit
+        return {
+            f"estimate_{u}": list(self.estimate),
+            f"sigma_{u}": list(self.sigma),
+            f"truth_{u}": list(self.truth),
+            f"nominal_{u}": None if self.nominal is None else list(self.nominal),
+            "error_percent_of_truth": list(self.error_percent_of_truth),
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class TruthScores:
+    """One method against a full truth (protocol c, :func:`score_truth`)."""
+
+    epochs: int
+    rmse: TruthRmse
+    nees: TruthNees | None
+    gyro_bias: BiasScore
+    accel_bias: BiasScore
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON form (``truth``)."""
+        out: dict[str, Any] = {"epochs": self.epochs, "rmse": self.rmse.as_dict()}
+        if self.nees is not None:
+            out["nees"] = self.nees.as_dict()
+        out["biases"] = {"gyro": self.gyro_bias.as_dict(), "accel": self.accel_bias.as_dict()}
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class RecordedScores:
+    """One method's scores on a recording (module docstring); what is not scored is None
+    (no prediction recorded, no outage, no injected fault, no truth, no watch, not
+    smoothed).
+
+    Attributes
+    ----------
+    horizontal_rms_m, vertical_rms_m : GNSS-on RMS at the reference's point, m.
+    reference_epochs : the reference epochs scored.
+    reference_span_s : first and last reference time (the recording's time base).
+    longest_unscored_s : longest stretch without a reference epoch, s.
+    nan_epochs : epochs whose solution was not finite.
+    prediction : the same before each fix is used.
+    outages : per outage (protocol a).
+    detection : per aid with injected faults, the flags against the fault windows.
+    truth : against a full truth (protocol c).
+    integrity : what the method watched of itself.
+    smoothed : the RTS-smoothed solution's scores (no integrity).
+    """
+
+    horizontal_rms_m: float | None
+    vertical_rms_m: float | None
+    reference_epochs: int
+    reference_span_s: tuple[float, float] | None
+    longest_unscored_s: float
+    nan_epochs: int
+    prediction: PredictionScores | None = None
+    outages: OutageScores | None = None
+    detection: Mapping[str, DetectionStats] | None = None
+    truth: TruthScores | None = None
+    integrity: MethodWatch | None = None
+    smoothed: RecordedScores | None = None
+
+    def scalars(self) -> dict[str, float | int | None]:
+        """The scalar scores by their JSON names (a row of
+        :meth:`~ftnav.pipeline.RecordingResult.scores_frame`)."""
+        out: dict[str, float | int | None] = {
+            "horizontal_rms_m": self.horizontal_rms_m,
+            "vertical_rms_m": self.vertical_rms_m,
+            "reference_epochs": self.reference_epochs,
+            "longest_unscored_s": self.longest_unscored_s,
+            "nan_epochs": self.nan_epochs,
+        }
+        if self.prediction is not None:
+            out["prediction_horizontal_rms_m"] = self.prediction.horizontal_rms_m
+            out["prediction_vertical_rms_m"] = self.prediction.vertical_rms_m
+        return out
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON form (``metrics.json``'s ``methods.<name>``)."""
+        out: dict[str, Any] = {
+            "horizontal_rms_m": self.horizontal_rms_m,
+            "vertical_rms_m": self.vertical_rms_m,
+            "reference_epochs": self.reference_epochs,
+            "reference_span_s": None
+            if self.reference_span_s is None
+            else list(self.reference_span_s),
+            "longest_unscored_s": self.longest_unscored_s,
+            "nan_epochs": self.nan_epochs,
+        }
+        if self.prediction is not None:
+            out["prediction_horizontal_rms_m"] = self.prediction.horizontal_rms_m
+            out["prediction_vertical_rms_m"] = self.prediction.vertical_rms_m
+        if self.outages is not None:
+            out["outages"] = self.outages.as_dict()
+        if self.detection is not None:
+            out["detection"] = {
+                aid: {k: v if k == "events" else float(v) for k, v in d._asdict().items()}
+                for aid, d in self.detection.items()
+            }
+        if self.truth is not None:
+            out["truth"] = self.truth.as_dict()
+        if self.integrity is not None:
+            out["integrity"] = self.integrity.as_dict()
+        if self.smoothed is not None:
+            out["smoothed"] = self.smoothed.as_dict()
+        return out
+
+
 def reference_errors(solution: InsState, reference: Reference, run: int = 0) -> np.ndarray:
     """(K_r, 3) ENU metres of one run's solution minus the reference, at the point the
     reference measures (:class:`Reference`)."""
@@ -91,32 +344,14 @@ def reference_errors(solution: InsState, reference: Reference, run: int = 0) -> 
 
 def _outages(
     per_run: Sequence[tuple[np.ndarray, np.ndarray, Sequence[tuple[float, float]]]],
-) -> dict[str, Any]:
+) -> OutageScores:
     rows = []
     for t, e_h, outages in per_run:
         for s, e in outages:
             w = (t >= s) & (t < e)
             if w.any():
-                rows.append(_outage_row(s, e, e_h[w]))
-    rows.sort(key=lambda r: r["start_s"])
-    maxima = np.array([r["max_error_m"] for r in rows])
-    return {
-        "count": len(rows),
-        "rms_max_error_m": float(np.sqrt(np.mean(maxima**2))) if rows else float("nan"),
-        "rms_end_error_m": (
-            float(np.sqrt(np.mean([r["end_error_m"] ** 2 for r in rows]))) if rows else float("nan")
-        ),
-        "each": rows,
-    }
-
-
-def _outage_row(s: float, e: float, e_h: np.ndarray) -> dict[str, float]:
-    return {
-        "start_s": s,
-        "end_s": e,
-        "end_error_m": float(e_h[-1]),
-        "max_error_m": float(e_h.max()),
-    }
+                rows.append(OutageScore(s, e, float(e_h[w][-1]), float(e_h[w].max())))
+    return OutageScores(tuple(sorted(rows, key=lambda r: r.start_s)))
 
 
 def horizontal_sigma(tr: Trace) -> np.ndarray:
@@ -160,7 +395,7 @@ def score_recording(
     grace: float | None = None,
     truth: Truth | None = None,
     scheduled: np.ndarray | None = None,
-) -> dict[str, dict[str, Any]]:
+) -> dict[str, RecordedScores]:
     """Every method's scores (module docstring); times relative to ``rec.t_start``.
 
     ``outages`` are per run of the batch (interleaved outage schedules); the GNSS-on
@@ -176,50 +411,45 @@ def score_recording(
     blocked = fault_window_mask(t_ref, rec.faults)
     for s, e in outages[0]:
         blocked |= (t_ref >= s) & (t_ref < e)
-    out: dict[str, dict[str, Any]] = {}
+    out: dict[str, RecordedScores] = {}
     for name, tr in traces.items():
         assert tr.solution is not None
         errs = [reference_errors(tr.solution, reference, g) for g in range(len(outages))]
         err = errs[0]
         e_h = np.hypot(err[:, 0], err[:, 1])
         on = ~blocked & np.isfinite(e_h)
-        m: dict[str, Any] = {
-            "horizontal_rms_m": float(np.sqrt(np.mean(e_h[on] ** 2))) if on.any() else None,
-            "vertical_rms_m": float(np.sqrt(np.mean(err[on, 2] ** 2))) if on.any() else None,
-            "reference_epochs": int(on.sum()),
-            # what the reference covers: the scores say nothing outside it (a walk whose
-            # fixes turn float after 88 s is scored on those 88 s only)
-            "reference_span_s": [float(t_ref[0] + rec.t_start), float(t_ref[-1] + rec.t_start)]
-            if t_ref.size
-            else None,
-            "longest_unscored_s": _longest_gap(t_ref, float(times[-1])),
-            "nan_epochs": int(np.sum(~np.isfinite(tr.solution.p[0]).all(-1))),
-        }
+        prediction = None
         if tr.prediction is not None:
             # the solution just before the fix is used: what a user had at that moment
             ep = reference_errors(tr.prediction, reference)
             eph = np.hypot(ep[:, 0], ep[:, 1])
             ok = on & np.isfinite(eph)
-            m["prediction_horizontal_rms_m"] = (
-                float(np.sqrt(np.mean(eph[ok] ** 2))) if ok.any() else None
+            prediction = PredictionScores(
+                float(np.sqrt(np.mean(eph[ok] ** 2))) if ok.any() else None,
+                float(np.sqrt(np.mean(ep[ok, 2] ** 2))) if ok.any() else None,
             )
-            m["prediction_vertical_rms_m"] = (
-                float(np.sqrt(np.mean(ep[ok, 2] ** 2))) if ok.any() else None
-            )
-        if any(outages):
-            per_run = [
-                (t_ref, np.hypot(e[:, 0], e[:, 1]), w) for e, w in zip(errs, outages, strict=True)
-            ]
-            m["outages"] = _outages(per_run)
-        if tr.flag is not None and rec.faults:
-            m["detection"] = _detection(rec, tr.flag[0], grace)
-        if truth is not None:
-            m["truth"] = score_truth(rec, tr, truth, outages[0])
-        if scheduled is not None:
-            w = watch_trace(name, rec, tr, scheduled)
-            if w is not None:
-                m["integrity"] = w.as_dict()
-        out[name] = m
+        per_run = [
+            (t_ref, np.hypot(e[:, 0], e[:, 1]), w) for e, w in zip(errs, outages, strict=True)
+        ]
+        out[name] = RecordedScores(
+            horizontal_rms_m=float(np.sqrt(np.mean(e_h[on] ** 2))) if on.any() else None,
+            vertical_rms_m=float(np.sqrt(np.mean(err[on, 2] ** 2))) if on.any() else None,
+            reference_epochs=int(on.sum()),
+            # what the reference covers: the scores say nothing outside it (a walk whose
+            # fixes turn float after 88 s is scored on those 88 s only)
+            reference_span_s=(float(t_ref[0] + rec.t_start), float(t_ref[-1] + rec.t_start))
+            if t_ref.size
+            else None,
+            longest_unscored_s=_longest_gap(t_ref, float(times[-1])),
+            nan_epochs=int(np.sum(~np.isfinite(tr.solution.p[0]).all(-1))),
+            prediction=prediction,
+            outages=_outages(per_run) if any(outages) else None,
+            detection=_detection(rec, tr.flag[0], grace)
+            if tr.flag is not None and rec.faults
+            else None,
+            truth=None if truth is None else score_truth(rec, tr, truth, outages[0]),
+            integrity=None if scheduled is None else watch_trace(name, rec, tr, scheduled),
+        )
     return out
 
 
@@ -254,7 +484,7 @@ def score_truth(
     outages: Sequence[tuple[float, float]] = (),
     convergence_s: float = CONVERGENCE_S,
     run: int = 0,
-) -> dict[str, Any]:
+) -> TruthScores:
     """One method's solution against a full truth (run ``run``; module docstring).
 
     * ``rmse``: over the truth epochs outside outages and fault windows (GNSS on):
@@ -282,38 +512,36 @@ def score_truth(
     ref = attitude.dcm_to_euler(truth.C)
     d_att = np.degrees(attitude.wrap_angle(est - ref))
     dv = e[:, 3:6]
-    out: dict[str, Any] = {
-        "epochs": int(on.sum()),
-        "rmse": {
-            "position_enu_m": [_rms(enu[on, j]) for j in range(3)],
-            "horizontal_m": _rms(np.hypot(enu[on, 0], enu[on, 1])),
-            "velocity_enu_mps": [_rms(dv[on, j]) for j in range(3)],
-            "velocity_mps": _rms(np.linalg.norm(dv[on], axis=-1)),
-            "roll_deg": _rms(d_att[on, 1]),
-            "pitch_deg": _rms(d_att[on, 0]),
-            "heading_deg": _rms(d_att[on, 2]),
-        },
-    }
+    rmse = TruthRmse(
+        position_enu_m=(_rms(enu[on, 0]), _rms(enu[on, 1]), _rms(enu[on, 2])),
+        horizontal_m=_rms(np.hypot(enu[on, 0], enu[on, 1])),
+        velocity_enu_mps=(_rms(dv[on, 0]), _rms(dv[on, 1]), _rms(dv[on, 2])),
+        velocity_mps=_rms(np.linalg.norm(dv[on], axis=-1)),
+        roll_deg=_rms(d_att[on, 1]),
+        pitch_deg=_rms(d_att[on, 0]),
+        heading_deg=_rms(d_att[on, 2]),
+    )
+    nees_scores = None
     if tr.P_nav is not None:
         P = tr.P_nav[run, truth.index]
         nees = np.einsum("ki,ki->k", e, np.linalg.solve(P, e[..., None])[..., 0])
         lo, hi = chi2.ppf([0.025, 0.975], N_NAV)
         after = on & (t >= convergence_s)
         inside = (nees >= lo) & (nees <= hi)
-        out["nees"] = {
-            "dof": N_NAV,
-            "band_95": [float(lo), float(hi)],
-            "convergence_s": convergence_s,
-            "epochs": int(after.sum()),
-            "mean": float(np.mean(nees[after])) if after.any() else float("nan"),
-            "fraction_inside": float(np.mean(inside[after])) if after.any() else float("nan"),
-            "fraction_above": float(np.mean(nees[after] > hi)) if after.any() else float("nan"),
-        }
-    out["biases"] = _biases(rec, tr, truth, run)
-    return out
+        nees_scores = TruthNees(
+            dof=N_NAV,
+            band_95=(float(lo), float(hi)),
+            convergence_s=convergence_s,
+            epochs=int(after.sum()),
+            mean=float(np.mean(nees[after])) if after.any() else float("nan"),
+            fraction_inside=float(np.mean(inside[after])) if after.any() else float("nan"),
+            fraction_above=float(np.mean(nees[after] > hi)) if after.any() else float("nan"),
+        )
+    gyro, accel = _biases(rec, tr, truth, run)
+    return TruthScores(int(on.sum()), rmse, nees_scores, gyro, accel)
 
 
-def _biases(rec: Recording, tr: Trace, truth: Truth, run: int) -> dict[str, Any]:
+def _biases(rec: Recording, tr: Trace, truth: Truth, run: int) -> tuple[BiasScore, BiasScore]:
     x = tr.x[run, -1]
     sd = np.sqrt(tr.P_diag[run, -1])
     if rec.error_model.states == 18:  # ε_b + ε_r; ∇
@@ -325,36 +553,29 @@ def _biases(rec: Recording, tr: Trace, truth: Truth, run: int) -> dict[str, Any]
     if tr.bias is not None:  # compensated: the states hold the residual, fed back already
         gyro, accel = tr.bias[run, -1, 0:3], tr.bias[run, -1, 3:6]
     gyro = gyro + truth.removed_gyro_bias
-    out: dict[str, Any] = {}
-    for key, value, sigma, known, nominal, unit, scale in (
-        ("gyro", gyro, gyro_sd, truth.gyro_bias, truth.gyro_bias_nominal, "dps", np.degrees(1.0)),
-        (
-            "accel",
-            accel,
-            accel_sd,
-            truth.accel_bias,
-            truth.accel_bias_nominal,
-            "mg",
-            1 / 9.80665e-3,
-        ),
-    ):
-        out[key] = {
-            f"estimate_{unit}": (value * scale).tolist(),
-            f"sigma_{unit}": (sigma * scale).tolist(),
-            f"truth_{unit}": (known * scale).tolist(),
-            f"nominal_{unit}": None if nominal is None else (nominal * scale).tolist(),
-            "error_percent_of_truth": (100 * (value - known) / np.abs(known)).tolist(),
-        }
-    return out
+    gyro_bias, accel_bias = (
+        BiasScore(
+            unit,
+            _floats(value * scale),
+            _floats(sigma * scale),
+            _floats(known * scale),
+            None if nominal is None else _floats(nominal * scale),
+            _floats(100 * (value - known) / np.abs(known)),
+        )
+        for value, sigma, known, nominal, unit, scale in (
+            (gyro, gyro_sd, truth.gyro_bias, truth.gyro_bias_nominal, "dps", np.degrees(1.0)),
+            (accel, accel_sd, truth.accel_bias, truth.accel_bias_nominal, "mg", 1 / 9.80665e-3),
+        )
+    )
+    return gyro_bias, accel_bias
 
 
-def _detection(rec: Recording, flag: np.ndarray, grace: float) -> dict[str, dict[str, float]]:
+def _detection(rec: Recording, flag: np.ndarray, grace: float) -> dict[str, DetectionStats]:
+    """Per aid with injected faults, its flags against the fault windows (the names and
+    fields of a simulated run's detection: one name per quantity)."""
     out = {}
     for i, name in enumerate(rec.sensor_names):
         windows = [(f.start, f.end) for f in rec.faults if f.sensor == name]
-        if not windows:
-            continue
-        d = detection_stats(flag[None, :, i], rec.times, windows, grace)
-        # the names and fields of a simulated run's detection (one name per quantity)
-        out[name] = {k: v if k == "events" else float(v) for k, v in d._asdict().items()}
+        if windows:
+            out[name] = detection_stats(flag[None, :, i], rec.times, windows, grace)
     return out

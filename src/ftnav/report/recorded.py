@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from ftnav.eval.recorded import RecordedScores, TruthScores
 from ftnav.io.recording_file import LoadedRecording
 
 __all__ = ["recording_metrics", "recording_report", "recording_table"]
@@ -14,7 +15,7 @@ __all__ = ["recording_metrics", "recording_report", "recording_table"]
 
 def recording_metrics(
     loaded: LoadedRecording,
-    scores: dict[str, dict[str, Any]],
+    scores: dict[str, RecordedScores],
     elapsed_s: float,
     files: list[str] | None = None,
 ) -> dict[str, Any]:
@@ -67,7 +68,8 @@ def recording_metrics(
         "wall_time_s": elapsed_s,
         "runs": len(loaded.outages),
         "files": list(files or []),
-        "methods": scores,
+        # the typed scores become dicts here, in the JSON document only
+        "methods": {name: s.as_dict() for name, s in scores.items()},
     }
 
 
@@ -75,55 +77,57 @@ def _f(x: Any, spec: str = ".3f") -> str:
     return "-" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
 
 
-def recording_table(scores: dict[str, dict[str, Any]]) -> str:
+def recording_table(scores: dict[str, RecordedScores]) -> str:
     """One line per method: GNSS-on horizontal/vertical RMS (after the fix; before it,
     the prediction), outage drift (and smoothed), detection (one aid per line when a
     method tests several)."""
-    smoothed = any(m.get("smoothed") for m in scores.values())
+    smoothed = any(m.smoothed is not None for m in scores.values())
     head = "method           horiz RMS m  pred RMS m  vert RMS m  outages RMS max m   " + (
         "smoothed m  " if smoothed else ""
     )
     lines = [head + "detection"]
     for name, m in scores.items():
-        o = m.get("outages")
-        drift = f"{_f(o['rms_max_error_m'])} ({o['count']})" if o else "-"
+        o = m.outages
+        drift = f"{_f(o.rms_max_error_m)} ({o.count})" if o is not None else "-"
         det = [
-            f"{s}: Pd {_f(d['rate'], '.2f')} FA {_f(d['false_alarm_rate'], '.3f')} "
-            f"recovery {_f(d['mean_recovery_s'], '.1f')} s"
-            for s, d in (m.get("detection") or {}).items()
+            f"{s}: Pd {_f(d.rate, '.2f')} FA {_f(d.false_alarm_rate, '.3f')} "
+            f"recovery {_f(d.mean_recovery_s, '.1f')} s"
+            for s, d in (m.detection or {}).items()
         ] or ["-"]
         sm = ""
         if smoothed:
-            so = (m.get("smoothed") or {}).get("outages")
-            sm = f"{_f(so['rms_max_error_m']) if so else '-':>10}  "
+            so = None if m.smoothed is None else m.smoothed.outages
+            sm = f"{_f(so.rms_max_error_m) if so is not None else '-':>10}  "
+        pred = None if m.prediction is None else m.prediction.horizontal_rms_m
         lines.append(
-            f"{name:<16} {_f(m['horizontal_rms_m']):>11}  "
-            f"{_f(m.get('prediction_horizontal_rms_m')):>10}  {_f(m['vertical_rms_m']):>10}  "
+            f"{name:<16} {_f(m.horizontal_rms_m):>11}  "
+            f"{_f(pred):>10}  {_f(m.vertical_rms_m):>10}  "
             f"{drift:>17}   {sm}{det[0]}"
         )
         lines += [" " * len(head) + d for d in det[1:]]
-    truth = {nm: m["truth"] for nm, m in scores.items() if m.get("truth")}
+    truth = {nm: m.truth for nm, m in scores.items() if m.truth is not None}
     if truth:
         lines += ["", truth_table(truth)]
     return "\n".join(lines)
 
 
-def truth_table(truth: dict[str, dict[str, Any]]) -> str:
+def truth_table(truth: dict[str, TruthScores]) -> str:
     """Against a full truth: horizontal, velocity and attitude RMSE, NEES in its band."""
     lines = ["against the truth  horiz m  vel m/s  roll/pitch/heading deg  NEES mean  in 95 % band"]
     for name, t in truth.items():
-        r, n = t["rmse"], t.get("nees") or {}
-        att = "/".join(_f(r[k], ".2f") for k in ("roll_deg", "pitch_deg", "heading_deg"))
+        r, n = t.rmse, t.nees
+        att = "/".join(_f(a, ".2f") for a in (r.roll_deg, r.pitch_deg, r.heading_deg))
         lines.append(
-            f"{name:<17} {_f(r['horizontal_m']):>8}  {_f(r['velocity_mps']):>7}  {att:>22}  "
-            f"{_f(n.get('mean'), '.1f'):>9}  {_f(n.get('fraction_inside'), '.2f'):>12}"
+            f"{name:<17} {_f(r.horizontal_m):>8}  {_f(r.velocity_mps):>7}  {att:>22}  "
+            f"{_f(None if n is None else n.mean, '.1f'):>9}  "
+            f"{_f(None if n is None else n.fraction_inside, '.2f'):>12}"
         )
     return "\n".join(lines)
 
 
 def recording_report(
     loaded: LoadedRecording,
-    scores: dict[str, dict[str, Any]],
+    scores: dict[str, RecordedScores],
     figures: list[str],
     findings: list[str],
 ) -> str:
