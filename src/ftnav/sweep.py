@@ -423,7 +423,7 @@ def sweep_dataset(sweep: SweepResult) -> xr.Dataset:
                 if d is None:
                     continue
                 for k in DETECTION:
-                    det[k][(*at, j, n)] = _bounds(d[k])
+                    det[k][(*at, j, n)] = _bounds(getattr(d, k))
     dims = [a.label for a in sweep.axes]
     coords: dict[str, Any] = {a.label: list(a.values) for a in sweep.axes}
     coords |= {

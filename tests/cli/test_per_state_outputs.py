@@ -53,7 +53,7 @@ def test_north_ramp_shows_in_the_north_column_of_the_ratio():
     oracle = _row(ratio, "fkf-oracle")  # isolation keeps N close to fault-free
     assert oracle["N"] < 0.5 * ckf["N"]
     m = metrics["ckf"]
-    assert ckf["N"] == pytest.approx(m.rmse_fault["N"] / m.fault_free["rmse_fault_window"]["N"])
+    assert ckf["N"] == pytest.approx(m.rmse_fault["N"] / m.fault_free.rmse_fault_window["N"])
 
 
 def test_terminal_table_shows_every_state_under_a_state_header():
@@ -91,7 +91,7 @@ def test_detection_columns_per_faulty_sensor():
     row = dict(det.rows)
     # the values with their 95 % intervals over the runs (issue 23)
     anees_ff = row["ckf"][1]
-    assert anees_ff.value == pytest.approx(metrics["ckf"].fault_free["anees"])
+    assert anees_ff.value == pytest.approx(metrics["ckf"].fault_free.anees)
     assert anees_ff.lo < anees_ff.value < anees_ff.hi and anees_ff.method == "t"
     assert row["ckf"][2] is None  # no detector
     pd = row["fkf-oracle"][2]
@@ -159,7 +159,7 @@ def test_evaluate_adds_horizontal_and_3d_position_errors():
             assert m.rmse_fault[key] == pytest.approx(inside, rel=1e-12)
             assert m.max_abs_error[key] == pytest.approx(err[:, window].max())
         assert set(m.rmse_nofault) == set(METRIC_STATES) | set(POSITION_NORMS)
-        ff = m.fault_free["rmse_fault_window"]
+        ff = m.fault_free.rmse_fault_window
         e_ff = sr.fault_free[name].error[..., :3]
         h_ff = error_stats(np.hypot(e_ff[..., 0], e_ff[..., 1])[..., None], in_fault).rmse[0]
         assert ff["pos_horizontal_m"] == pytest.approx(h_ff, rel=1e-12)

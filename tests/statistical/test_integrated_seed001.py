@@ -153,8 +153,8 @@ def _recovery(result, aid, method):
 def test_every_aid_fault_is_detected(metrics, method, aid):
     """Per-epoch Pd inside the fault window ≥ 0.95, pooled over the 8 runs."""
     det = metrics[method].detection[aid]
-    assert det["events"] == RUNS and det["missed_rate"] == 0.0
-    assert det["rate"] >= 0.95, f"{method}, {aid}: Pd = {det['rate']:.4f}"
+    assert det.events == RUNS and det.missed_rate == 0.0
+    assert det.rate >= 0.95, f"{method}, {aid}: Pd = {det.rate:.4f}"
 
 
 @pytest.mark.parametrize(
@@ -177,4 +177,4 @@ def test_own_residual_test_readmits_tan(result):
 @pytest.mark.parametrize("aid", AIDS)
 def test_false_alarm_rate_sanity(metrics, method, bound, aid):
     """Loose bounds on the alarms per clean epoch (measured: FKF ≤ 0.11, neural ≤ 0.002)."""
-    assert metrics[method].detection[aid]["false_alarm_rate"] < bound
+    assert metrics[method].detection[aid].false_alarm_rate < bound

@@ -65,15 +65,15 @@ def _after(sc, res) -> float:
 )
 def test_the_fix_comes_back_after_the_ramp_in_every_run(slowramp, name):
     sc, result, metrics = slowramp
-    assert metrics[name].detection["gnss"]["readmitted"] == 1.0
-    assert metrics[name].detection["gnss"]["mean_recovery_s"] <= 10.0
+    assert metrics[name].detection["gnss"].readmitted == 1.0
+    assert metrics[name].detection["gnss"].mean_recovery_s <= 10.0
     plain = _after(sc, result.results["ckf"])
     assert _after(sc, result.results[name]) <= 1.5 * plain
 
 
 def test_without_the_guard_the_fix_is_locked_out_in_many_runs(slowramp):
     sc, result, metrics = slowramp
-    unguarded = metrics["ckf-chi2-unguarded"].detection["gnss"]["readmitted"]
+    unguarded = metrics["ckf-chi2-unguarded"].detection["gnss"].readmitted
     assert unguarded < 0.8, unguarded
     assert _after(sc, result.results["ckf-chi2-unguarded"]) > 5 * _after(
         sc, result.results["ckf-chi2"]
@@ -83,8 +83,8 @@ def test_without_the_guard_the_fix_is_locked_out_in_many_runs(slowramp):
 @pytest.mark.parametrize("name", GUARDED)
 def test_fault_free_twins_are_within_10_percent_of_the_plain_filter(slowramp, name):
     _, _, metrics = slowramp
-    plain = metrics["ckf"].fault_free["rmse"]["s"]
-    assert metrics[name].fault_free["rmse"]["s"] <= 1.1 * plain
+    plain = metrics["ckf"].fault_free.rmse["s"]
+    assert metrics[name].fault_free.rmse["s"] <= 1.1 * plain
 
 
 NOISY = (

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
-from typing import Any, TypedDict
+from typing import Any
 
 import numpy as np
 
@@ -38,6 +38,7 @@ from ftnav.eval.intervals import (
 )
 from ftnav.eval.metrics import (
     DetectionEvents,
+    DetectionStats,
     detection_events,
     error_stats,
     nees_stats,
@@ -49,6 +50,8 @@ from ftnav.model.scenario import METRIC_STATES, POSITION_NORMS, Evaluation
 from ftnav.version import __version__
 
 __all__ = [
+    "DetectionIntervals",
+    "DetectionMetrics",
     "FaultFreeMetrics",
     "MethodMetrics",
     "MetricIntervals",
@@ -81,7 +84,8 @@ def split_unit(name: str) -> tuple[str, str | None]:
     return name, None
 
 
-class FaultFreeMetrics(TypedDict):
+@dataclass(frozen=True, slots=True)
+class FaultFreeMetrics:
     """A method's metrics on the fault-free twin (``methods[name].fault_free``)."""
 
     rmse: dict[str, float]
@@ -89,6 +93,63 @@ class FaultFreeMetrics(TypedDict):
     anees: float
     nees_in_band_fraction: float
     nis: dict[str, float] | None
+
+
+def _number(v: float) -> float | None:
+    """A metric's value, None where it is undefined (NaN: written as null)."""
+    return None if math.isnan(v) else float(v)
+
+
+@dataclass(frozen=True, slots=True)
+class DetectionMetrics:
+    """One detector on one sensor over the runs: the fields of
+    :class:`~ftnav.eval.metrics.DetectionStats` (the same names in a recording's scores),
+    None where undefined (no fault epochs, nothing detected), and ``readmitted``: the
+    fraction of (run, fault) events whose aid is re-admitted after the fault's end
+    (None without a fault window that ends inside the run)."""
+
+    rate: float | None
+    event_rate: float | None
+    missed_rate: float | None
+    false_alarm_rate: float | None
+    false_alarms_per_hour: float | None
+    mean_delay_s: float | None
+    median_delay_s: float | None
+    p95_delay_s: float | None
+    mean_recovery_s: float | None
+    events: float | None
+    readmitted: float | None
+
+    @classmethod
+    def of(cls, d: DetectionStats, readmitted: float | None) -> DetectionMetrics:
+        """From the pooled statistics and the re-admitted fraction."""
+        return cls(
+            rate=_number(d.rate),
+            event_rate=_number(d.event_rate),
+            missed_rate=_number(d.missed_rate),
+            false_alarm_rate=_number(d.false_alarm_rate),
+            false_alarms_per_hour=_number(d.false_alarms_per_hour),
+            mean_delay_s=_number(d.mean_delay_s),
+            median_delay_s=_number(d.median_delay_s),
+            p95_delay_s=_number(d.p95_delay_s),
+            mean_recovery_s=_number(d.mean_recovery_s),
+            events=_number(float(d.events)),  # a float in metrics.json, as before
+            readmitted=readmitted,
+        )
+
+
+@dataclass(frozen=True, slots=True)
+class DetectionIntervals:
+    """95 % intervals of one detector's metrics on one sensor: the rates (Wilson with the
+    runs as clusters), the delays (bootstrap over runs), the mean recovery (t)."""
+
+    rate: Interval
+    event_rate: Interval
+    false_alarm_rate: Interval
+    mean_delay_s: Interval
+    median_delay_s: Interval
+    p95_delay_s: Interval
+    mean_recovery_s: Interval
 
 
 @dataclass(frozen=True, slots=True)
@@ -102,9 +163,7 @@ class MetricIntervals:
         over runs of the per-run RMSE (Student-t over runs); None where the metric is.
     ensemble_rmse : state → interval of the ensemble RMS (t on the per-run mean squares).
     anees : interval of the ANEES (t over the per-run mean NEES).
-    detection : sensor → {``rate``, ``event_rate``, ``false_alarm_rate`` (Wilson with
-        the runs as clusters), ``mean_delay_s``, ``median_delay_s``, ``p95_delay_s``
-        (bootstrap over runs), ``mean_recovery_s`` (t)}, or None (no detector).
+    detection : sensor → :class:`DetectionIntervals`, or None (no detector).
     fault_free_rmse, fault_free_anees : the same on the fault-free twin, or None.
     """
 
@@ -113,7 +172,7 @@ class MetricIntervals:
     rmse_nofault: dict[str, Interval] | None
     ensemble_rmse: dict[str, Interval]
     anees: Interval
-    detection: dict[str, dict[str, Interval]] | None
+    detection: dict[str, DetectionIntervals] | None
     fault_free_rmse: dict[str, Interval] | None
     fault_free_anees: Interval | None
 
@@ -131,7 +190,7 @@ class MethodMetrics:
     anees: float
     anees_band: tuple[float, float]
     nees_in_band_fraction: float
-    detection: dict[str, dict[str, float | None]] | None
+    detection: dict[str, DetectionMetrics] | None
     fault_free: FaultFreeMetrics | None
     max_rel_diff_to_centralized: float | None
     mean_beta: dict[str, float] | None
@@ -191,20 +250,20 @@ def _anees_interval(nees: np.ndarray, window: np.ndarray) -> Interval:
     return mean_interval(nees[:, window].mean(1)) if window.any() else mean_interval(np.empty(0))
 
 
-def detection_intervals(ev: DetectionEvents) -> dict[str, Interval]:
+def detection_intervals(ev: DetectionEvents) -> DetectionIntervals:
     """The intervals of one detector's :class:`~ftnav.eval.metrics.DetectionStats`."""
     B, E = ev.delays.shape
     detected = np.isfinite(ev.delays)
     delays = [d[np.isfinite(d)] for d in ev.delays]
-    return {
-        "rate": rate_interval(ev.fault_alarms, np.full(B, ev.fault_epochs)),
-        "event_rate": rate_interval(detected.sum(1), np.full(B, E)),
-        "false_alarm_rate": rate_interval(ev.clean_alarms, np.full(B, ev.clean_epochs)),
-        "mean_delay_s": bootstrap_interval(delays),
-        "median_delay_s": bootstrap_interval(delays, 0.5),
-        "p95_delay_s": bootstrap_interval(delays, 0.95),
-        "mean_recovery_s": mean_interval(_finite_mean(ev.recoveries)),
-    }
+    return DetectionIntervals(
+        rate=rate_interval(ev.fault_alarms, np.full(B, ev.fault_epochs)),
+        event_rate=rate_interval(detected.sum(1), np.full(B, E)),
+        false_alarm_rate=rate_interval(ev.clean_alarms, np.full(B, ev.clean_epochs)),
+        mean_delay_s=bootstrap_interval(delays),
+        median_delay_s=bootstrap_interval(delays, 0.5),
+        p95_delay_s=bootstrap_interval(delays, 0.95),
+        mean_recovery_s=mean_interval(_finite_mean(ev.recoveries)),
+    )
 
 
 def _finite_mean(x: np.ndarray) -> np.ndarray:
@@ -318,8 +377,8 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
         es = error_stats(err, window)
         es_norms = None if norms is None else error_stats(norms, window)
         ns = nees_stats(res.nees, len(states), window)
-        detection: dict[str, dict[str, float | None]] | None = None
-        det_ci: dict[str, dict[str, Interval]] | None = None
+        detection: dict[str, DetectionMetrics] | None = None
+        det_ci: dict[str, DetectionIntervals] | None = None
         if res.flag is not None:
             detection, det_ci = {}, {}
             for i, sensor in enumerate(sc.sensor_names):
@@ -327,13 +386,10 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
                     (f.start, f.end) for f in sc.faults if f.sensor == sensor and f.kind != "outage"
                 ]
                 ev = detection_events(res.flag[..., i], t, wins, sc.evaluation.grace)
-                d = summarize_detection(ev)
                 det_ci[sensor] = detection_intervals(ev)
-                detection[sensor] = {
-                    k: (None if isinstance(v, float) and math.isnan(v) else float(v))
-                    for k, v in d._asdict().items()
-                }
-                detection[sensor]["readmitted"] = _readmitted(res.flag[..., i], t, wins)
+                detection[sensor] = DetectionMetrics.of(
+                    summarize_detection(ev), _readmitted(res.flag[..., i], t, wins)
+                )
         ff: FaultFreeMetrics | None = None
         ff_ci: tuple[dict[str, Interval], Interval] | None = None
         ff_res = result.fault_free.get(name)
@@ -341,15 +397,15 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
             ff_err = ff_res.error
             ff_norms = _norms(ff_err, states)
             ff_ns = nees_stats(ff_res.nees, len(states), window)
-            ff = {
-                "rmse": _rmse(ff_err, ff_norms, states, window),
-                "rmse_fault_window": _rmse(ff_err, ff_norms, states, in_fault)
+            ff = FaultFreeMetrics(
+                rmse=_rmse(ff_err, ff_norms, states, window),
+                rmse_fault_window=_rmse(ff_err, ff_norms, states, in_fault)
                 if in_fault.any()
                 else None,
-                "anees": float(ff_ns.anees),
-                "nees_in_band_fraction": float(ff_ns.in_band_fraction),
-                "nis": _mean_nis(watched(name, ff_res, sc)),
-            }
+                anees=float(ff_ns.anees),
+                nees_in_band_fraction=float(ff_ns.in_band_fraction),
+                nis=_mean_nis(watched(name, ff_res, sc)),
+            )
             ff_ci = (
                 _per_run(ff_err, ff_norms, states, window)[0],
                 _anees_interval(ff_res.nees, window),

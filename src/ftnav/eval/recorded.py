@@ -31,7 +31,7 @@ the only place they become dicts.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -108,14 +108,9 @@ class OutageScore:
     end_error_m: float
     max_error_m: float
 
-    def as_dict(self) -> dict[str, float]:
+    def as_dict(self) -> dict[str, Any]:
         """The JSON form (one of ``outages.each``)."""
-        return {
-            "start_s": self.start_s,
-            "end_s": self.end_s,
-            "end_error_m": self.end_error_m,
-            "max_error_m": self.max_error_m,
-        }
+        return asdict(self)
 
 
 @dataclass(frozen=True, slots=True)
@@ -173,16 +168,8 @@ class TruthRmse:
     heading_deg: float
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON form (``truth.rmse``)."""
-        return {
-            "position_enu_m": list(self.position_enu_m),
-            "horizontal_m": self.horizontal_m,
-            "velocity_enu_mps": list(self.velocity_enu_mps),
-            "velocity_mps": self.velocity_mps,
-            "roll_deg": self.roll_deg,
-            "pitch_deg": self.pitch_deg,
-            "heading_deg": self.heading_deg,
-        }
+        """The JSON form (``truth.rmse``; tuples are written as arrays)."""
+        return asdict(self)
 
 
 @dataclass(frozen=True, slots=True)
@@ -200,16 +187,8 @@ class TruthNees:
     fraction_above: float
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON form (``truth.nees``)."""
-        return {
-            "dof": self.dof,
-            "band_95": list(self.band_95),
-            "convergence_s": self.convergence_s,
-            "epochs": self.epochs,
-            "mean": self.mean,
-            "fraction_inside": self.fraction_inside,
-            "fraction_above": self.fraction_above,
-        }
+        """The JSON form (``truth.nees``; tuples are written as arrays)."""
+        return asdict(self)
 
 
 @dataclass(frozen=True, slots=True)

@@ -125,10 +125,12 @@ def metric_interval(metrics: dict[str, MethodMetrics], target: Target) -> Interv
     head, *rest = target.path
     node: Any = None if ci is None else getattr(ci, head)
     for key in rest:
-        if not isinstance(node, dict) or key not in node:
-            known = ", ".join(node) if isinstance(node, dict) else "none"
+        # a map (by state or sensor) or a typed container (a sensor's detection intervals)
+        keys = list(node) if isinstance(node, dict) else list(getattr(node, "__slots__", ()))
+        if key not in keys:
+            known = ", ".join(keys) or "none"
             raise ValueError(f"{where}: no {key!r} in {head} of this run (there: {known})")
-        node = node[key]
+        node = node[key] if isinstance(node, dict) else getattr(node, key)
     if not isinstance(node, Interval):
         raise ValueError(f"{where}: {'.'.join(target.path)} has no interval in this run")
     return node

@@ -216,7 +216,7 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
         return m[name].rmse_fault[st]
 
     def ffwin(name):  # in-window RMSE on the same noise without the fault
-        return m[name].fault_free["rmse_fault_window"][st]
+        return m[name].fault_free.rmse_fault_window[st]
 
     sc0 = result.scenario
     in_fault = sc0.fault_mask() & (sc0.times >= sc0.evaluation.skip_initial)
@@ -227,7 +227,7 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
 
     rules = [n for n in m if n.startswith("fkf-fr-")]
     if rules and all(m[n].fault_free for n in rules):
-        vals = {n: m[n].fault_free["rmse"][st] for n in rules}
+        vals = {n: m[n].fault_free.rmse[st] for n in rules}
         spread = (max(vals.values()) - min(vals.values())) / max(vals.values())
         out.append(
             _claim(
@@ -413,16 +413,21 @@ def _paper000_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
     elif rbf is not None and m[rbf].fault_free and m[rbf].detection:
         d = m[rbf].detection[faults[0].sensor]
         ratio = win(rbf) / ffwin(rbf)
-        delay = (
-            d["median_delay_s"] / result.scenario.dt if d["median_delay_s"] is not None else np.inf
+        delay = d.median_delay_s / result.scenario.dt if d.median_delay_s is not None else np.inf
+        holds = (
+            d.rate is not None
+            and d.rate >= 0.95
+            and d.false_alarm_rate is not None
+            and d.false_alarm_rate <= 5e-3
+            and delay <= 2
+            and ratio <= 1.2
         )
-        holds = d["rate"] >= 0.95 and d["false_alarm_rate"] <= 5e-3 and delay <= 2 and ratio <= 1.2
         out.append(
             _claim(
                 *rbf_claim,
                 {
-                    "rate": d["rate"],
-                    "false_alarm_rate": d["false_alarm_rate"],
+                    "rate": d.rate,
+                    "false_alarm_rate": d.false_alarm_rate,
                     "median_delay_epochs": delay,
                     "rmse_fault": win(rbf),
                     "rmse_fault_window_fault_free": ffwin(rbf),
@@ -454,8 +459,8 @@ def _detection_evidence(
     out = []
     for s in sensors:
         if s in det:
-            out.append(Evidence(f"{s} Pd", det[s]["rate"], pd, False))
-            recovery = det[s]["mean_recovery_s"]
+            out.append(Evidence(f"{s} Pd", det[s].rate, pd, False))
+            recovery = det[s].mean_recovery_s
             out.append(Evidence(f"{s} mean recovery [s]", recovery, recovery_s, True))
     return out
 
@@ -471,9 +476,9 @@ def _rbf_evidence(m: MethodMetrics, sensor: str, dt: float) -> list[Evidence]:
     if not ci:
         return []
     return [
-        Evidence("Pd", ci["rate"], 0.95, False),
-        Evidence("false alarm rate", ci["false_alarm_rate"], 5e-3, True),
-        Evidence("median delay [s]", ci["median_delay_s"], 2 * dt, True),
+        Evidence("Pd", ci.rate, 0.95, False),
+        Evidence("false alarm rate", ci.false_alarm_rate, 5e-3, True),
+        Evidence("median delay [s]", ci.median_delay_s, 2 * dt, True),
     ]
 
 
@@ -925,9 +930,9 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
             for s in sc.sensor_names
             if any(f.sensor == s and f.kind != "outage" for f in sc.faults)
         }
-        rates = {s: d["rate"] for s, d in det.items()}
-        rec = {s: d["mean_recovery_s"] for s, d in det.items()}
-        holds = all(r >= 0.95 for r in rates.values()) and all(
+        rates = {s: d.rate for s, d in det.items()}
+        rec = {s: d.mean_recovery_s for s, d in det.items()}
+        holds = all(r is not None and r >= 0.95 for r in rates.values()) and all(
             v is not None and v <= 15.0 for v in rec.values()
         )
         out.append(
@@ -939,7 +944,7 @@ def _paper001_claims(result: ScenarioResult, m: dict[str, MethodMetrics]) -> lis
                 {
                     "detection_rate": rates,
                     "mean_recovery_s": rec,
-                    "false_alarm_rate": {s: d["false_alarm_rate"] for s, d in det.items()},
+                    "false_alarm_rate": {s: d.false_alarm_rate for s, d in det.items()},
                 },
                 holds,
                 "false alarms count every epoch outside the aid's own windows, including the "
@@ -1174,7 +1179,7 @@ def _neural_vs_fkf(
             )
         ]
     hz = {n: _horizontal(m[n].rmse_fault) for n in (neural, fkf)}
-    hz_ff = {n: _horizontal(m[n].fault_free["rmse"]) for n in (neural, fkf) if m[n].fault_free}
+    hz_ff = {n: _horizontal(m[n].fault_free.rmse) for n in (neural, fkf) if m[n].fault_free}
     note = "in-window RMSE over every fault window (GPS, TAN, DNS and SINS), mean over runs"
     if len(hz_ff) == 2 and hz_ff[neural] > 2.0 * hz_ff[fkf]:
         note += (

@@ -196,7 +196,7 @@ def summary_tables(result: ScenarioResult, metrics: dict[str, MethodMetrics]) ->
             )
         )
         twin = {
-            n: _values(m.fault_free and m.fault_free["rmse_fault_window"], cols)
+            n: _values(m.fault_free and m.fault_free.rmse_fault_window, cols)
             for n, m in metrics.items()
         }
         if any(v is not None for row in twin.values() for v in row):
@@ -253,18 +253,19 @@ def _detection_table(result: ScenarioResult, metrics: dict[str, MethodMetrics]) 
         ci = m.intervals
         values: list[float | Interval | None] = [ci.anees if ci else m.anees]
         if twin:
-            ff = m.fault_free["anees"] if m.fault_free else None
+            ff = m.fault_free.anees if m.fault_free else None
             values.append(ci.fault_free_anees if ci and ci.fault_free_anees else ff)
         if len(cols) > 1 + twin:
             det = m.detection or {}
             det_ci = (ci and ci.detection) or {}
             for s in faulty:
-                d, dci = det.get(s) or {}, det_ci.get(s) or {}
-                values += [dci.get("rate", d.get("rate")), dci.get("mean_delay_s")]
+                d, dci = det.get(s), det_ci.get(s)
+                rate = dci.rate if dci else (d.rate if d else None)
+                values += [rate, dci.mean_delay_s if dci else None]
             fas = [
-                (d["false_alarm_rate"], det_ci.get(s, {}).get("false_alarm_rate"))
+                (d.false_alarm_rate, c.false_alarm_rate if (c := det_ci.get(s)) else None)
                 for s, d in det.items()
-                if d["false_alarm_rate"] is not None
+                if d.false_alarm_rate is not None
             ]
             worst = max(fas, key=lambda x: x[0]) if fas else None
             values.append(None if worst is None else worst[1] or worst[0])
@@ -426,23 +427,23 @@ def _detector_rows(result: ScenarioResult, metrics: dict[str, MethodMetrics]):
             continue
         for s, key in own.items():
             d = m.detection[s]
-            dci = (m.intervals and m.intervals.detection or {}).get(s, {})
+            dci = (m.intervals and m.intervals.detection or {}).get(s)
             delay: float | Interval | None = (
-                None if d["median_delay_s"] is None else d["median_delay_s"] / dt
+                None if d.median_delay_s is None else d.median_delay_s / dt
             )
-            if "median_delay_s" in dci and delay is not None:
-                med = dci["median_delay_s"]
+            if dci is not None and delay is not None:
+                med = dci.median_delay_s
                 delay = Interval(med.value / dt, med.lo / dt, med.hi / dt, med.runs, med.method)
             rows.append(
                 [
                     name,
                     detectors.get(name, ""),
                     s,
-                    _format(dci.get("rate", d["rate"]), "rate"),
-                    _format(dci.get("event_rate", d["event_rate"]), "ratio"),
-                    _format(dci.get("false_alarm_rate", d["false_alarm_rate"]), "small"),
+                    _format(dci.rate if dci else d.rate, "rate"),
+                    _format(dci.event_rate if dci else d.event_rate, "ratio"),
+                    _format(dci.false_alarm_rate if dci else d.false_alarm_rate, "small"),
                     _format(delay, "delay"),
-                    _format(dci.get("mean_recovery_s", d["mean_recovery_s"]), "delay"),
+                    _format(dci.mean_recovery_s if dci else d.mean_recovery_s, "delay"),
                     _state_column(key).markdown,
                     _format(m.rmse_fault and m.rmse_fault.get(key)),
                     _format(m.rmse_nofault and m.rmse_nofault.get(key)),
