@@ -94,4 +94,5 @@ def test_readme_recording_snippet(tmp_path, capsys):
     assert smoothed.shape == df.shape
     s = result.scores["ckf"]
     assert 0 < s.horizontal_rms_m < 0.5 and s.outages.count >= 2
+    assert scope["drift"] is s.outages and s.as_dict()["outages"]["count"] == s.outages.count
     assert "ckf" in capsys.readouterr().out
