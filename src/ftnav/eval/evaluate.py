@@ -104,7 +104,8 @@ def _number(v: float) -> float | None:
 class DetectionMetrics:
     """One detector on one sensor over the runs: the fields of
     :class:`~ftnav.eval.metrics.DetectionStats` (the same names in a recording's scores),
-    None where undefined (no fault epochs, nothing detected), and ``readmitted``: the
+    None where undefined (no fault epochs, nothing detected; ``events``, the fault events
+    times the runs, an integer), and ``readmitted``: the
     fraction of (run, fault) events whose aid is re-admitted after the fault's end
     (None without a fault window that ends inside the run)."""
 
@@ -117,7 +118,7 @@ class DetectionMetrics:
     median_delay_s: float | None
     p95_delay_s: float | None
     mean_recovery_s: float | None
-    events: float | None
+    events: int
     readmitted: float | None
 
     @classmethod
@@ -133,7 +134,7 @@ class DetectionMetrics:
             median_delay_s=_number(d.median_delay_s),
             p95_delay_s=_number(d.p95_delay_s),
             mean_recovery_s=_number(d.mean_recovery_s),
-            events=_number(float(d.events)),  # a float in metrics.json, as before
+            events=int(d.events),  # an integer, as in a recording's scores (was a float)
             readmitted=readmitted,
         )
 
