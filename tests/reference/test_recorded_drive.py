@@ -76,7 +76,7 @@ def test_a_5_m_gnss_step_is_detected_on_real_noise():
     assert score.detection is not None
     d = score.detection["gnss"]
     assert d.event_rate == 1.0 and d.mean_delay_s <= 1.0
-    assert d.mean_recovery_s <= 5.0 and d.false_alarm_rate <= 0.01
+    assert d.mean_recovery_s <= 5.0 and d.false_alarm_rate <= 0.01 and d.readmitted == 1.0
     assert score.horizontal_rms_m <= 0.10
 
 

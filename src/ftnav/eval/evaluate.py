@@ -57,6 +57,7 @@ __all__ = [
     "MetricIntervals",
     "evaluate",
     "metrics_to_json",
+    "readmitted_fraction",
     "split_unit",
 ]
 
@@ -339,7 +340,7 @@ def _mean_nis(w: MethodWatch | None) -> dict[str, float] | None:
     return None if w is None else {a.name: a.mean_nis for a in w.aids}
 
 
-def _readmitted(
+def readmitted_fraction(
     flag: np.ndarray, t: np.ndarray, windows: list[tuple[float, float]]
 ) -> float | None:
     """Fraction of (run, fault) events whose aid is re-admitted (its flag clears) after the
@@ -389,7 +390,7 @@ def evaluate(result: ScenarioResult) -> dict[str, MethodMetrics]:
                 ev = detection_events(res.flag[..., i], t, wins, sc.evaluation.grace)
                 det_ci[sensor] = detection_intervals(ev)
                 detection[sensor] = DetectionMetrics.of(
-                    summarize_detection(ev), _readmitted(res.flag[..., i], t, wins)
+                    summarize_detection(ev), readmitted_fraction(res.flag[..., i], t, wins)
                 )
         ff: FaultFreeMetrics | None = None
         ff_ci: tuple[dict[str, Interval], Interval] | None = None

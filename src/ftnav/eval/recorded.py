@@ -38,9 +38,9 @@ import numpy as np
 from scipy.stats import chi2
 
 from ftnav.engine.driver import N_NAV, Trace
-from ftnav.eval.evaluate import adapts, watch_settings
+from ftnav.eval.evaluate import DetectionMetrics, adapts, readmitted_fraction, watch_settings
 from ftnav.eval.integrity import MethodWatch, watch
-from ftnav.eval.metrics import DetectionStats, detection_stats
+from ftnav.eval.metrics import detection_stats
 from ftnav.model.scenario import Recording, fault_window_mask
 from ftnav.nav import attitude
 from ftnav.nav.earth import enu_metres, radii
@@ -263,7 +263,7 @@ class RecordedScores:
     nan_epochs: int
     prediction: PredictionScores | None = None
     outages: OutageScores | None = None
-    detection: Mapping[str, DetectionStats] | None = None
+    detection: Mapping[str, DetectionMetrics] | None = None
     truth: TruthScores | None = None
     integrity: MethodWatch | None = None
     smoothed: RecordedScores | None = None
@@ -301,10 +301,7 @@ class RecordedScores:
         if self.outages is not None:
             out["outages"] = self.outages.as_dict()
         if self.detection is not None:
-            out["detection"] = {
-                aid: {k: v if k == "events" else float(v) for k, v in d._asdict().items()}
-                for aid, d in self.detection.items()
-            }
+            out["detection"] = {aid: asdict(d) for aid, d in self.detection.items()}
         if self.truth is not None:
             out["truth"] = self.truth.as_dict()
         if self.integrity is not None:
@@ -549,12 +546,17 @@ def _biases(rec: Recording, tr: Trace, truth: Truth, run: int) -> tuple[BiasScor
     return gyro_bias, accel_bias
 
 
-def _detection(rec: Recording, flag: np.ndarray, grace: float) -> dict[str, DetectionStats]:
-    """Per aid with injected faults, its flags against the fault windows (the names and
-    fields of a simulated run's detection: one name per quantity)."""
+def _detection(rec: Recording, flag: np.ndarray, grace: float) -> dict[str, DetectionMetrics]:
+    """Per aid with injected faults, its flags against the fault windows: a simulated
+    campaign's :class:`~ftnav.eval.evaluate.DetectionMetrics` (one type, one name per
+    quantity), ``readmitted`` whether the aid was used again after each fault's end."""
     out = {}
     for i, name in enumerate(rec.sensor_names):
         windows = [(f.start, f.end) for f in rec.faults if f.sensor == name]
         if windows:
-            out[name] = detection_stats(flag[None, :, i], rec.times, windows, grace)
+            flags = flag[None, :, i]
+            out[name] = DetectionMetrics.of(
+                detection_stats(flags, rec.times, windows, grace),
+                readmitted_fraction(flags, rec.times, windows),
+            )
     return out
