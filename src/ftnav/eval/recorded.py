@@ -249,7 +249,8 @@ class RecordedScores:
     nan_epochs : epochs whose solution was not finite.
     prediction : the same before each fix is used.
     outages : per outage (protocol a).
-    detection : per aid with injected faults, the flags against the fault windows.
+    detection : per aid with injected faults, the flags against the fault windows
+        (:class:`~ftnav.eval.evaluate.DetectionMetrics`, as a simulated campaign's).
     truth : against a full truth (protocol c).
     integrity : what the method watched of itself.
     smoothed : the RTS-smoothed solution's scores (no integrity).
