@@ -7,7 +7,7 @@ on the second trajectory where the scenario has one), and a header naming the
 scenario file (its path and SHA-256), the root seed, the first run and the number of
 runs and the ftnav version.  Run ``i`` of a campaign depends on the root seed and
 ``i`` only (:func:`~ftnav.eval.montecarlo.run_scenario`), so the shards ``0:40``,
-``40:100`` merged equal ``--runs 100`` bit for bit (``tests/equivalence/test_shards.py``).
+``40:100`` merged equal ``--runs 100`` bit for bit (``tests/cli/test_shards.py``).
 
 The file is a NumPy ``.npz`` read with ``allow_pickle=False``: nothing in it is
 unpickled, and the header is JSON.  Merging refuses (one line, naming the shard)
