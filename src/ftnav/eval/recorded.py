@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from scipy.stats import chi2
@@ -98,8 +98,19 @@ def _floats(a: np.ndarray) -> tuple[float, ...]:
     return tuple(float(v) for v in np.asarray(a, float).ravel())
 
 
+class _Plain:
+    """A score whose JSON form is its fields (tuples are written as arrays)."""
+
+    __slots__ = ()
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON form: the fields by name."""
+        out: dict[str, Any] = asdict(cast(Any, self))  # a dataclass of the subclass
+        return out
+
+
 @dataclass(frozen=True, slots=True)
-class OutageScore:
+class OutageScore(_Plain):
     """One outage ``[start_s, end_s)`` (s on the processing's time base): the horizontal
     error at its last reference epoch and the largest within it, m."""
 
@@ -107,10 +118,6 @@ class OutageScore:
     end_s: float
     end_error_m: float
     max_error_m: float
-
-    def as_dict(self) -> dict[str, Any]:
-        """The JSON form (one of ``outages.each``)."""
-        return asdict(self)
 
 
 @dataclass(frozen=True, slots=True)
@@ -155,7 +162,7 @@ class PredictionScores:
 
 
 @dataclass(frozen=True, slots=True)
-class TruthRmse:
+class TruthRmse(_Plain):
     """RMSE against a full truth over the GNSS-on epochs: position E, N, U and
     horizontal (m), velocity E, N, U and 3-D (m/s), roll, pitch, heading (deg)."""
 
@@ -167,13 +174,9 @@ class TruthRmse:
     pitch_deg: float
     heading_deg: float
 
-    def as_dict(self) -> dict[str, Any]:
-        """The JSON form (``truth.rmse``; tuples are written as arrays)."""
-        return asdict(self)
-
 
 @dataclass(frozen=True, slots=True)
-class TruthNees:
+class TruthNees(_Plain):
     """NEES of the 9 navigation error states against a full truth (:func:`score_truth`):
     its mean over the GNSS-on epochs after ``convergence_s`` and the fractions of them
     inside and above the two-sided 95 % band of one run's χ²(``dof``)."""
@@ -185,10 +188,6 @@ class TruthNees:
     mean: float
     fraction_inside: float
     fraction_above: float
-
-    def as_dict(self) -> dict[str, Any]:
-        """The JSON form (``truth.nees``; tuples are written as arrays)."""
-        return asdict(self)
 
 
 @dataclass(frozen=True, slots=True)
