@@ -62,6 +62,8 @@ def test_readme_python_snippet(name, steps, tmp_path, monkeypatch, capsys):
     assert set(ckf.rmse) >= set(sc.metric_states)
     assert all(v > 0 for v in ckf.rmse.values())
     assert str(ckf.rmse)[:20] in capsys.readouterr().out
+    frame = scope["frame"]
+    assert list(frame.index) == list(metrics) and frame.loc["ckf", "anees"] == ckf.anees
     exec(compile(_engine_snippet(), "README.md", "exec"), scope)  # the engine, after it
     x = scope["traces"]["ckf"].x
     assert x.shape[:2] == (3, sc.steps) and np.isfinite(x).all()

@@ -56,6 +56,7 @@ __all__ = [
     "MethodMetrics",
     "MetricIntervals",
     "evaluate",
+    "metrics_frame",
     "metrics_to_json",
     "readmitted_fraction",
     "split_unit",
@@ -464,6 +465,62 @@ def _method_json(m: MethodMetrics) -> dict[str, Any]:
     doc = asdict(m)
     doc["integrity"] = None if m.integrity is None else m.integrity.as_dict()
     return doc
+
+
+def _with_bounds(row: dict[str, Any], key: str, value: Any, ci: Interval | None) -> None:
+    """``row[key]`` = ``value``, and ``key_lo`` / ``key_hi`` from its interval (if any)."""
+    row[key] = value
+    if ci is not None:
+        row[f"{key}_lo"], row[f"{key}_hi"] = ci.lo, ci.hi
+
+
+def _maps(
+    row: dict[str, Any],
+    prefix: str,
+    values: dict[str, float] | None,
+    cis: dict[str, Interval] | None,
+) -> None:
+    for name, v in (values or {}).items():
+        _with_bounds(row, f"{prefix}.{name}", v, (cis or {}).get(name))
+
+
+def metrics_frame(metrics: dict[str, MethodMetrics]) -> Any:
+    """A :class:`pandas.DataFrame` of the metrics, one row per method (a campaign's
+    counterpart of a recording's ``scores_frame``).
+
+    Columns: ``architecture``; ``anees``, ``nees_in_band_fraction``,
+    ``max_rel_diff_to_centralized``; ``rmse.<state>``, ``rmse_fault.<state>``,
+    ``rmse_nofault.<state>``, ``ensemble_rmse.<state>`` (and the position norms);
+    ``fault_free.anees`` and ``fault_free.rmse.<state>`` with a fault-free twin;
+    ``detection.<sensor>.<field>`` (:class:`DetectionMetrics`) for a method with a
+    detector.  A value with a 95 % interval has ``<column>_lo`` and ``<column>_hi``
+    beside it; a column a method does not have is NaN in its row.
+    """
+    import pandas as pd
+
+    rows: dict[str, dict[str, Any]] = {}
+    for name, m in metrics.items():
+        ci = m.intervals
+        row: dict[str, Any] = {"architecture": m.architecture}
+        _with_bounds(row, "anees", m.anees, None if ci is None else ci.anees)
+        row["nees_in_band_fraction"] = m.nees_in_band_fraction
+        row["max_rel_diff_to_centralized"] = m.max_rel_diff_to_centralized
+        _maps(row, "rmse", m.rmse, None if ci is None else ci.rmse)
+        _maps(row, "rmse_fault", m.rmse_fault, None if ci is None else ci.rmse_fault)
+        _maps(row, "rmse_nofault", m.rmse_nofault, None if ci is None else ci.rmse_nofault)
+        _maps(row, "ensemble_rmse", m.ensemble_rmse, None if ci is None else ci.ensemble_rmse)
+        if m.fault_free is not None:
+            ff = m.fault_free
+            ff_ci = None if ci is None else ci.fault_free_anees
+            _with_bounds(row, "fault_free.anees", ff.anees, ff_ci)
+            _maps(row, "fault_free.rmse", ff.rmse, None if ci is None else ci.fault_free_rmse)
+        for sensor, d in (m.detection or {}).items():
+            dci = None if ci is None or ci.detection is None else ci.detection.get(sensor)
+            for field, value in asdict(d).items():
+                bound = getattr(dci, field, None) if dci is not None else None
+                _with_bounds(row, f"detection.{sensor}.{field}", value, bound)
+        rows[name] = row
+    return pd.DataFrame.from_dict(rows, orient="index")
 
 
 def metrics_to_json(
