@@ -32,10 +32,11 @@ from ftnav.engine.driver import Trace, run
 from ftnav.engine.smoother import SmoothedTrace, smooth, smoothed_trace
 from ftnav.eval.metrics import nees
 from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, reference_errors, score_recording
+from ftnav.eval.recorded import reference_errors, score_recording
 from ftnav.io.recording_file import LoadedRecording, load_recording
 from ftnav.nav.earth import radii
 from ftnav.nav.mechanization import InsState
+from ftnav.pipeline import reference_of
 from ftnav.recordings import recording_path
 
 
@@ -46,7 +47,7 @@ def horizontal_consistency(
     (every run's own outages), at the antenna (the lever arm applied); ``sol`` (B, K, …)
     and ``P_nav`` (B, K, 9, 9)."""
     p = sol.p
-    ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
+    ref = reference_of(loaded)
     rec = loaded.recording
     R_fix = loaded.recording.system().sensors[0].R[:2, :2]  # the fix's own noise (m²)
     idx = loaded.reference_index
@@ -105,7 +106,7 @@ def main() -> None:
     )
     for name, aids in (("gnss only", ["gnss", "gnss-vel"]), ("nhc + zupt", None)):
         loaded, tr, s, t_fwd, t_smooth = case(outage, aids)
-        ref = Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
+        ref = reference_of(loaded)
         rec = loaded.recording
         scores = {
             "forward": score_recording(rec, {"ckf": tr}, ref, loaded.outages)["ckf"].as_dict(),

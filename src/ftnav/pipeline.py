@@ -69,6 +69,7 @@ __all__ = [
     "parse_fault",
     "prepare_recording",
     "process_recording",
+    "reference_of",
     "resolve_recording",
 ]
 
@@ -203,7 +204,7 @@ def _outages(outages: Outages | Sequence[float] | None, field: str) -> Outages |
     return o
 
 
-def _reference(loaded: LoadedRecording) -> Reference:
+def reference_of(loaded: LoadedRecording) -> Reference:
     """A recording's reference at the point it measures (its lever arm from the IMU)."""
     return Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)
 
@@ -266,7 +267,7 @@ class RecordingResult:
     def reference(self) -> Reference:
         """The reference the scores use: its epochs, and the positions of the point it
         measures (the GNSS antenna, its lever arm from the IMU)."""
-        return _reference(self.loaded)
+        return reference_of(self.loaded)
 
     def errors(self, method: str, run: int = 0, smoothed: bool = False) -> np.ndarray:
         """(K_r, 3) ENU metres of one method's solution minus the reference at its epochs
@@ -362,7 +363,7 @@ class Prepared:
         if self.smooth:
             smoothed = {nm: smoothed_trace(tr, smooth(tr)) for nm, tr in traces.items()}
         elapsed = time.perf_counter() - t0
-        ref = _reference(loaded)
+        ref = reference_of(loaded)
         sched = scheduled(loaded.stream, rec.steps)
         scores = score_recording(
             rec, traces, ref, loaded.outages, truth=loaded.truth, scheduled=sched

@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 from equivalence_problems import centralized, random_scenario, random_spd
-from recording_runs import drive_copy, reference
+from recording_runs import drive_copy
 
 from ftnav.core import kalman as kf
 from ftnav.engine import navigation_model
@@ -47,6 +47,7 @@ from ftnav.io.scenario_file import load_scenario
 from ftnav.model.system import Epoch, Linearization, LinearModel, LinearSystem, Sensor, TimeVarying
 from ftnav.nav.earth import radii
 from ftnav.nav.mechanization import InsState, navigation_errors
+from ftnav.pipeline import reference_of
 from ftnav.scenarios import builtin_path
 from ftnav.sim.ins import simulate_ins
 from ftnav.sim.linear import simulate
@@ -314,7 +315,7 @@ def drive(tmp_path_factory):
 
 def test_smoothing_the_drive_shrinks_the_drift_at_withheld_fixes(drive):
     loaded, tr, s = drive
-    ref = reference(loaded)
+    ref = reference_of(loaded)
     rec = loaded.recording
     fwd = score_recording(rec, {"ckf": tr}, ref, loaded.outages)["ckf"].outages
     smo = score_recording(rec, {"ckf": smoothed_trace(tr, s)}, ref, loaded.outages)["ckf"]

@@ -18,9 +18,10 @@ import tomli_w
 from ftnav.engine import navigation_model
 from ftnav.engine.driver import Trace, run
 from ftnav.eval.montecarlo import build_filters
-from ftnav.eval.recorded import Reference, reference_errors, score_recording
+from ftnav.eval.recorded import reference_errors, score_recording
 from ftnav.io.recording_file import LoadedRecording, load_recording
 from ftnav.model.streams import scheduled
+from ftnav.pipeline import reference_of
 from ftnav.recordings import recording_path
 
 
@@ -41,7 +42,7 @@ def process(path: Path, nav_covariance: bool = False, **kw: Any):
     scores = score_recording(
         loaded.recording,
         traces,
-        reference(loaded),
+        reference_of(loaded),
         loaded.outages,
         truth=loaded.truth,
         scheduled=scheduled(loaded.stream, loaded.recording.steps),
@@ -69,10 +70,5 @@ def drive_copy(
 def horizontal(loaded: LoadedRecording, trace: Trace) -> tuple[np.ndarray, np.ndarray]:
     """(times of the reference epochs, horizontal error there) of the first run, at the
     point the reference measures (the antenna), as the scores."""
-    e = reference_errors(trace.solution, reference(loaded))
+    e = reference_errors(trace.solution, reference_of(loaded))
     return loaded.recording.times[loaded.reference_index], np.hypot(e[:, 0], e[:, 1])
-
-
-def reference(loaded: LoadedRecording) -> Reference:
-    """The recording's reference at the point it measures (the antenna), as the scores."""
-    return Reference(loaded.reference_index, loaded.reference_p, loaded.reference_lever_arm)

@@ -271,17 +271,7 @@ class RecordedScores:
     def scalars(self) -> dict[str, float | int | None]:
         """The scalar scores by their JSON names (a row of
         :meth:`~ftnav.pipeline.RecordingResult.scores_frame`)."""
-        out: dict[str, float | int | None] = {
-            "horizontal_rms_m": self.horizontal_rms_m,
-            "vertical_rms_m": self.vertical_rms_m,
-            "reference_epochs": self.reference_epochs,
-            "longest_unscored_s": self.longest_unscored_s,
-            "nan_epochs": self.nan_epochs,
-        }
-        if self.prediction is not None:
-            out["prediction_horizontal_rms_m"] = self.prediction.horizontal_rms_m
-            out["prediction_vertical_rms_m"] = self.prediction.vertical_rms_m
-        return out
+        return {k: v for k, v in self.as_dict().items() if v is None or isinstance(v, int | float)}
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON form (``metrics.json``'s ``methods.<name>``)."""

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
 
 from ftnav.eval.evaluate import MethodMetrics, evaluate
@@ -126,7 +126,10 @@ def metric_interval(metrics: dict[str, MethodMetrics], target: Target) -> Interv
     node: Any = None if ci is None else getattr(ci, head)
     for key in rest:
         # a map (by state or sensor) or a typed container (a sensor's detection intervals)
-        keys = list(node) if isinstance(node, dict) else list(getattr(node, "__slots__", ()))
+        if isinstance(node, dict):
+            keys = list(node)
+        else:
+            keys = [f.name for f in fields(node)] if is_dataclass(node) else []
         if key not in keys:
             known = ", ".join(keys) or "none"
             raise ValueError(f"{where}: no {key!r} in {head} of this run (there: {known})")
