@@ -63,7 +63,7 @@ def test_beta_mechanism_holds_when_the_faulty_beta_drops(seed000_beta):
     for name, res in result.results.items():
         beta = res.beta.copy()
         beta[:, w, 0] *= 0.5  # pos1, the faulty sensor, loses half its share in the window
-        lowered[name] = res._replace(beta=beta)
+        lowered[name] = replace(res, beta=beta)
     c = _by_id(check_claims(result._replace(results=lowered), metrics))["p000-fig4a-beta"]
     assert c["holds"] is True
     for v in c["measured"].values():
@@ -80,18 +80,17 @@ def _fake(sc, errors, local=None, free_errors=None, free_local=None) -> Scenario
     def mr(e, loc):
         B, K, n = e.shape
         return MethodResult(
-            e,
-            np.ones_like(e),
-            np.ones((B, K)),
-            None,
-            None,
-            None,
-            None,
-            None,
-            (),
-            np.zeros((B, 3), int),
-            None,
-            loc,
+            error=e,
+            P_diag=np.ones_like(e),
+            nees=np.ones((B, K)),
+            beta=None,
+            statistic=None,
+            threshold=None,
+            raw_flag=None,
+            flag=None,
+            R_hat=(),
+            nan_count=np.zeros((B, 3), int),
+            local=loc,
         )
 
     results = {n: mr(e, (local or {}).get(n)) for n, e in errors.items()}

@@ -18,7 +18,7 @@ from seed000_copy import seed000_copy
 
 from ftnav.cli import main
 from ftnav.eval.evaluate import evaluate
-from ftnav.eval.montecarlo import ScenarioResult, join_results, run_scenario
+from ftnav.eval.montecarlo import RESULT_FIELDS, ScenarioResult, join_results, run_scenario
 from ftnav.io.scenario_file import load_scenario
 from ftnav.io.shards import SHARD, ShardHeader, read_shard, write_shard
 from ftnav.scenarios import builtin_path
@@ -113,7 +113,8 @@ def test_an_integrated_shard_file_round_trips_and_joins_to_the_whole(tmp_path):
         a, b = getattr(joined, which), getattr(whole, which)
         assert list(a) == list(b)
         for name in a:
-            for field, x, y in zip(a[name]._fields, a[name], b[name], strict=True):
+            for field in RESULT_FIELDS:
+                x, y = getattr(a[name], field), getattr(b[name], field)
                 if isinstance(y, tuple):
                     assert len(x) == len(y), field
                     for u, v in zip(x, y, strict=True):

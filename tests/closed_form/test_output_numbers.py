@@ -176,7 +176,16 @@ def test_solution_table_refuses_a_negative_variance():
         np.zeros((1, K, 3)),
     )
     trace = Trace(
-        np.zeros((1, K, 9)), P, None, None, None, None, None, (), np.zeros((1, 1)), None, sol, None
+        x=np.zeros((1, K, 9)),
+        P_diag=P,
+        beta=None,
+        statistic=None,
+        threshold=None,
+        raw_flag=None,
+        flag=None,
+        R_hat=(),
+        nan_count=np.zeros((1, 1)),
+        solution=sol,
     )
     with pytest.raises(
         Diverged, match=r"^methods\[gnss-ins\]: diverged at epoch 2 \(t = 11 s\): negative variance"

@@ -8,6 +8,7 @@ fused covariance (the engine's trace keeps only its diagonal).
 
 from __future__ import annotations
 
+from dataclasses import fields, is_dataclass
 from typing import NamedTuple
 
 import numpy as np
@@ -125,7 +126,9 @@ def simulate_problem(scenario: Scenario, runs: int = 3, seed: int = 11) -> Simul
 def assert_identical(a, b) -> None:
     """Two result tuples (e.g. :class:`~ftnav.eval.montecarlo.MethodResult`) equal bit for
     bit, field by field (None in both, or equal arrays, or tuples of equal arrays)."""
-    for field, u, v in zip(a._fields, a, b, strict=True):
+    names = [f.name for f in fields(a)] if is_dataclass(a) else list(a._fields)
+    for field in names:
+        u, v = getattr(a, field), getattr(b, field)
         if u is None or v is None:
             assert u is None and v is None, field
         elif isinstance(u, tuple):

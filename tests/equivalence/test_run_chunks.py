@@ -12,7 +12,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ftnav.eval.montecarlo import CHUNK_BYTES, chunk_runs, run_scenario
+from ftnav.eval.montecarlo import CHUNK_BYTES, RESULT_FIELDS, chunk_runs, run_scenario
 from ftnav.io.scenario_file import load_scenario
 from ftnav.scenarios import builtin_path
 
@@ -31,7 +31,8 @@ def test_runs_in_batches_equal_one_batch(seed002):
         a, b = getattr(one, pool), getattr(parts, pool)
         assert a.keys() == b.keys() and a
         for name in a:
-            for fa, fb in zip(a[name], b[name], strict=True):
+            for field in RESULT_FIELDS:
+                fa, fb = getattr(a[name], field), getattr(b[name], field)
                 if fa is None:
                     assert fb is None
                     continue

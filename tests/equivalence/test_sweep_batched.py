@@ -21,7 +21,13 @@ import pytest
 import tomli_w
 
 from ftnav.eval.evaluate import evaluate
-from ftnav.eval.montecarlo import MethodResult, ScenarioResult, run_points, run_scenario
+from ftnav.eval.montecarlo import (
+    RESULT_FIELDS,
+    MethodResult,
+    ScenarioResult,
+    run_points,
+    run_scenario,
+)
 from ftnav.io.common import read_toml
 from ftnav.scenarios import builtin_path
 from ftnav.sweep import (
@@ -37,11 +43,14 @@ from ftnav.sweep import (
 
 def _arrays(r: MethodResult) -> list[np.ndarray]:
     """Every per-run array of a method's result (the nested tuples flattened)."""
+    return _flat([getattr(r, f) for f in RESULT_FIELDS])
+
+
+def _flat(values) -> list[np.ndarray]:
     out: list[np.ndarray] = []
-    for v in r:
+    for v in values:
         if isinstance(v, tuple):
-            for a in v:
-                out.extend(_arrays(a) if isinstance(a, tuple) else [np.asarray(a)])
+            out.extend(_flat(v))
         elif v is not None:
             out.append(np.asarray(v))
     return out

@@ -15,6 +15,7 @@ integrated navigation, over methods: every method's SINS is one batch).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, NamedTuple, Protocol, TypeVar
 
 import numpy as np
@@ -34,6 +35,7 @@ __all__ = [
     "EpochRecord",
     "GuardTrace",
     "LocalCopies",
+    "MethodOutputs",
     "NavigationModel",
     "SmoothingRecord",
     "Stream",
@@ -419,28 +421,55 @@ class SmoothingRecord(NamedTuple):
     base: InsState | None
 
 
-class Trace(NamedTuple):
-    """Per-epoch outputs of one method over B runs and K epochs (no reference needed).
+@dataclass(frozen=True, kw_only=True)
+class MethodOutputs:
+    """What one method says of itself over B runs and K epochs, with no reference: the
+    fields that a recorded run's :class:`Trace` and a simulated run's scores
+    (:class:`~ftnav.eval.montecarlo.MethodResult`) share, recorded once by
+    :meth:`Recorder.method_outputs`.
 
     Attributes
     ----------
-    x : (B, K, n_c) fused estimate (an integrated model's error-state estimate).
-    P_diag : (B, K, n_c) its variances.
     beta : (B, K, N) sharing coefficients, or None (not federated).
     statistic, threshold : (B, K, N) detector statistic and threshold, or None.
     raw_flag, flag : (B, K, N) detector flags before/after hysteresis, or None.
     R_hat : per sensor (B, K, m_i) diagonal noise used (adapted under VB).
     nan_count : (B, N) scheduled measurements that were NaN/inf (treated as missing).
     features : (B, K, F) learned-detector features (spec §4.1), or None.
+    nis : (B, K, N) each aid's NIS against the method's prediction (0: no measurement).
+    used, available : (B, K, N) bool, the aids that updated the method, and those with a
+        finite measurement.
+    guard : what the isolation guard did, or None (a method without a detector).
+    """
+
+    beta: np.ndarray | None
+    statistic: np.ndarray | None
+    threshold: np.ndarray | None
+    raw_flag: np.ndarray | None
+    flag: np.ndarray | None
+    R_hat: tuple[np.ndarray, ...]
+    nan_count: np.ndarray
+    features: np.ndarray | None = None
+    nis: np.ndarray | None = None
+    used: np.ndarray | None = None
+    available: np.ndarray | None = None
+    guard: GuardTrace | None = None
+
+
+@dataclass(frozen=True, kw_only=True)
+class Trace(MethodOutputs):
+    """Per-epoch outputs of one method over B runs and K epochs (no reference needed):
+    :class:`MethodOutputs` and the estimate and solution.
+
+    Attributes
+    ----------
+    x : (B, K, n_c) fused estimate (an integrated model's error-state estimate).
+    P_diag : (B, K, n_c) its variances.
     solution : the corrected navigation solution (q (B, K, 4), v, p (B, K, 3)), or None.
     local : (B, K, N, n) local estimates, or None.
     P_nav : (B, K, 9, 9) the fused covariance of the 9 navigation error states
         (attitude, velocity, position), recorded only on request (``run``'s
         ``nav_covariance``: a truth's NEES needs it), else None.
-    nis : (B, K, N) each aid's NIS against the method's prediction (0: no measurement).
-    used, available : (B, K, N) bool, the aids that updated the method, and those with a
-        finite measurement.
-    guard : what the isolation guard did, or None (a method without a detector).
     smoothing : what the RTS smoother needs (:class:`SmoothingRecord`), recorded only on
         request (``run``'s ``smoothing``), else None.
     prediction : the solution a user had before each epoch's aiding: the SINS propagated
@@ -454,21 +483,9 @@ class Trace(NamedTuple):
 
     x: np.ndarray
     P_diag: np.ndarray
-    beta: np.ndarray | None
-    statistic: np.ndarray | None
-    threshold: np.ndarray | None
-    raw_flag: np.ndarray | None
-    flag: np.ndarray | None
-    R_hat: tuple[np.ndarray, ...]
-    nan_count: np.ndarray
-    features: np.ndarray | None
-    solution: InsState | None
-    local: np.ndarray | None
+    solution: InsState | None = None
+    local: np.ndarray | None = None
     P_nav: np.ndarray | None = None
-    nis: np.ndarray | None = None
-    used: np.ndarray | None = None
-    available: np.ndarray | None = None
-    guard: GuardTrace | None = None
     smoothing: SmoothingRecord | None = None
     prediction: InsState | None = None
     bias: np.ndarray | None = None
@@ -562,12 +579,31 @@ class Recorder:
                 self.put(f"prior_{key}", k, getattr(prior, key))
         self.put("bias", k, bias)
 
+    def method_outputs(self, n_sensors: int) -> dict[str, Any]:
+        """The recorded :class:`MethodOutputs` fields, as keyword arguments of it or of a
+        subclass (:class:`Trace`, :class:`~ftnav.eval.montecarlo.MethodResult`)."""
+        a = self.arrays
+        assert self.nan is not None, "no epoch recorded"
+        return {
+            "beta": a.get("beta"),
+            "statistic": a.get("statistic"),
+            "threshold": a.get("threshold"),
+            "raw_flag": a.get("raw_flag"),
+            "flag": a.get("flag"),
+            "R_hat": tuple(a[f"R{i}"] for i in range(n_sensors)),
+            "nan_count": self.nan,
+            "features": a.get("features"),
+            "nis": a.get("nis"),
+            "used": a.get("used"),
+            "available": a.get("available"),
+            "guard": guard_trace(a),
+        }
+
     def trace(self, n_sensors: int) -> Trace:
         a = self.arrays
         solution = None
         if "nav_q" in a:
             solution = InsState(a["nav_q"], a["nav_v"], a["nav_p"], np.zeros(a["nav_v"].shape))
-        assert self.nan is not None
         smoothing = None
         if self.smoothing:
             base = None
@@ -579,28 +615,17 @@ class Recorder:
                 a["x"], a["smooth_P"], a["smooth_Phi"], a["smooth_Q"], self.n_fed, base
             )
         return Trace(
-            a["x"],
-            a["P_diag"],
-            a.get("beta"),
-            a.get("statistic"),
-            a.get("threshold"),
-            a.get("raw_flag"),
-            a.get("flag"),
-            tuple(a[f"R{i}"] for i in range(n_sensors)),
-            self.nan,
-            a.get("features"),
-            solution,
-            a.get("local"),
-            a.get("P_nav"),
-            a.get("nis"),
-            a.get("used"),
-            a.get("available"),
-            guard_trace(a),
-            smoothing,
-            None
+            **self.method_outputs(n_sensors),
+            x=a["x"],
+            P_diag=a["P_diag"],
+            solution=solution,
+            local=a.get("local"),
+            P_nav=a.get("P_nav"),
+            smoothing=smoothing,
+            prediction=None
             if "prior_q" not in a
             else InsState(a["prior_q"], a["prior_v"], a["prior_p"], np.zeros(a["prior_v"].shape)),
-            a.get("bias"),
+            bias=a.get("bias"),
         )
 
 

@@ -43,6 +43,7 @@ Every array has a leading batch axis (runs); the loop is over epochs only.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -158,7 +159,8 @@ def smoothed_trace(trace: Trace, smoothed: SmoothedTrace) -> Trace:
     solution replaced by the smoothed ones, so that what scores or writes a trace
     (:mod:`ftnav.eval.recorded`, :mod:`ftnav.io.solution_file`) takes it as it is; the
     detection, NIS and noise fields stay the forward filter's."""
-    return trace._replace(
+    return replace(
+        trace,
         x=smoothed.x,
         P_diag=smoothed.P_diag,
         P_nav=None if trace.P_nav is None else smoothed.P_nav,

@@ -23,6 +23,7 @@ campaigns; every point's results equal its own campaign's bit for bit.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, fields, replace
 from typing import Any, NamedTuple, cast
 
 import numpy as np
@@ -30,10 +31,9 @@ import numpy as np
 from ftnav.engine import navigation_model
 from ftnav.engine.driver import (
     EpochRecord,
-    GuardTrace,
+    MethodOutputs,
     Recorder,
     check_output,
-    guard_trace,
     iterate,
     method_feedback,
 )
@@ -52,6 +52,7 @@ from ftnav.sim.linear import LinearTruth, Simulated, simulate
 __all__ = [
     "CHUNK_BYTES",
     "MethodResult",
+    "RESULT_FIELDS",
     "PARALLEL_MIN_WORK",
     "ScenarioResult",
     "build_filters",
@@ -70,8 +71,11 @@ PARALLEL_MIN_WORK = 10_000
 CHUNK_BYTES = 2 << 30
 
 
-class MethodResult(NamedTuple):
-    """Per-epoch scores of one method over B runs and K epochs, against the truth.
+@dataclass(frozen=True, kw_only=True)
+class MethodResult(MethodOutputs):
+    """Per-epoch scores of one method over B runs and K epochs, against the truth: what
+    the method says of itself (:class:`~ftnav.engine.driver.MethodOutputs`, shared with
+    a recording's :class:`~ftnav.engine.driver.Trace`) and its errors.
 
     Attributes
     ----------
@@ -81,39 +85,23 @@ class MethodResult(NamedTuple):
     P_diag : (B, K, n) the filter's variances of the same states.
     nees : (B, K) NEES of the fused estimate (common states; integrated: the 9
         navigation states).
-    beta : (B, K, N) sharing coefficients, or None (not federated).
-    statistic, threshold : (B, K, N) detector statistic and threshold, or None.
-    raw_flag, flag : (B, K, N) detector flags before/after hysteresis, or None.
-    R_hat : per sensor (B, K, m_i) diagonal noise used (adapted under VB).
-    nan_count : (B, N) scheduled measurements that were NaN/inf (treated as missing).
-    features : (B, K, F) learned-detector features (spec §4.1), or None.
     local : (B, K, N, 3) integrated runs: each local filter's position error (E/N/U m),
         or None.
     estimate : (B, K, n) a linear model's fused estimate (None for an integrated run,
         whose estimates are error states).
-    nis, used, available, guard : as :class:`~ftnav.engine.driver.Trace`'s (what the
-        method watches itself with, :mod:`ftnav.eval.integrity`).
     scheduled : (B, K, N) bool, the epochs each aid was due (the stream's schedule).
     """
 
     error: np.ndarray
     P_diag: np.ndarray
     nees: np.ndarray
-    beta: np.ndarray | None
-    statistic: np.ndarray | None
-    threshold: np.ndarray | None
-    raw_flag: np.ndarray | None
-    flag: np.ndarray | None
-    R_hat: tuple[np.ndarray, ...]
-    nan_count: np.ndarray
-    features: np.ndarray | None = None
     local: np.ndarray | None = None
     estimate: np.ndarray | None = None
-    nis: np.ndarray | None = None
-    used: np.ndarray | None = None
-    available: np.ndarray | None = None
-    guard: GuardTrace | None = None
     scheduled: np.ndarray | None = None
+
+
+#: the fields of :class:`MethodResult`, in order (what a shard stores, what joins)
+RESULT_FIELDS = tuple(f.name for f in fields(MethodResult))
 
 
 class ScenarioResult(NamedTuple):
@@ -179,25 +167,13 @@ class _Scores:
 
     def result(self) -> MethodResult:
         e = self.rec.arrays
-        assert self.rec.nan is not None
         return MethodResult(
-            self.error,
-            self.P,
-            self.nees,
-            e.get("beta"),
-            e.get("statistic"),
-            e.get("threshold"),
-            e.get("raw_flag"),
-            e.get("flag"),
-            tuple(e[f"R{i}"] for i in range(self.n_sensors)),
-            self.rec.nan,
-            e.get("features"),
-            e.get("local"),
-            e.get("estimate"),
-            e.get("nis"),
-            e.get("used"),
-            e.get("available"),
-            guard_trace(e),
+            **self.rec.method_outputs(self.n_sensors),
+            error=self.error,
+            P_diag=self.P,
+            nees=self.nees,
+            local=e.get("local"),
+            estimate=e.get("estimate"),
         )
 
 
@@ -300,7 +276,7 @@ def score(
             records, truth, names, B, scenario.steps, model.system.n_common, dims
         )
     due = scheduled(stream, scenario.steps)
-    return {nm: r._replace(scheduled=due) for nm, r in scored.items()}
+    return {nm: replace(r, scheduled=due) for nm, r in scored.items()}
 
 
 # ---------------------------------------------------------------------------- runner
@@ -506,10 +482,17 @@ def split_results(r: MethodResult, runs: int, parts: int) -> list[MethodResult]:
 
 def _part(r: MethodResult, sl: slice) -> MethodResult:
     """The runs ``sl`` of every per-run array of ``r``."""
-    return MethodResult._make(
-        _rebuilt(v, [a[sl] for a in v]) if isinstance(v, tuple) else None if v is None else v[sl]
-        for v in r
-    )
+    parts: dict[str, Any] = {}
+    for f in RESULT_FIELDS:
+        v = getattr(r, f)
+        parts[f] = (
+            _rebuilt(v, [a[sl] for a in v])
+            if isinstance(v, tuple)
+            else None
+            if v is None
+            else v[sl]
+        )
+    return MethodResult(**parts)
 
 
 def join_results(parts: Sequence[ScenarioResult]) -> ScenarioResult:
@@ -550,9 +533,10 @@ def _merge(
         return done[0]
 
     def joined(which: int) -> dict[str, MethodResult]:
-        fields = range(len(MethodResult._fields))
         return {
-            nm: MethodResult(*(cat([c[which][nm][f] for c in per_chunk]) for f in fields))
+            nm: MethodResult(
+                **{f: cat([getattr(c[which][nm], f) for c in per_chunk]) for f in RESULT_FIELDS}
+            )
             for nm in per_chunk[0][which]
         }
 

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ftnav.engine.driver import GuardTrace
-from ftnav.eval.montecarlo import MethodResult, ScenarioResult
+from ftnav.eval.montecarlo import RESULT_FIELDS, MethodResult, ScenarioResult
 from ftnav.version import __version__
 
 __all__ = ["SHARD", "ShardHeader", "scenario_digest", "write_shard", "read_shard", "check_shards"]
@@ -91,29 +91,29 @@ def write_shard(
         parts += [second.results, second.fault_free]
     for part, methods in zip(_PARTS, parts, strict=False):
         for name, res in methods.items():
-            for field in MethodResult._fields:
+            for field in RESULT_FIELDS:
                 _flatten(f"{part}/{name}/{field}", getattr(res, field), arrays)
     np.savez_compressed(path, **arrays)  # type: ignore[arg-type]
     return Path(path)
 
 
 def _method(arrays: dict[str, np.ndarray], prefix: str) -> MethodResult:
-    values: list[Any] = []
-    for field in MethodResult._fields:
+    values: dict[str, Any] = {}
+    for field in RESULT_FIELDS:
         key = f"{prefix}/{field}"
         if key in arrays:
-            values.append(arrays[key])
+            values[field] = arrays[key]
         elif field == "R_hat":
             i, items = 0, []
             while f"{key}/{i}" in arrays:
                 items.append(arrays[f"{key}/{i}"])
                 i += 1
-            values.append(tuple(items))
+            values[field] = tuple(items)
         elif field == "guard" and f"{key}/{GuardTrace._fields[0]}" in arrays:
-            values.append(GuardTrace(*(arrays[f"{key}/{f}"] for f in GuardTrace._fields)))
+            values[field] = GuardTrace(*(arrays[f"{key}/{f}"] for f in GuardTrace._fields))
         else:
-            values.append(None)
-    return MethodResult(*values)
+            values[field] = None
+    return MethodResult(**values)
 
 
 def read_shard(
