@@ -9,7 +9,10 @@ every 2 s (an intermittent fault); plus 15 s GNSS outages every 60 s from 40 s, 
 them a fault of the INS itself (a 0.5 deg/s heading-gyro bias step starting 1.5 s into an
 outage, ``sins:gyro-bias``); each case with every aid of the file (GNSS positions and
 velocities, NHC, ZUPT) and with the GNSS positions alone (``--aids gnss``: the only
-position and the only aid).  Printed per case and method:
+position and the only aid).  With every aid only, two faults of the receiver's velocities
+(``gnss-vel``, m/s on the north velocity): a 1 m/s step, and a fault of the whole receiver
+that stays consistent (its positions ramp at 0.1 m/s while its velocities are 0.1 m/s
+off, as a slowly drifting solution would).  Printed per case and method:
 
 * ``rms``: horizontal RMS against the fixes as ``ftnav process`` scores it (m);
 * ``after``: horizontal RMS of the solution against the fixes (at the antenna, as the
@@ -21,13 +24,18 @@ position and the only aid).  Printed per case and method:
   outage schedule: the worst over the outages), ``-`` if never isolated then;
 * ``held``: seconds the GNSS was isolated in the whole run.
 
+``back`` and ``held`` are the positions' (``gnss``), the velocities' (``gnss-vel``) for a
+fault of the velocities alone.
+
 Nothing is tuned: every method as in the recording file, the guard's defaults.
 
-    python benchmarks/drive_integrity.py
+    python benchmarks/drive_integrity.py            # every case
+    python benchmarks/drive_integrity.py velocity   # the cases whose name holds a word
 """
 
 from __future__ import annotations
 
+import sys
 import time
 import warnings
 
@@ -58,6 +66,18 @@ CASES: list[tuple[str, Fault | list[Fault] | None, tuple[float, float, float] | 
     # the INS's own fault where no aid sees it: a heading-gyro bias step 1.5 s into the
     # fifth outage (0.5 deg/s for 48 s); "after" from its end, "back" from the outage's
     ("gyro z 0.5 deg/s in an outage", ("gyro-z", 242.0, 290.0, 0.5), (15.0, 60.0, 40.0)),
+    # the receiver's velocities (every aid only): a 1 m/s north step, and a fault of the
+    # whole receiver that stays consistent (its positions ramp at 0.1 m/s while its
+    # velocities are 0.1 m/s off: what a slowly drifting solution looks like)
+    ("velocity step 1 m/s, 60 s", ("vel-bias", START, START + LENGTH, 1.0), None),
+    (
+        "receiver ramp 0.1 m/s, consistent, 60 s",
+        [
+            ("ramp", START, START + LENGTH, 0.1 * LENGTH),
+            ("vel-bias", START, START + LENGTH, 0.1),
+        ],
+        None,
+    ),
 ]
 
 
@@ -69,12 +89,19 @@ def main() -> None:
         print("| case | method | rms m | after m | late m | back s | held s |")
         print("|---|---|---|---|---|---|---|")
         for name, fault, outages in CASES:
+            if sys.argv[1:] and not any(a in name for a in sys.argv[1:]):
+                continue
             wall = time.perf_counter()
             each = [] if fault is None else fault if isinstance(fault, list) else [fault]
+            if aids is not None and any(f[0].startswith("vel-") for f in each):
+                continue  # the velocities are not an aid there
             faults = []
             for kind, a, b, metres in each:
                 if kind == "gyro-z":  # deg/s about the body's up axis, as deg/h
                     faults.append(f"sins:gyro-bias:{t0 + a}:{t0 + b}:0,0,{metres * 3600}")
+                    continue
+                if kind.startswith("vel-"):  # m/s on the north velocity
+                    faults.append(f"gnss-vel:{kind[4:]}:{t0 + a}:{t0 + b}:{metres}")
                     continue
                 spec = f"gnss:{kind}:{t0 + a}:{t0 + b}"
                 faults.append(spec if kind == "stuck" else f"{spec}:{metres}")
@@ -95,7 +122,9 @@ def main() -> None:
                     first = ends[0]
             after = t_ref >= first
             late = t_ref >= first + 10.0
-            g = rec.sensor_names.index("gnss")
+            # back / held: the aid the fault is in (the velocities for a velocity fault)
+            aid = "gnss-vel" if each and all(f[0].startswith("vel-") for f in each) else "gnss"
+            g = rec.sensor_names.index(aid)
             for m in METHODS:
                 tr = res.traces[m]
                 e = res.errors(m)  # at the antenna, as the scores

@@ -453,7 +453,8 @@ def _parser() -> _Parser:
         default=[],
         metavar="SENSOR:KIND:START:END[:MAGNITUDE]",
         help="inject a fault into a recorded aid (repeatable); START, END on the recording's "
-        "time base; a bias or ramp MAGNITUDE in metres on the north position; a noise-scale "
+        "time base; a bias or ramp MAGNITUDE in metres on the north position (m/s on the "
+        "north velocity of an aid that measures velocity only); a noise-scale "
         "MAGNITUDE the factor (>= 1) on the aid's noise σ; or sins:gyro-bias:START:END:X,Y,Z, "
         "a gyro bias step in deg/h about the body axes (x right, y forward, z up)",
     )

@@ -61,6 +61,7 @@ from ftnav.recordings import recording_names, recording_path
 
 __all__ = [
     "MAX_FAULT_M",
+    "MAX_FAULT_M_S",
     "RECORDING_FAULTS",
     "Outages",
     "Prepared",
@@ -78,6 +79,9 @@ RECORDING_FAULTS = RECORDING_FAULT_KINDS
 #: largest fault magnitude (m): a position offset of a GNSS fix beyond it is not a fault
 #: of a receiver on Earth, and squared it overflows the filter's arithmetic
 MAX_FAULT_M = 1e5
+#: largest velocity fault (m/s) of an aid that measures velocity only: beyond it the
+#: velocity is no receiver's on a vehicle a recording holds
+MAX_FAULT_M_S = 1e3
 
 
 class ProcessingError(ValueError):
@@ -110,7 +114,8 @@ def resolve_recording(spec: str | Path) -> Path:
 def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fault:
     """``SENSOR:KIND:START:END[:MAGNITUDE]`` as a fault of a recorded GNSS aid: START and
     END on the recording's time base (s), a bias or ramp MAGNITUDE in metres on the north
-    position, a ``noise-scale`` MAGNITUDE the factor ≥ 1 on the noise σ of every row the
+    position (m/s on the north velocity for an aid that measures velocity only: a ramp
+    reaches it at END), a ``noise-scale`` MAGNITUDE the factor ≥ 1 on the noise σ of every row the
     aid measures (white noise added to the recording:
     :func:`ftnav.recorded.stream.gnss_raw`).  Or ``sins:gyro-bias:START:END:X,Y,Z``: a
     step of the recorded gyros' bias, deg/h about the body axes (x right, y forward, z
@@ -129,12 +134,6 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
         raise ProcessingError(f"{field}: {sensor!r} is not a GNSS aid of the recording ({gnss})")
     if kind not in RECORDING_FAULTS:
         raise ProcessingError(f"{field}: kind {kind!r} (recordings: {', '.join(RECORDING_FAULTS)})")
-    if kind in ("bias", "ramp") and aids[sensor] == "gnss-velocity":
-        pos = [n for n, t in aids.items() if t == "gnss"]
-        raise ProcessingError(
-            f"{field}: {sensor!r} measures velocity only and a {kind} moves the north "
-            f"position: fault a position aid ({pos})"
-        )
     try:
         start, end = float(parts[2]), float(parts[3])
         mag = float(parts[4]) if len(parts) == 5 else 0.0
@@ -144,8 +143,12 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
         ) from None
     if not (math.isfinite(start) and math.isfinite(end) and math.isfinite(mag)) or end <= start:
         raise ProcessingError(f"{field}: END must be after START, both finite ({text!r})")
+    velocity = aids[sensor] == "gnss-velocity"
+    unit = "m/s" if velocity else "m"
     if kind in ("bias", "ramp") and len(parts) != 5:
-        raise ProcessingError(f"{field}: a {kind} needs a MAGNITUDE in metres ({text!r})")
+        raise ProcessingError(
+            f"{field}: a {kind} needs a MAGNITUDE in {'m/s' if velocity else 'metres'} ({text!r})"
+        )
     if kind == "noise-scale":
         if len(parts) != 5 or not 1.0 <= mag <= MAX_NOISE_FACTOR:
             raise ProcessingError(
@@ -153,12 +156,16 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
                 f"[1, {MAX_NOISE_FACTOR:g}] (a recording's noise can only grow) ({text!r})"
             )
         return Fault(sensor, "noise-scale", start, end, np.full(6, mag))
-    if abs(mag) > MAX_FAULT_M:
+    bound = MAX_FAULT_M_S if velocity else MAX_FAULT_M
+    if abs(mag) > bound:
+        where = "faster than any vehicle" if velocity else "off the Earth"
         raise ProcessingError(
-            f"{field}: MAGNITUDE {mag:g} m is beyond ±{MAX_FAULT_M:g} m, off the Earth ({text!r})"
+            f"{field}: MAGNITUDE {mag:g} {unit} is beyond ±{bound:g} {unit}, {where} ({text!r})"
         )
     checked = cast("FaultKind", kind)  # one of RECORDING_FAULTS (above)
-    return Fault(sensor, checked, start, end, np.array([0.0, mag, 0.0, 0.0, 0.0, 0.0]))
+    magnitude = np.zeros(6)
+    magnitude[4 if velocity else 1] = mag  # E, N, U m, then m/s: the north row
+    return Fault(sensor, checked, start, end, magnitude)
 
 
 def _sins_fault(text: str, parts: list[str], field: str) -> Fault:

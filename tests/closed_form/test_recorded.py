@@ -19,6 +19,7 @@ from ftnav.model.streams import AidStream, ImuStream, InsStream
 from ftnav.nav import attitude
 from ftnav.nav.earth import enu_metres
 from ftnav.nav.mechanization import InsState
+from ftnav.pipeline import parse_fault
 from ftnav.recorded.imu import ImuLog, clean, increments, stationary
 from ftnav.recorded.stream import (
     GnssLog,
@@ -250,3 +251,30 @@ def test_a_noise_scale_fault_of_one_is_no_fault_and_needs_the_sigma():
     np.testing.assert_array_equal(raw[:, :3], log.p)
     with pytest.raises(ValueError, match="needs the aid's σ"):
         gnss_raw(log, [replace(one, magnitude=np.full(6, 2.0))], "gnss")
+
+
+def test_a_velocity_aids_bias_and_ramp_move_its_north_velocity_only():
+    """``--fault gnss-vel:bias|ramp:START:END:M`` on an aid that measures velocity only:
+    M m/s on the north velocity (a ramp from 0 at START to M at END), nothing on the
+    positions or the other rows, nothing outside [START, END).  Oracle: the closed form
+    of the offset, epoch by epoch."""
+    aids = {"gnss": "gnss", "gnss-vel": "gnss-velocity"}
+    K = 100
+    t = np.arange(K, dtype=float)
+    v = np.tile([3.0, -2.0, 0.1], (K, 1))
+    log = GnssLog(t, np.tile([0.5, 0.1, 10.0], (K, 1)), v, np.ones(K, int))
+    for kind, expected in (
+        ("bias", np.where((t >= 20) & (t < 60), 1.5, 0.0)),
+        ("ramp", np.where((t >= 20) & (t < 60), 1.5 * (t - 20) / 40, 0.0)),
+    ):
+        fault = parse_fault(f"gnss-vel:{kind}:20:60:1.5", aids)
+        np.testing.assert_array_equal(fault.magnitude, [0, 0, 0, 0, 1.5, 0])
+        raw, labels = gnss_raw(log, [fault], "gnss-vel")
+        np.testing.assert_array_equal(raw[:, :3], log.p)
+        np.testing.assert_array_equal(raw[:, [3, 5]], v[:, [0, 2]])
+        np.testing.assert_allclose(raw[:, 4] - v[:, 1], expected, rtol=0, atol=1e-12)
+        assert np.array_equal(labels, (t >= 20) & (t < 60))
+    # a position aid's stays metres on the north position
+    np.testing.assert_array_equal(
+        parse_fault("gnss:bias:20:60:1.5", aids).magnitude, [0, 1.5, 0, 0, 0, 0]
+    )

@@ -192,13 +192,17 @@ def test_bad_protocol_options_are_refused(tmp_path, capsys, argv, pattern):
     assert not (tmp_path / "o").exists()
 
 
-def test_a_position_fault_on_a_velocity_aid_is_refused(tmp_path, capsys):
+def test_a_velocity_aids_fault_is_in_m_s_and_bounded(tmp_path, capsys):
     """The built-in drive's receiver is a position aid and a velocity aid: a bias or ramp
-    (metres on the north position) of the velocity aid would change nothing."""
-    argv = ["process", "rtklib-drive", "--fault", "gnss-vel:ramp:1752003300:1752003310:5"]
+    of the velocity aid is m/s on its north velocity (tests/closed_form/test_recorded.py),
+    its MAGNITUDE bounded in m/s with the unit named."""
+    argv = ["process", "rtklib-drive", "--fault", "gnss-vel:ramp:1752003300:1752003310:5e3"]
     err = _refused([*argv, "--out", tmp_path / "o"], capsys)
-    assert err.startswith("--fault: 'gnss-vel' measures velocity only and a ramp moves"), err
+    assert err.startswith("--fault: MAGNITUDE 5000 m/s is beyond ±1000 m/s"), err
     assert not (tmp_path / "o").exists()
+    argv = ["process", "rtklib-drive", "--fault", "gnss-vel:bias:1752003300:1752003310"]
+    err = _refused([*argv, "--out", tmp_path / "o"], capsys)
+    assert err.startswith("--fault: a bias needs a MAGNITUDE in m/s"), err
 
 
 def test_the_information_sharing_rule_is_refused_on_a_recording(tmp_path, capsys):
