@@ -83,12 +83,6 @@ def _fake(sc, errors, local=None, free_errors=None, free_local=None) -> Scenario
             error=e,
             P_diag=np.ones_like(e),
             nees=np.ones((B, K)),
-            beta=None,
-            statistic=None,
-            threshold=None,
-            raw_flag=None,
-            flag=None,
-            R_hat=(),
             nan_count=np.zeros((B, 3), int),
             local=loc,
         )

@@ -178,12 +178,6 @@ def test_solution_table_refuses_a_negative_variance():
     trace = Trace(
         x=np.zeros((1, K, 9)),
         P_diag=P,
-        beta=None,
-        statistic=None,
-        threshold=None,
-        raw_flag=None,
-        flag=None,
-        R_hat=(),
         nan_count=np.zeros((1, 1)),
         solution=sol,
     )

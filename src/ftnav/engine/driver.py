@@ -442,13 +442,13 @@ class MethodOutputs:
     guard : what the isolation guard did, or None (a method without a detector).
     """
 
-    beta: np.ndarray | None
-    statistic: np.ndarray | None
-    threshold: np.ndarray | None
-    raw_flag: np.ndarray | None
-    flag: np.ndarray | None
-    R_hat: tuple[np.ndarray, ...]
     nan_count: np.ndarray
+    R_hat: tuple[np.ndarray, ...] = ()
+    beta: np.ndarray | None = None
+    statistic: np.ndarray | None = None
+    threshold: np.ndarray | None = None
+    raw_flag: np.ndarray | None = None
+    flag: np.ndarray | None = None
     features: np.ndarray | None = None
     nis: np.ndarray | None = None
     used: np.ndarray | None = None
