@@ -401,6 +401,7 @@ def prepare_recording(
                 "methods, aids, outages and faults to load_recording"
             )
         loaded = recording
+        types: Mapping[str, str] = {}
     else:
         parsed = parse_recording(resolve_recording(recording))  # read and validated once
         types = recording_aids(parsed)
@@ -418,6 +419,12 @@ def prepare_recording(
         )
     rec = loaded.recording
     for f in rec.faults:
+        if f.sensor != SINS and f.sensor not in rec.sensor_names:
+            left_out = " (left out by the aids chosen)" if f.sensor in types else ""
+            raise ProcessingError(
+                f"{names['faults']}: {f.sensor!r} is not an aid processed{left_out}; the aids "
+                f"processed are {', '.join(rec.sensor_names)}"
+            )
         if f.start < 0 or f.end > rec.times[-1]:
             raise ProcessingError(
                 f"{names['faults']}: [{f.start + rec.t_start:.3f}, {f.end + rec.t_start:.3f}) "

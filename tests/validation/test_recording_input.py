@@ -16,6 +16,8 @@ import pytest
 
 from ftnav.cli import main
 from ftnav.io.solution_file import SOLUTION_COLUMNS
+from ftnav.model.scenario import Fault
+from ftnav.pipeline import ProcessingError, prepare_recording
 from ftnav.recordings import recording_path
 
 DATA = recording_path("rtklib-drive").parent / "data" / "rtklibexplorer" / "drive_0708"
@@ -203,6 +205,24 @@ def test_a_velocity_aids_fault_is_in_m_s_and_bounded(tmp_path, capsys):
     argv = ["process", "rtklib-drive", "--fault", "gnss-vel:bias:1752003300:1752003310"]
     err = _refused([*argv, "--out", tmp_path / "o"], capsys)
     assert err.startswith("--fault: a bias needs a MAGNITUDE in m/s"), err
+
+
+def test_a_fault_of_an_aid_left_out_is_refused(tmp_path, capsys):
+    """``--aids gnss`` with a fault of the velocities: the fault would change nothing, and
+    the run ended in an internal error when it wrote the trace (after the whole run).
+    One line at the boundary, exit 2, nothing written; the same for a Python caller's
+    :class:`Fault` of an aid the recording does not have."""
+    argv = ["process", "rtklib-drive", "--aids", "gnss"]
+    argv += ["--fault", "gnss-vel:bias:1752003400:1752003460:1", "--out", tmp_path / "o"]
+    err = _refused(argv, capsys)
+    assert err == (
+        "--fault: 'gnss-vel' is not an aid processed (left out by the aids chosen); "
+        "the aids processed are gnss"
+    ), err
+    assert not (tmp_path / "o").exists()
+    bogus = Fault("odometer", "bias", 1752003400.0, 1752003460.0, np.zeros(6))
+    with pytest.raises(ProcessingError, match=r"^faults: 'odometer' is not an aid processed;"):
+        prepare_recording("rtklib-drive", methods=["ckf"], faults=[bogus])
 
 
 def test_the_information_sharing_rule_is_refused_on_a_recording(tmp_path, capsys):
