@@ -215,3 +215,20 @@ def test_the_progress_bar_counts_epochs_methods_and_runs(processed, tmp_path, mo
         assert bar.disable is True
     else:  # shown on a terminal, after a delay (a short run shows none)
         assert bar.disable is None and bar.delay > 0
+
+
+def test_a_fault_of_the_ins_itself_is_written_beside_the_aids_faults(tmp_path):
+    """``--fault sins:gyro-bias:...``: the run went through and then ended in an internal
+    error writing ``trace.nc`` (its window was looked up among the aids).  It is written
+    as ``sins_fault_active`` (time), the aids' ``fault_active`` untouched."""
+    import xarray as xr
+
+    rec, out = _recording(tmp_path), tmp_path / "out"
+    fault = f"sins:gyro-bias:{FAULT[0]}:{FAULT[1]}:0,0,1800"
+    assert main(_argv(rec, out, "--quiet", "--no-figures", "--fault", fault)) == 0
+    with xr.open_dataset(out / "trace.nc", engine="scipy") as ds:
+        t = ds.time.values
+        inside = (t >= FAULT[0]) & (t < FAULT[1])
+        assert inside.any() and (~inside).any()
+        np.testing.assert_array_equal(ds.sins_fault_active.values, inside.astype(np.int8))
+        assert not ds.fault_active.values.any()

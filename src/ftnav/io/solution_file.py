@@ -21,6 +21,7 @@ import numpy as np
 from ftnav.engine.driver import Trace, check_output
 from ftnav.io.recording_file import LoadedRecording
 from ftnav.io.results import METHOD_DIM, flag_attrs
+from ftnav.model.scenario import SINS
 from ftnav.nav import attitude
 from ftnav.nav.earth import radii
 
@@ -240,7 +241,9 @@ def trace_dataset(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> Any:
     * ``aid_available`` (run, time, sensor): the aid measured at the epoch (after the
       quality selection, outages and injected outage faults);
     * ``gnss_outage`` (run, time): the primary GNSS removed by the outage schedule;
-      ``fault_active`` (time, sensor): an injected fault's window;
+      ``fault_active`` (time, sensor): an injected fault's window of an aid;
+      ``sins_fault_active`` (time): an injected fault's window of the INS itself
+      (``sins:gyro-bias``);
     * ``nan_count`` (method_name, run, sensor); ``reference_lat_deg``,
       ``reference_lon_deg``, ``reference_height_m``, ``reference_time`` (the reference).
     """
@@ -284,8 +287,13 @@ def trace_dataset(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> Any:
         for s0, e0 in windows:
             outage[b, (rec.times >= s0) & (rec.times < e0)] = 1
     fault = np.zeros((K, N), np.int8)
+    sins_fault = np.zeros(K, np.int8)  # a fault of the INS itself is no aid's
     for f in rec.faults:
-        fault[(rec.times >= f.start) & (rec.times < f.end), rec.sensor_names.index(f.sensor)] = 1
+        inside = (rec.times >= f.start) & (rec.times < f.end)
+        if f.sensor == SINS:
+            sins_fault[inside] = 1
+        else:
+            fault[inside, rec.sensor_names.index(f.sensor)] = 1
     dims4 = (M, "run", "time")
     solution_meta = {
         "lat_deg": ("degrees_north", "latitude (WGS 84)"),
@@ -382,6 +390,11 @@ def trace_dataset(loaded: LoadedRecording, traces: Mapping[str, Trace]) -> Any:
             ("time", "sensor"),
             fault,
             {"units": "1", "long_name": "1: inside an injected fault's window"},
+        ),
+        "sins_fault_active": (
+            ("time",),
+            sins_fault,
+            {"units": "1", "long_name": "1: inside an injected fault of the INS itself"},
         ),
         "nan_count": (
             (M, "run", "sensor"),
