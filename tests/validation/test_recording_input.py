@@ -15,6 +15,8 @@ import numpy as np
 import pytest
 
 from ftnav.cli import main
+from ftnav.io.common import ScenarioError
+from ftnav.io.recording_file import load_recording
 from ftnav.io.solution_file import SOLUTION_COLUMNS
 from ftnav.model.scenario import Fault
 from ftnav.pipeline import ProcessingError, prepare_recording
@@ -223,6 +225,20 @@ def test_a_fault_of_an_aid_left_out_is_refused(tmp_path, capsys):
     bogus = Fault("odometer", "bias", 1752003400.0, 1752003460.0, np.zeros(6))
     with pytest.raises(ProcessingError, match=r"^faults: 'odometer' is not an aid processed;"):
         prepare_recording("rtklib-drive", methods=["ckf"], faults=[bogus])
+
+
+def test_a_method_that_adapts_an_aid_left_out_is_refused_only_when_chosen():
+    """The drive's ``dkf-vb`` adapts the noise of ``gnss``.  With ``--aids gnss-vel`` the
+    plain filter alone was refused for it (``methods[3].noise.sensors[0]: unknown sensor
+    'gnss'``, a method not asked for); it loads now, and all the methods are refused
+    naming ``--aids`` and the method."""
+    loaded = load_recording(recording_path("rtklib-drive"), methods=["ckf"], aids=["gnss-vel"])
+    assert loaded.recording.sensor_names == ("gnss-vel",)
+    with pytest.raises(ScenarioError) as err:
+        load_recording(recording_path("rtklib-drive"), aids=["gnss-vel"])
+    assert str(err.value).startswith(
+        "--aids: method 'dkf-vb' adapts the noise of 'gnss', which the aids chosen leave out"
+    ), str(err.value)
 
 
 def test_the_information_sharing_rule_is_refused_on_a_recording(tmp_path, capsys):

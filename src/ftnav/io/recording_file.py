@@ -1614,9 +1614,23 @@ def load_recording(
         bias_compensation=f.filter.bias_compensation and f.filter.correction == "feedback",
     )
     # every method of the file is checked, the chosen ones' models loaded; errors name the
-    # file's methods[i], whatever --methods chose
+    # file's methods[i], whatever --methods chose.  A method that adapts the noise of an
+    # aid --aids left out is checked only if chosen, and then refused naming --aids.
     system = rec.system()
-    resolve_methods(f.methods, system, base, origin, models=False)
+    left_out = {a.name or a.type for a in parsed.file.aids} - set(rec.sensor_names)
+    checked = []
+    for i, m in enumerate(f.methods):
+        gone = [s for s in getattr(m.noise, "sensors", ()) if s in left_out]
+        if gone and m in chosen:
+            raise ScenarioError(
+                "--aids",
+                f"method {m.name!r} adapts the noise of {gone[0]!r}, which the aids chosen "
+                f"leave out (methods[{i}].noise.sensors): keep the aid or choose other "
+                "methods",
+            )
+        if not gone:
+            checked.append(i)
+    resolve_methods([f.methods[i] for i in checked], system, base, origin, False, checked)
     at = [i for i, m in enumerate(f.methods) if m in chosen]
     rec = replace(rec, learned=resolve_methods(chosen, system, base, origin, indices=at))
     truth = None
