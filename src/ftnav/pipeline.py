@@ -141,8 +141,12 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
         raise ProcessingError(
             f"{field}: START, END and MAGNITUDE must be numbers ({text!r})"
         ) from None
-    if not (math.isfinite(start) and math.isfinite(end) and math.isfinite(mag)) or end <= start:
+    if not math.isfinite(mag):
+        raise ProcessingError(f"{field}: MAGNITUDE must be finite ({text!r})")
+    if not (math.isfinite(start) and math.isfinite(end)) or end <= start:
         raise ProcessingError(f"{field}: END must be after START, both finite ({text!r})")
+    if kind in ("stuck", "outage") and len(parts) == 5:
+        raise ProcessingError(f"{field}: a {kind} takes no MAGNITUDE ({text!r})")
     velocity = aids[sensor] == "gnss-velocity"
     unit = "m/s" if velocity else "m"
     if kind in ("bias", "ramp") and len(parts) != 5:
@@ -394,6 +398,8 @@ def prepare_recording(
     """Parse and prepare a recording (:func:`process_recording`'s arguments) without
     running it.  ``fields`` renames the arguments in error messages (the CLI's options)."""
     names = {"faults": "faults", "outages": "outages", **(fields or {})}
+    for field, chosen in (("methods", methods), ("aids", aids)):
+        _check_names(chosen, field)
     if isinstance(recording, LoadedRecording):
         if methods is not None or aids is not None or outages is not None or faults:
             raise ProcessingError(
@@ -436,6 +442,19 @@ def prepare_recording(
         _check_smoothable(rec)
     filters = build_filters(rec, rec.system(), rec.methods)
     return Prepared(loaded, dict(filters), smooth)
+
+
+def _check_names(chosen: Sequence[str] | None, field: str) -> None:
+    """A chosen list of methods or aids: None (all), else names, at least one, none twice."""
+    if chosen is None:
+        return
+    if isinstance(chosen, str) or not all(isinstance(n, str) and n for n in chosen):
+        raise ProcessingError(f"{field}: expected a list of names, got {chosen!r}")
+    if not chosen:
+        raise ProcessingError(f"{field}: an empty list chooses nothing (None: all of them)")
+    repeated = sorted({n for n in chosen if list(chosen).count(n) > 1})
+    if repeated:
+        raise ProcessingError(f"{field}: {', '.join(map(repr, repeated))} given twice")
 
 
 def _check_smoothable(rec: Recording) -> None:

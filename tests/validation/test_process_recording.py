@@ -64,6 +64,11 @@ def test_one_call_reads_the_file_once_and_returns_a_typed_result(short_drive, mo
         ({"faults": ["gnss:bias:1:2"]}, r"^faults: a bias needs a MAGNITUDE"),
         ({"faults": ["nhc:bias:1:2:3"]}, r"^faults: 'nhc' is not a GNSS aid"),
         ({"faults": ["gnss:bias:1e12:2e12:3"]}, r"^faults: \[.*not within the processed span"),
+        ({"faults": ["gnss:bias:1:2:inf"]}, r"^faults: MAGNITUDE must be finite"),
+        ({"faults": ["gnss:stuck:1:2:3"]}, r"^faults: a stuck takes no MAGNITUDE"),
+        ({"methods": []}, r"^methods: an empty list chooses nothing"),
+        ({"methods": ["ckf", "ckf"]}, r"^methods: 'ckf' given twice"),
+        ({"aids": "gnss"}, r"^aids: expected a list of names, got 'gnss'"),
     ],
 )
 def test_arguments_are_refused_by_name(short_drive, kw, message):
