@@ -425,3 +425,22 @@ def test_an_integer_choice_is_named_in_the_refusal(tmp_path):
 def test_scale_factor_states_need_the_body_frame():
     err = _refused_integrated("[filter]", '[filter]\nstates = 21\nbias_frame = "nav"')
     assert "filter.states" in err and "bias_frame 'body'" in err
+
+
+@pytest.mark.parametrize(
+    ("runs", "seed", "message"),
+    [
+        (0, 1, r"^runs: must be >= 1, got 0$"),
+        (2, -5, r"^seed: must be an integer >= 0, got -5$"),
+        (2, 1.5, r"^seed: must be an integer >= 0, got 1\.5$"),
+        (2, True, r"^seed: must be an integer >= 0, got True$"),
+    ],
+)
+def test_run_scenarios_runs_and_seed_are_refused_by_name(runs, seed, message):
+    """From Python, a negative or fractional seed ended in NumPy's own message (``expected
+    non-negative integer``, ``SeedSequence expects int``), naming no argument."""
+    from ftnav.eval.montecarlo import run_scenario
+
+    sc = load_scenario(builtin_path("seed000"))
+    with pytest.raises(ValueError, match=message):
+        run_scenario(sc, runs, seed)

@@ -358,6 +358,8 @@ def run_points(
     """
     if runs < 1:
         raise ValueError(f"runs: must be >= 1, got {runs}")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"seed: must be an integer >= 0, got {seed!r}")
     points = tuple(points)
     if not points:
         raise ValueError("points: none given")
