@@ -21,6 +21,11 @@ def __getattr__(name: str) -> object:
     raise AttributeError(f"module 'ftnav' has no attribute {name!r}")
 
 
+def __dir__() -> list[str]:
+    """The module's names with the lazy ones (``dir(ftnav)``, tab completion)."""
+    return sorted(set(globals()) | set(__all__))
+
+
 if _os.environ.get("FTNAV_PARENT_PID"):
     # a worker process of ftnav.parallel, still starting: from here on it ends with
     # its parent, even one killed by SIGKILL while this worker imports the rest
