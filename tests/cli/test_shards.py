@@ -95,6 +95,30 @@ def test_runs_a_to_b_must_be_a_range(tmp_path, capsys):
     assert not (tmp_path / "a").exists()
 
 
+@pytest.mark.parametrize("kind", ["npy", "text", "npz", "broken zip"])
+def test_a_file_that_is_no_shard_is_refused_without_unpickling_advice(tmp_path, capsys, kind):
+    """A file that is no shard: one line, exit 2.  An .npy ended in an internal error, and
+    a text file in NumPy's advice to load it with ``allow_pickle`` or ``pickle.load()``:
+    ftnav never unpickles what a user names, nor suggests it."""
+    path = tmp_path / "shard.npz"
+    if kind == "npy":
+        with path.open("wb") as f:
+            np.save(f, np.zeros(3))
+    elif kind == "text":
+        path.write_text("runs,rmse\n1,2\n")
+    elif kind == "npz":
+        np.savez(path, x=np.zeros(2))
+    else:
+        path.write_bytes(b"PK\x03\x04not a zip")
+    capsys.readouterr()
+    assert main(["merge", str(path), "--out", str(tmp_path / "m")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith(f"ftnav: error: shards: {path}: not a shard written by"), err
+    assert "pickle" not in err
+    assert not (tmp_path / "m").exists()
+
+
 def test_an_integrated_shard_file_round_trips_and_joins_to_the_whole(tmp_path):
     sc = load_scenario(builtin_path("seed002"))
     keep = tuple(m for m in sc.methods if m.name in ("ckf", "fkf-chi2", "dkf-vb"))

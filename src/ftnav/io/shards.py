@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -124,11 +125,18 @@ def read_shard(
     ValueError naming the file when it is not a shard ftnav wrote.
     """
     where = str(path)
-    try:
+    not_shard = f"{where}: not a shard written by 'ftnav run --runs A:B'"
+    try:  # an .npz is a zip archive: anything else (an .npy, text, a pickle) is refused
+        if not zipfile.is_zipfile(path):  # before NumPy, whose message suggests unpickling
+            raise ValueError(f"{not_shard} (not an .npz archive)")
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError) as e:
-        raise ValueError(f"{where}: not a readable shard ({e})") from None
+    except OSError as e:
+        raise ValueError(f"{where}: not readable ({e.strerror or e})") from None
+    except (ValueError, EOFError, zipfile.BadZipFile) as e:
+        if str(e).startswith(not_shard):
+            raise
+        raise ValueError(f"{not_shard} (a damaged or foreign archive)") from None
     if _HEADER not in arrays:
         raise ValueError(f"{where}: not a shard written by 'ftnav run --runs A:B'")
     try:
