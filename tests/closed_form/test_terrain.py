@@ -210,8 +210,20 @@ def test_corrupt_npz_names_the_missing_key(tmp_path):
         GridDem.from_npz(other)
     junk = tmp_path / "junk.npz"
     junk.write_bytes(b"not a zip file")
-    with pytest.raises(ValueError, match=r"junk\.npz"):
+    with pytest.raises(ValueError, match=r"junk\.npz: cannot read the DEM \(not an \.npz"):
         GridDem.from_npz(junk)
+    # an .npy ended in an internal error (no context manager), text in NumPy's advice to
+    # unpickle it: refused before NumPy reads them, the advice never shown
+    npy = tmp_path / "dem.npz"
+    with npy.open("wb") as f:
+        np.save(f, np.zeros((3, 4)))
+    text = tmp_path / "dem.txt"
+    text.write_text("1 2 3\n4 5 6\n")
+    for path in (npy, text):
+        with pytest.raises(ValueError, match=r"cannot read the DEM \(not an \.npz archive\)$"):
+            GridDem.from_npz(path)
+    with pytest.raises(ValueError, match=r"cannot read the DEM \(no such file\)$"):
+        GridDem.from_npz(tmp_path / "missing.npz")
 
 
 def _tan_epoch(L, lam, clearance, speed):
