@@ -18,7 +18,9 @@ Exit status, and what goes to standard error:
 
 A warning (a modelling approximation of the scenario, e.g. an IMU error its filter
 model cannot represent) is one line ``ftnav: warning: <message>`` and does not
-change the exit status.
+change the exit status.  A reader that closes the pipe early (``ftnav list | head``)
+changes nothing either: the rest of the printed output is discarded and the command
+finishes its work.
 
 ``--debug`` (before or after the command name) prints the full traceback of either
 kind before the line.
@@ -46,6 +48,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import sys
 import threading
@@ -1281,9 +1284,48 @@ def _signals_unwind() -> Iterator[None]:
             signal.signal(s, h)
 
 
+class _PipeSafe:
+    """``sys.stdout`` that outlives its reader: once the reader has closed the pipe
+    (``ftnav list | head -3``) further output is discarded, and the command finishes
+    its work (its output folder included) instead of ending in a BrokenPipeError."""
+
+    def __init__(self, inner: Any):
+        self._inner = inner
+        self.gone = False
+
+    def write(self, text: str) -> int:
+        if not self.gone:
+            try:
+                return int(self._inner.write(text))
+            except BrokenPipeError:
+                self._close()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.gone:
+            try:
+                self._inner.flush()
+            except BrokenPipeError:
+                self._close()
+
+    def _close(self) -> None:
+        self.gone = True
+        try:  # the interpreter's last flush at exit then writes nowhere, silently
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self._inner.fileno())
+            os.close(devnull)
+        except (OSError, ValueError, AttributeError):
+            pass
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._inner, name)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``ftnav`` command; returns the exit status (module docstring)."""
     debug = False
+    stdout = sys.stdout
+    sys.stdout = _PipeSafe(stdout)  # type: ignore[assignment]
     try:
         parser = _parser()
         args = parser.parse_args(argv)
@@ -1325,6 +1367,8 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 1
     finally:
+        sys.stdout.flush()
+        sys.stdout = stdout
         while _claimed:
             _claimed.pop().release()
 

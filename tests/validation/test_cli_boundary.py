@@ -61,3 +61,23 @@ def test_bad_option_is_one_line_and_exit_2(case, tmp_path, capsys) -> None:
     assert message in err, err
     assert not out.exists()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_reader_that_closes_the_pipe_early_is_no_internal_error() -> None:
+    """``ftnav list | head -3``: the reader closes the pipe while ftnav still writes.  It
+    ended in ``internal error, please report: BrokenPipeError`` (exit 1); the rest of the
+    output is now discarded and the command finishes as it would have (exit 0)."""
+    import subprocess
+    import sys
+
+    code = "import sys; from ftnav.cli import main; sys.exit(main(['list']))"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    first = proc.stdout.readline()
+    proc.stdout.close()  # the reader is gone; ftnav has most of the list still to write
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, err
+    assert first.startswith(b"seed000:")
+    assert "internal error" not in err and "Broken" not in err, err
