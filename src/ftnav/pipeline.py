@@ -58,6 +58,7 @@ from ftnav.model.scenario import SINS, Fault, FaultKind, Recording
 from ftnav.model.streams import scheduled
 from ftnav.recorded.stream import RECORDING_FAULT_KINDS
 from ftnav.recordings import recording_names, recording_path
+from ftnav.scenarios import builtin_names
 
 __all__ = [
     "MAX_FAULT_M",
@@ -105,9 +106,14 @@ def resolve_recording(spec: str | Path) -> Path:
     path = Path(spec)
     if path.suffix == ".toml" or path.exists():
         return path
+    simulated = (
+        " (it is a built-in simulated scenario: run it with 'ftnav run')"
+        if str(spec) in builtin_names()
+        else ""
+    )
     raise ProcessingError(
         f"recording: {str(spec)!r} is neither a built-in recording "
-        f"({', '.join(recording_names())}) nor a recording file"
+        f"({', '.join(recording_names())}) nor a recording file{simulated}"
     )
 
 

@@ -79,6 +79,9 @@ def test_arguments_are_refused_by_name(short_drive, kw, message):
 def test_an_unknown_recording_is_refused_by_name():
     with pytest.raises(ProcessingError, match=r"^recording: 'no-such-drive' is neither"):
         process_recording("no-such-drive")
+    # a built-in simulated scenario's name says where it runs
+    with pytest.raises(ProcessingError, match=r"simulated scenario: run it with 'ftnav run'\)$"):
+        process_recording("seed000")
 
 
 def test_the_errors_figure_draws_the_errors_the_scores_use(short_drive):
