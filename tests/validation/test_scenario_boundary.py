@@ -428,19 +428,23 @@ def test_scale_factor_states_need_the_body_frame():
 
 
 @pytest.mark.parametrize(
-    ("runs", "seed", "message"),
+    ("runs", "seed", "options", "message"),
     [
-        (0, 1, r"^runs: must be >= 1, got 0$"),
-        (2, -5, r"^seed: must be an integer >= 0, got -5$"),
-        (2, 1.5, r"^seed: must be an integer >= 0, got 1\.5$"),
-        (2, True, r"^seed: must be an integer >= 0, got True$"),
+        (0, 1, {}, r"^runs: must be an integer >= 1, got 0$"),
+        (2, -5, {}, r"^seed: must be an integer >= 0, got -5$"),
+        (2, 1.5, {}, r"^seed: must be an integer >= 0, got 1\.5$"),
+        (2, True, {}, r"^seed: must be an integer >= 0, got True$"),
+        (2, 1, {"workers": 0}, r"^workers: must be an integer >= 1, got 0$"),
+        (2, 1, {"workers": 1.5}, r"^workers: must be an integer >= 1, got 1\.5$"),
+        (2, 1, {"first_run": -2}, r"^first_run: must be an integer >= 0, got -2$"),
     ],
 )
-def test_run_scenarios_runs_and_seed_are_refused_by_name(runs, seed, message):
-    """From Python, a negative or fractional seed ended in NumPy's own message (``expected
-    non-negative integer``, ``SeedSequence expects int``), naming no argument."""
+def test_run_scenarios_whole_numbers_are_refused_by_name(runs, seed, options, message):
+    """From Python, a negative or fractional seed or first run ended in NumPy's own message
+    (``expected non-negative integer``, ``SeedSequence expects int``) naming no argument,
+    and ``workers=0`` or ``1.5`` ran as if 1."""
     from ftnav.eval.montecarlo import run_scenario
 
     sc = load_scenario(builtin_path("seed000"))
     with pytest.raises(ValueError, match=message):
-        run_scenario(sc, runs, seed)
+        run_scenario(sc, runs, seed, **options)

@@ -329,6 +329,12 @@ def run_scenario(
     return result
 
 
+def _check_whole(name: str, value: Any, low: int) -> None:
+    """An argument that must be an integer ``>= low`` (ValueError naming it)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
+        raise ValueError(f"{name}: must be an integer >= {low}, got {value!r}")
+
+
 def run_points(
     points: Sequence[Any],
     runs: int,
@@ -356,10 +362,13 @@ def run_points(
     ValueError : ``"points: ..."`` when they do not share the kind, steps, time step and
         method names.
     """
-    if runs < 1:
-        raise ValueError(f"runs: must be >= 1, got {runs}")
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(f"seed: must be an integer >= 0, got {seed!r}")
+    for name, value, low in (
+        ("runs", runs, 1),
+        ("seed", seed, 0),
+        ("workers", workers, 1),
+        ("first_run", first_run, 0),
+    ):
+        _check_whole(name, value, low)
     points = tuple(points)
     if not points:
         raise ValueError("points: none given")
