@@ -210,7 +210,15 @@ def _sins_fault(text: str, parts: list[str], field: str) -> Fault:
 def _outages(outages: Outages | Sequence[float] | None, field: str) -> Outages | None:
     if outages is None:
         return None
-    o = Outages(*(float(x) for x in outages))
+    try:
+        values = [float(x) for x in outages]
+        if not 1 <= len(values) <= 3:
+            raise ValueError
+    except (TypeError, ValueError):
+        raise ProcessingError(
+            f"{field}: expected (length[, every[, start]]) in seconds, got {outages!r}"
+        ) from None
+    o = Outages(*values)
     if not all(math.isfinite(x) for x in o) or o.length <= 0 or o.every <= 0:
         raise ProcessingError(f"{field}: length and spacing must be positive seconds, got {o}")
     if o.length >= o.every:
@@ -415,6 +423,11 @@ def prepare_recording(
         loaded = recording
         types: Mapping[str, str] = {}
     else:
+        if isinstance(faults, str) or not all(isinstance(f, str | Fault) for f in faults):
+            raise ProcessingError(
+                f"{names['faults']}: expected a list of faults (each SENSOR:KIND:START:END"
+                f"[:MAGNITUDE] or a Fault), got {faults!r}"
+            )
         parsed = parse_recording(resolve_recording(recording))  # read and validated once
         types = recording_aids(parsed)
         fault_list = [

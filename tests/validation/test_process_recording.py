@@ -69,6 +69,10 @@ def test_one_call_reads_the_file_once_and_returns_a_typed_result(short_drive, mo
         ({"methods": []}, r"^methods: an empty list chooses nothing"),
         ({"methods": ["ckf", "ckf"]}, r"^methods: 'ckf' given twice"),
         ({"aids": "gnss"}, r"^aids: expected a list of names, got 'gnss'"),
+        ({"outages": 15}, r"^outages: expected \(length\[, every\[, start\]\]\) in seconds"),
+        ({"outages": (15, 60, "a")}, r"^outages: expected \(length"),
+        ({"faults": "gnss:bias:1:2:3"}, r"^faults: expected a list of faults"),
+        ({"faults": [3]}, r"^faults: expected a list of faults"),
     ],
 )
 def test_arguments_are_refused_by_name(short_drive, kw, message):
