@@ -30,6 +30,7 @@ of the file raise :class:`ftnav.io.common.ScenarioError` naming the file and fie
 from __future__ import annotations
 
 import math
+import os
 import time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -101,6 +102,11 @@ class Outages(NamedTuple):
 
 def resolve_recording(spec: str | Path) -> Path:
     """A built-in recording's name, or the path of a recording file."""
+    if not isinstance(spec, str | os.PathLike):
+        raise ProcessingError(
+            "recording: expected a built-in recording's name, a recording file's path or a "
+            f"LoadedRecording, got {spec!r}"
+        )
     if isinstance(spec, str) and spec in recording_names():
         return recording_path(spec)
     path = Path(spec)

@@ -14,6 +14,7 @@ from recording_runs import drive_copy
 
 import ftnav
 import ftnav.io.recording_file as recording_file
+from ftnav.io.recording_file import load_recording
 from ftnav.pipeline import ProcessingError, RecordingResult, process_recording
 
 
@@ -86,6 +87,15 @@ def test_an_unknown_recording_is_refused_by_name():
     # a built-in simulated scenario's name says where it runs
     with pytest.raises(ProcessingError, match=r"simulated scenario: run it with 'ftnav run'\)$"):
         process_recording("seed000")
+    for wrong in (None, 123):
+        with pytest.raises(ProcessingError, match=r"^recording: expected a built-in recording"):
+            process_recording(wrong)  # a TypeError of os.fspath before
+
+
+def test_load_recording_takes_a_built_in_name_as_process_recording_does():
+    """``load_recording("rtklib-walk")`` said ``rtklib-walk: file not found``."""
+    loaded = load_recording("rtklib-walk", methods=["ckf"])
+    assert loaded.recording.name == "rtklib-walk"
 
 
 def test_the_errors_figure_draws_the_errors_the_scores_use(short_drive):

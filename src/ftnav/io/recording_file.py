@@ -91,6 +91,7 @@ from ftnav.recorded.stream import (
     with_outages,
 )
 from ftnav.recorded.truth import Truth, imu_bias_against_truth
+from ftnav.recordings import recording_names, recording_path
 from ftnav.sensors.gnss import Gnss
 
 __all__ = [
@@ -1381,9 +1382,12 @@ class ParsedRecording(NamedTuple):
 
 
 def parse_recording(source: str | Path | ParsedRecording) -> ParsedRecording:
-    """Read and validate a recording file (TOML; errors name the file and the field)."""
+    """Read and validate a recording file (TOML; errors name the file and the field), or
+    a built-in recording given by its name (:func:`ftnav.recordings.recording_names`)."""
     if isinstance(source, ParsedRecording):
         return source
+    if isinstance(source, str) and source in recording_names() and not Path(source).exists():
+        source = recording_path(source)
     try:
         f = RecordingFile.model_validate(read_toml(source))
     except ValidationError as exc:
