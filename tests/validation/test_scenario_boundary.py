@@ -448,3 +448,12 @@ def test_run_scenarios_whole_numbers_are_refused_by_name(runs, seed, options, me
     sc = load_scenario(builtin_path("seed000"))
     with pytest.raises(ValueError, match=message):
         run_scenario(sc, runs, seed, **options)
+
+
+def test_load_scenario_takes_a_built_in_name_and_refuses_a_non_path():
+    """``load_scenario("seed000")`` said ``seed000: file not found`` (the CLI resolves the
+    name, Python did not); ``load_scenario(None)`` ended in os.fspath's TypeError."""
+    sc = load_scenario("seed000")
+    assert sc.name == load_scenario(builtin_path("seed000")).name and sc.builtin == "seed000"
+    with pytest.raises(ScenarioError, match=r"^scenario: expected a built-in scenario's name"):
+        load_scenario(None)  # type: ignore[arg-type]

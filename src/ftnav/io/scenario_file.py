@@ -15,6 +15,7 @@ line ``<field path>: <reason>``, e.g. ``sensors[1].R: not positive definite``.
 from __future__ import annotations
 
 import json
+import os
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, replace
@@ -483,7 +484,8 @@ def parse_scenario(
 
 
 def load_scenario(source: str | Path, models: bool = True) -> Scenario | InsScenario:
-    """Read, validate and build the scenario in the TOML file ``source``.
+    """Read, validate and build the scenario in the TOML file ``source``, or a built-in
+    scenario given by its name (:func:`ftnav.scenarios.builtin_names`).
 
     ``models=False`` checks the methods but loads no trained model file.
 
@@ -492,6 +494,12 @@ def load_scenario(source: str | Path, models: bool = True) -> Scenario | InsScen
     ScenarioError : unreadable file, TOML syntax error (message names the file),
         or an invalid scenario (message ``<field path>: <reason>``).
     """
+    if not isinstance(source, str | os.PathLike):
+        raise ScenarioError(
+            "scenario", f"expected a built-in scenario's name or a file's path, got {source!r}"
+        )
+    if isinstance(source, str) and source in builtin_names() and not Path(source).exists():
+        source = builtin_path(source)
     data = read_toml(source)
     if data.get("kind") == "integrated":
         sc: Scenario | InsScenario = parse_ins_scenario(
