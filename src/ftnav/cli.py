@@ -184,15 +184,13 @@ def _out_path(text: str) -> Path:
 
 
 def _name_list(text: str | None, option: str) -> list[str] | None:
-    """A comma-separated ``--methods``/``--aids`` list: no empty name, no repeat."""
+    """A comma-separated ``--methods``/``--aids`` list with no empty name (a name given
+    twice is :func:`ftnav.pipeline.prepare_recording`'s to refuse)."""
     if text is None:
         return None
     names = [n.strip() for n in text.split(",")]
     if not text.strip() or "" in names:
         raise UsageError(f"{option}: expected comma-separated names, got {text!r}")
-    repeated = sorted({n for n in names if names.count(n) > 1})
-    if repeated:
-        raise UsageError(f"{option}: {', '.join(map(repr, repeated))} given twice")
     return names
 
 
@@ -981,7 +979,12 @@ def _cmd_process(args) -> int:
             outages=outages,
             faults=list(args.fault),
             smooth=args.smooth,
-            fields={"faults": "--fault", "outages": "--outage-length"},
+            fields={
+                "faults": "--fault",
+                "outages": "--outage-length",
+                "methods": "--methods",
+                "aids": "--aids",
+            },
         )
         rec = prepared.recording
         out = args.out if args.out is not None else Path("results") / rec.name

@@ -417,9 +417,9 @@ def prepare_recording(
 ) -> Prepared:
     """Parse and prepare a recording (:func:`process_recording`'s arguments) without
     running it.  ``fields`` renames the arguments in error messages (the CLI's options)."""
-    names = {"faults": "faults", "outages": "outages", **(fields or {})}
+    names = {f: f for f in ("faults", "outages", "methods", "aids")} | dict(fields or {})
     for field, chosen in (("methods", methods), ("aids", aids)):
-        _check_names(chosen, field)
+        _check_names(chosen, names[field])
     if isinstance(recording, LoadedRecording):
         if methods is not None or aids is not None or outages is not None or faults:
             raise ProcessingError(
