@@ -126,16 +126,16 @@ def read_shard(
     """
     where = str(path)
     not_shard = f"{where}: not a shard written by 'ftnav run --runs A:B'"
-    try:  # an .npz is a zip archive: anything else (an .npy, text, a pickle) is refused
-        if not zipfile.is_zipfile(path):  # before NumPy, whose message suggests unpickling
-            raise ValueError(f"{not_shard} (not an .npz archive)")
+    # an .npz is a zip archive: anything else (an .npy, text, a pickle) is refused before
+    # NumPy, whose message for it suggests unpickling
+    if not zipfile.is_zipfile(path):
+        raise ValueError(f"{not_shard} (not an .npz archive)")
+    try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
     except OSError as e:
         raise ValueError(f"{where}: not readable ({e.strerror or e})") from None
-    except (ValueError, EOFError, zipfile.BadZipFile) as e:
-        if str(e).startswith(not_shard):
-            raise
+    except (ValueError, EOFError, zipfile.BadZipFile):
         raise ValueError(f"{not_shard} (a damaged or foreign archive)") from None
     if _HEADER not in arrays:
         raise ValueError(f"{where}: not a shard written by 'ftnav run --runs A:B'")

@@ -276,19 +276,19 @@ class GridDem:
             ``"<path>: missing key '<key>'"`` or a corrupt/unreadable file.
         """
         path = Path(path)
-        try:  # an .npz is a zip archive: anything else (an .npy, text, a pickle) is
-            # refused before NumPy, whose message for it suggests unpickling
-            if not path.is_file():
-                raise OSError(2, "no such file")
-            if not zipfile.is_zipfile(path):
-                raise ValueError("not an .npz archive")
+        if not path.is_file():
+            raise ValueError(f"{path}: cannot read the DEM (no such file)")
+        # an .npz is a zip archive: anything else (an .npy, text, a pickle) is refused
+        # before NumPy, whose message for it suggests unpickling
+        if not zipfile.is_zipfile(path):
+            raise ValueError(f"{path}: cannot read the DEM (not an .npz archive)")
+        try:
             with np.load(path, allow_pickle=False) as d:
                 data = {k: d[k] for k in d.files}
         except OSError as exc:
             raise ValueError(f"{path}: cannot read the DEM ({exc.strerror or exc})") from None
-        except (ValueError, EOFError, zipfile.BadZipFile) as exc:
-            why = str(exc) if str(exc) == "not an .npz archive" else "a damaged archive"
-            raise ValueError(f"{path}: cannot read the DEM ({why})") from None
+        except (ValueError, EOFError, zipfile.BadZipFile):
+            raise ValueError(f"{path}: cannot read the DEM (a damaged archive)") from None
 
         def need(*keys):
             for k in keys:
