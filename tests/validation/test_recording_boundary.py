@@ -514,3 +514,95 @@ def test_a_static_window_longer_than_the_log_is_refused(tmp_path):
     assert re.search(
         r"^alignment\.static_s: 1e\+06 s of standing still, but the IMU log is", _error(path)
     )
+
+
+# --- found by trying what a user's own log does (2026-12-07) ---------------------------
+
+
+def test_a_static_window_the_gnss_sees_moving_is_refused(tmp_path):
+    """Levelled while accelerating and with the turns removed as a gyro bias, the start
+    is wrong whatever the filter does after it (the base moves from about 36 s on)."""
+    path = _write(tmp_path)
+    load_recording(path, warn=False)  # the default window (30 s) is still
+    path.write_text(path.read_text() + "\n[alignment]\nstatic_s = 50.0\n")
+    assert re.search(
+        r"^alignment\.static_s: the GNSS moves during the static 50 s: \d+ of its \d+ fixes "
+        r"there at 1 m/s or faster \(up to [\d.]+ m/s, the first 3\d\.?\d* s into the window\)",
+        _error(path),
+    )
+
+
+def test_an_imu_log_shifted_against_the_gnss_is_refused_at_the_static_window(tmp_path):
+    """A time slip of the IMU's stamps (a minute) puts the moving fixes in its window."""
+    path = _edit(_write(tmp_path), "time_offset_s = -0.125", "time_offset_s = 30.0")
+    err = _error(path)
+    assert err.startswith("alignment.static_s: the GNSS moves during the static"), err
+    assert err.endswith("check the logs' time bases (imu.time_offset_s)"), err
+
+
+def test_a_repeated_gnss_stamp_with_another_solution_is_refused_naming_both_lines(tmp_path):
+    """Which of the two is the solution cannot be told; keeping the first (as before)
+    gave 590 m on a 100 s drive when the first was the wrong one."""
+    row = 200  # 50 s in: on the filter's grid (the start is the first moving fix)
+    moved = _pos_with(row, "latitude(deg)", "40.19")[len(_HEAD) + row]
+    pos = [*_HEAD, *_DATA[:row], moved, *_DATA[row:]]
+    path = _write(tmp_path, pos=pos)
+    line = len(_HEAD) + row + 2
+    assert re.search(
+        rf"gnss\.pos:{line}: time stamp [\d.]+ s repeats line {line - 1}'s with another "
+        "solution: which one is right cannot be told; remove one",
+        _error(path),
+    )
+    # an exact repeat is dropped and counted, as before
+    path = _write(tmp_path, pos=[*_HEAD, *_DATA[: row + 1], _DATA[row], *_DATA[row + 1 :]])
+    assert load_recording(path, warn=False).counts["gnss"]["duplicated_dropped"] == 1
+
+
+def test_a_pos_line_with_more_fields_than_its_header_is_refused(tmp_path):
+    """Two epochs run together on one line (a lost line break) lost the second."""
+    pos = [*_HEAD, *_DATA[:5], _DATA[5] + " 1.0 2.0", *_DATA[6:]]
+    err = _error(_write(tmp_path, pos=pos))
+    width = len(_COLUMNS) + 1  # the header names the time once, the lines split it in two
+    assert re.search(
+        rf"gnss\.pos:{POS_LINE}: expected {width} fields \(the header's columns\), got "
+        rf"{width + 2}",
+        err,
+    ), err
+
+
+def test_a_csv_gnss_in_radians_declared_degrees_is_refused_naming_the_unit(tmp_path):
+    """Its positions move about π/180 as far as its own velocities say (the east part
+    by the cosines of two latitudes more); the track sat at 0.7° N, 1.8° W, 2.6 m RMS."""
+    path = _csv_gnss(tmp_path, velocity=True, sigma=True, extra="vel_white_sigma_m_s = 0.1\n")
+    rows = (tmp_path / "gnss.csv").read_text().splitlines()
+    out = [rows[0]]
+    for r in rows[1:]:
+        f = r.split(",")
+        f[1], f[2] = repr(math.radians(float(f[1]))), repr(math.radians(float(f[2])))
+        out.append(",".join(f))
+    (tmp_path / "gnss.csv").write_text("\n".join(out) + "\n")
+    err = _error(path)
+    assert re.search(
+        r"^aids\[0\]\.lat\.unit: the positions move 0\.0\d+ times as far as the file's own "
+        r"velocities say \(median over \d+ spans of 5 s\): is the latitude's and "
+        r"longitude's unit rad\?",
+        err,
+    ), err
+
+
+def test_a_gnss_velocity_in_km_h_declared_m_s_is_a_warning(tmp_path):
+    path = _csv_gnss(tmp_path, velocity=True, sigma=True, extra="vel_white_sigma_m_s = 0.1\n")
+    rows = (tmp_path / "gnss.csv").read_text().splitlines()
+    out = [rows[0]]
+    for r in rows[1:]:
+        f = r.split(",")
+        f[4:7] = [repr(3.6 * float(x)) for x in f[4:7]]
+        out.append(",".join(f))
+    (tmp_path / "gnss.csv").write_text("\n".join(out) + "\n")
+    warnings = load_recording(path, warn=False).warnings
+    moved = [w for w in warnings if "times as far as the file's own velocities" in w]
+    assert len(moved) == 1, warnings
+    assert re.search(
+        r"aids\[0\]\.lat\.unit, aids\[0\]\.velocity\.unit: the positions move 0\.2\d+ times",
+        moved[0],
+    ), moved

@@ -71,7 +71,9 @@ from ftnav.recorded.plausibility import (
     course_rate_gain,
     gyro_gain_verdict,
     holds,
+    position_rate_verdict,
     specific_force_verdict,
+    static_motion_verdict,
     static_rate_verdict,
 )
 from ftnav.recorded.stream import (
@@ -733,7 +735,7 @@ def _columns(
     return table.values[:, idx], fac
 
 
-def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog, dict[str, Any]]:
+def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> _GnssRead:
     """A GNSS solution as a delimited text file with a column map (``docs/recording-format.md``)."""
     for key in ("time", "lat", "lon", "height"):
         if getattr(a, key) is None:
@@ -778,7 +780,7 @@ def _gnss_csv(a: AidTable, path: Path, field: str, origin: str) -> tuple[GnssLog
             raise ScenarioError(f"{path}:{table.lines[r]}", "column quality: not an integer flag")
         quality = q.astype(int)
     log = GnssLog(t=t[:, 0] * t_fac + a.time_offset_s, p=p, v=v, quality=quality, sigma=per_epoch)
-    return log, defaults
+    return log, defaults, table.lines
 
 
 def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLog, dict[str, Any]]:
@@ -793,7 +795,8 @@ def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLo
                     f"{field}.{key}", f"a setting of format 'csv', not {a.format!r}", origin
                 )
     path = _data_path(a.file, base, f"{field}.file", origin)
-    log, defaults = _read_gnss_format(a, path, field, origin)
+    log, defaults, lines = _read_gnss_format(a, path, field, origin)
+    _refuse_repeated(log, path, lines)
     if not np.isfinite(log.v).any():  # a velocity row would leave every epoch out
         rows = (a.model_extra or {}).get("rows")
         if rows in ("position-velocity", "velocity"):
@@ -807,9 +810,33 @@ def _read_gnss(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLo
     return log, defaults
 
 
-def _read_gnss_format(
-    a: AidTable, path: Path, field: str, origin: str
-) -> tuple[GnssLog, dict[str, Any]]:
+#: what a GNSS reader gives: the epochs, the aid's defaults the file sets, and each
+#: epoch's line in the file (None: a binary file, its rows counted from 1)
+_GnssRead = tuple[GnssLog, dict[str, Any], np.ndarray | None]
+
+
+def _refuse_repeated(log: GnssLog, path: Path, lines: np.ndarray | None) -> None:
+    """Refuse an epoch whose time stamp repeats another's with other values: which of
+    the two is the solution cannot be told (an exact repeat is dropped later, counted)."""
+    order = np.argsort(log.t, kind="stable")
+    same = np.flatnonzero(log.t[order][1:] == log.t[order][:-1])
+    if not same.size:
+        return
+    rows = [log.p, log.v, log.quality[:, None]] + ([] if log.sigma is None else [log.sigma])
+    values = np.concatenate([np.asarray(r, float) for r in rows], 1)
+    line = (lambda r: int(lines[r])) if lines is not None else (lambda r: r + 1)
+    kind = "line" if lines is not None else "row"
+    for j in same:
+        a, b = sorted((int(order[j]), int(order[j + 1])))
+        if not np.array_equal(values[a], values[b], equal_nan=True):
+            raise ScenarioError(
+                f"{path}:{line(b)}",
+                f"time stamp {log.t[b]:.3f} s repeats {kind} {line(a)}'s with another "
+                "solution: which one is right cannot be told; remove one",
+            )
+
+
+def _read_gnss_format(a: AidTable, path: Path, field: str, origin: str) -> _GnssRead:
     """:func:`_read_gnss` of the aid's ``format``."""
     if a.format == "csv":
         return _gnss_csv(a, path, field, origin)
@@ -823,7 +850,7 @@ def _read_gnss_format(
         if g.sigma_v is not None:
             defaults["vel_white_sigma_m_s"] = tuple(float(x) for x in g.sigma_v)
         quality = np.ones(g.t.size, int)
-        return GnssLog(t=g.t + a.time_offset_s, p=g.p, v=g.v, quality=quality), defaults
+        return GnssLog(t=g.t + a.time_offset_s, p=g.p, v=g.v, quality=quality), defaults, None
     pos = read_rtklib_pos(path, f"{field}.file")
     p = np.stack([pos.lat_deg * _DEG, pos.lon_deg * _DEG, pos.height_m], -1)
     sigma = np.concatenate([pos.sigma_neu[:, [1, 0, 2]], pos.sigma_v_neu[:, [1, 0, 2]]], -1)
@@ -834,7 +861,7 @@ def _read_gnss_format(
         quality=pos.quality,
         sigma=sigma,
     )
-    return log, {}
+    return log, {}, pos.lines
 
 
 #: KF-GINS's GNSS text (i2Nav-WHU/KF-GINS README): GPS seconds of week, latitude and
@@ -850,9 +877,7 @@ KFGINS_GNSS_COLUMNS = (
 )
 
 
-def _gnss_kfgins(
-    a: AidTable, path: Path, field: str, origin: str
-) -> tuple[GnssLog, dict[str, Any]]:
+def _gnss_kfgins(a: AidTable, path: Path, field: str, origin: str) -> _GnssRead:
     """The ``kfgins-text`` preset of a GNSS aid: positions and their σ, no velocity; every
     epoch quality 1; the σ the aid's default (their median) and per epoch."""
     table = read_csv(path, False, WHITESPACE, f"{field}.file", KFGINS_GNSS_COLUMNS)
@@ -886,7 +911,8 @@ def _gnss_kfgins(
         quality=np.ones(x.shape[0], int),
         sigma=sigma,
     )
-    return log, {"pos_white_sigma_m": tuple(float(s) for s in np.median(sigma[:, :3], 0))}
+    defaults = {"pos_white_sigma_m": tuple(float(s) for s in np.median(sigma[:, :3], 0))}
+    return log, defaults, table.lines
 
 
 def _some_quality(log: GnssLog, quality: Sequence[int], field: str, origin: str) -> None:
@@ -1025,6 +1051,20 @@ def _gnss_checks(
                 f"(median): set {white}"
             )
     return notes
+
+
+def _gnss_moves(a: AidTable, sel: GnssLog, field: str, origin: str) -> list[str]:
+    """The file's positions against its own velocities (:func:`~ftnav.recorded.
+    plausibility.position_rate_verdict`): an angle unit slip refused, another gain
+    warned about."""
+    _, moves = position_rate_verdict(sel.t, sel.p, sel.v)
+    if moves.level == "ok":
+        return []
+    csv = a.format == "csv"
+    if moves.level == "refusal":
+        raise ScenarioError(f"{field}.lat.unit" if csv else f"{field}.file", moves.reason, origin)
+    where = f"{field}.lat.unit, {field}.velocity.unit" if csv else f"{field}.file"
+    return [f"{origin}: {where}: {moves.reason}"]
 
 
 #: ``filter.imu_rate_hz`` at most this many times the log's own rate
@@ -1269,6 +1309,7 @@ def _aids(
     # the primary GNSS's epochs: where a constraint applies (recorded.aids.AidContext)
     primary_epochs = np.arange(sub - 1, steps, sub)
     specs, streams, counts, notes = [], [], {}, []
+    moved: set[str | None] = set()
     for i, a in enumerate(f.aids):
         name, field = a.name or a.type, f"aids[{i}]"
         params = {k: v for k, v in (a.model_extra or {}).items() if k not in _NOT_SENSOR}
@@ -1285,6 +1326,9 @@ def _aids(
             )
             assert isinstance(sensor, Gnss)  # the table's type is gnss
             notes += _gnss_checks(a, sensor, params, from_file, sel, field, origin)
+            if a.file not in moved:  # once a file (a receiver's two aids share one)
+                moved.add(a.file)
+                notes += _gnss_moves(a, sel, field, origin)
             raw, labels = gnss_raw(sel, faults, name, _assumed_sigma(sensor, sel))
             # the values a position (velocity) aid does not measure are no part of its
             # epochs: a file without velocity does not leave every epoch out
@@ -1476,6 +1520,9 @@ def _plausible_imu(
     static = a.mode == "static"
     w = log.t < log.t[0] + a.static_s if static else np.ones(log.t.size, bool)
     checks: list[tuple[str, Verdict]] = []
+    if static and log.t[0] + a.static_s <= log.t[-1]:  # longer: refused as such later
+        moving = static_motion_verdict(gnss.t, gnss.v, log.t[0], a.static_s, a.min_speed_mps)
+        checks.append(("alignment.static_s", moving))
     if static and w.sum() >= 10:
         f_norm = float(np.linalg.norm(log.accel[w].mean(0)))
         where = f"over the static {a.static_s:g} s"

@@ -466,8 +466,11 @@ def read_rtklib_pos(path: Path, what: str = "gnss") -> PosFile:
     t = np.empty(len(data))
     negative = np.zeros((len(data), len(signs)), bool)
     for r, (n, fields) in enumerate(data):
-        if len(fields) < width:
-            raise ScenarioError(f"{path}:{n}", f"expected {width} fields, got {len(fields)}")
+        if len(fields) != width:  # more: two epochs run together on one line
+            raise ScenarioError(
+                f"{path}:{n}",
+                f"expected {width} fields (the header's columns), got {len(fields)}",
+            )
         t[r] = _pos_time(fields[0], fields[1], calendar, label, path, n)
         try:
             if any("_" in f for f in fields):  # float() reads 1_0 as 10

@@ -35,7 +35,9 @@ __all__ = [
     "course_rate_gain",
     "gyro_gain_verdict",
     "holds",
+    "position_rate_verdict",
     "specific_force_verdict",
+    "static_motion_verdict",
     "static_rate_verdict",
 ]
 
@@ -47,6 +49,9 @@ GYRO_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "deg/h": math.pi / 180.0 /
 F_WARN = 0.05
 #: beyond this fraction (or 0.1 past the warning band) it is refused
 F_REFUSE = 0.2
+#: a static window is refused when more than this fraction of its GNSS fixes (and two at
+#: least) move at the alignment's ``min_speed_mps`` or faster
+MOVING_FRACTION = 0.05
 #: the static rate refused above this (rad/s, 5.7 °/s) and 3 times the datasheet bias:
 #: beyond the zero-rate offset of the worst MEMS gyros still sold for navigation
 W_STATIC_MAX = 0.1
@@ -112,6 +117,78 @@ def static_rate_verdict(w_norm: float, factor: float, bias_sd: float, static_s: 
         f"({math.degrees(w_norm):.3g} deg/s); a still IMU reads the Earth rate "
         f"(7.3e-05 rad/s) plus its bias (at most {bound:.3g} rad/s here): {hint}",
     )
+
+
+def static_motion_verdict(
+    t: np.ndarray, v: np.ndarray, start: float, static_s: float, min_speed: float
+) -> Verdict:
+    """The GNSS fixes (times ``t``, ENU velocity ``v``) inside the static window
+    ``[start, start + static_s)``: refused when more than :data:`MOVING_FRACTION` of those
+    with a velocity, and two at least, move at ``min_speed`` or faster.  Levelled while
+    accelerating, and with the turn rates removed as a gyro bias, the start is wrong
+    whatever the filter does after it; an IMU log shifted in time against the GNSS looks
+    the same."""
+    inside = (t >= start) & (t < start + static_s) & np.isfinite(v[:, :2]).all(1)
+    speed = np.hypot(v[inside, 0], v[inside, 1])
+    fast = speed >= min_speed
+    if speed.size == 0 or fast.sum() < 2 or fast.mean() <= MOVING_FRACTION:
+        return Verdict("ok")
+    first = float(t[inside][np.argmax(fast)] - start)
+    return Verdict(
+        "refusal",
+        f"the GNSS moves during the static {static_s:g} s: {int(fast.sum())} of its "
+        f"{speed.size} fixes there at {min_speed:g} m/s or faster (up to {speed.max():.3g} "
+        f"m/s, the first {first:.3g} s into the window); the window must be still: shorten "
+        "it, or check the logs' time bases (imu.time_offset_s)",
+    )
+
+
+#: the span (s) over which a GNSS file's displacement is compared with its velocities
+POSITION_SPAN_S = 5.0
+
+
+def position_rate_verdict(
+    t: np.ndarray, p: np.ndarray, v: np.ndarray, min_speed: float = 1.0, radius: float = 6.371e6
+) -> tuple[float, Verdict]:
+    """A GNSS file's positions against its own velocities: the gain ``k`` (the median over
+    spans of about :data:`POSITION_SPAN_S` s, every gap under 2 s, of the horizontal
+    displacement over the integral of the horizontal velocity; NaN when fewer than 3
+    spans move at ``min_speed``) and its verdict.  ``p`` is ``[L, λ, h]`` (rad, as the
+    declared unit read it), ``v`` ENU m/s.  ``k`` within a factor 2 of ``π/180`` or
+    ``180/π`` names the angle unit (refused); any other ``k`` outside [0.5, 2] is a
+    warning (the positions' or the velocities' unit)."""
+    order = np.argsort(t, kind="stable")
+    t, p, v = t[order], p[order], v[order]
+    ok = np.isfinite(v[:, :2]).all(1) & np.isfinite(p).all(1)
+    ratios = []
+    i = 0
+    while i < t.size - 1:
+        j = int(np.searchsorted(t, t[i] + POSITION_SPAN_S))
+        if j >= t.size:
+            break
+        seg = slice(i, j + 1)
+        if ok[seg].all() and np.all(np.diff(t[seg]) <= 2.0):
+            dt = np.diff(t[seg])[:, None]
+            moved = np.sum(0.5 * (v[i:j, :2] + v[i + 1 : j + 1, :2]) * dt, 0)
+            dn = (p[j, 0] - p[i, 0]) * radius
+            de = (p[j, 1] - p[i, 1]) * radius * math.cos(p[i, 0])
+            along = float(np.hypot(*moved))
+            if along >= min_speed * (t[j] - t[i]):
+                ratios.append(math.hypot(de, dn) / along)
+        i = j
+    if len(ratios) < 3:
+        return math.nan, Verdict("ok")
+    k = float(np.median(ratios))
+    if 0.5 <= k <= 2.0:
+        return k, Verdict("ok")
+    text = (
+        f"the positions move {k:.3g} times as far as the file's own velocities say "
+        f"(median over {len(ratios)} spans of {POSITION_SPAN_S:g} s)"
+    )
+    for unit, f in (("rad", 180.0 / math.pi), ("deg", math.pi / 180.0)):
+        if 0.5 <= k * f <= 2.0:  # the east part scales by the cosines of two latitudes too
+            return k, Verdict("refusal", f"{text}: is the latitude's and longitude's unit {unit}?")
+    return k, Verdict("warning", f"{text}: check the positions' and the velocities' units")
 
 
 class CourseFit(NamedTuple):
@@ -189,4 +266,8 @@ def gyro_gain_verdict(fit: CourseFit | None, factor: float) -> Verdict:
         return Verdict(
             "refusal", f"{text}: the gyros turn the other way (is an axis or a sign flipped?)"
         )
-    return Verdict("warning", f"{text}: check the gyro's unit and axes")
+    return Verdict(
+        "warning",
+        f"{text}: check the gyro's unit and axes, and the two logs' time bases "
+        "(imu.time_offset_s: the logs shifted against each other also turn at other times)",
+    )
