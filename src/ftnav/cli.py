@@ -906,6 +906,13 @@ def _write_html(
 
 def _cmd_merge(args) -> int:
     with _checking():
+        out = args.out.resolve()
+        for folder in args.shards:  # the merged result would replace that shard's files
+            if (folder if folder.is_dir() else folder.parent).resolve() == out:
+                raise UsageError(
+                    f"--out: {args.out} is the folder of the shard {folder}: the merge would "
+                    "replace it (its runs could not be merged again); choose another folder"
+                )
         output = _claim(args.out, folder=True, names=["metrics.json", "report.md", "report.html"])
         loaded = []
         for folder in args.shards:

@@ -10,6 +10,7 @@ Merging shards that do not make one campaign is refused in one line, exit 2.
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -149,3 +150,54 @@ def test_an_integrated_shard_file_round_trips_and_joins_to_the_whole(tmp_path):
                     np.testing.assert_array_equal(x, y, err_msg=field)
     e1, e2 = evaluate(joined), evaluate(whole)
     assert {n: m.rmse for n, m in e1.items()} == {n: m.rmse for n, m in e2.items()}
+
+
+def test_a_merge_into_one_of_its_shards_is_refused(shards, capsys):
+    """The merged result would replace that shard's files: its runs could not be merged
+    again with a later shard (found by a user's try: exit 0, ``shard.npz`` gone)."""
+    root, _ = shards
+    before = (root / "a" / SHARD).read_bytes()
+    capsys.readouterr()
+    assert main(["merge", str(root / "a"), str(root / "b"), "--out", str(root / "a")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is the folder of the shard" in err, err
+    assert (root / "a" / SHARD).read_bytes() == before
+
+
+def _damaged(src, dst, edit) -> None:
+    """A copy of the shard ``src`` with its header (a dict) or arrays changed by ``edit``."""
+    with np.load(src, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    doc = json.loads(arrays["header.json"].tobytes().decode())
+    edit(doc, arrays)
+    arrays["header.json"] = np.frombuffer(json.dumps(doc).encode(), np.uint8)
+    dst.mkdir()
+    np.savez(dst / SHARD, **arrays)
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (lambda d, a: d.update(runs="3"), r"runs: '3' is not a whole number"),
+        (lambda d, a: d.update(runs=4), r"holds 3 runs, its header 4"),
+        (lambda d, a: d.update(first_run=-2), r"first_run: -2 is below 0"),
+        (lambda d, a: d.update(seed=1.0), r"seed: 1.0 is not a whole number"),
+        (lambda d, a: d.update(methods="ckf"), r"not the fields of a shard"),
+        (
+            lambda d, a: a.update({"results/ckf/error": a["results/ckf/error"][:1]}),
+            r"results/ckf/error holds 1 runs, its header 3",
+        ),
+    ],
+)
+def test_a_shard_with_a_damaged_header_or_runs_is_refused(shards, edit, says, capsys, tmp_path):
+    """A header field of the wrong type ended in an internal error; a run count or a
+    first run that the arrays do not hold merged silently (a campaign of 5 runs from 4,
+    methods averaged over different runs)."""
+    root, _ = shards
+    _damaged(root / "b" / SHARD, tmp_path / "bad", edit)
+    capsys.readouterr()
+    merge = ["merge", str(root / "a"), str(tmp_path / "bad"), "--out", str(tmp_path / "m")]
+    assert main(merge) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and re.search(says, err), err
+    assert not (tmp_path / "m").exists()

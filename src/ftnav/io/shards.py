@@ -141,8 +141,11 @@ def read_shard(
         raise ValueError(f"{where}: not a shard written by 'ftnav run --runs A:B'")
     try:
         doc = json.loads(arrays.pop(_HEADER).tobytes().decode())
+        if not isinstance(doc, dict) or not isinstance(doc.get("methods"), list):
+            raise TypeError("not the fields of a shard (methods a list of names, ...)")
         doc["methods"] = tuple(doc["methods"])
         header = ShardHeader(**doc)
+        _check_header(header)
     except (ValueError, TypeError, KeyError) as e:
         raise ValueError(f"{where}: damaged shard header ({e})") from None
     parts = []
@@ -153,7 +156,28 @@ def read_shard(
         parts.append({n: _method(arrays, f"{part}/{n}") for n in names})
     if not parts:
         raise ValueError(f"{where}: the shard holds no results")
+    for key, a in arrays.items():  # every result has the runs first: the merge joins on it
+        if a.ndim == 0 or a.shape[0] != header.runs:
+            raise ValueError(
+                f"{where}: damaged shard: {key} holds {a.shape[0] if a.ndim else 0} runs, "
+                f"its header {header.runs}"
+            )
     return header, parts
+
+
+def _check_header(h: ShardHeader) -> None:
+    """TypeError or ValueError for a header field of the wrong type or out of range."""
+    for name in ("scenario", "scenario_path", "scenario_sha256", "version"):
+        if not isinstance(getattr(h, name), str):
+            raise TypeError(f"{name}: not a string")
+    for name, low in (("seed", 0), ("first_run", 0), ("runs", 1)):
+        value = getattr(h, name)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise TypeError(f"{name}: {value!r} is not a whole number")
+        if value < low:
+            raise ValueError(f"{name}: {value} is below {low}")
+    if not h.methods or not all(isinstance(m, str) for m in h.methods):
+        raise TypeError("methods: not a list of names")
 
 
 def check_shards(headers: list[tuple[str, ShardHeader]]) -> list[int]:
