@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import copy
 import itertools
+import json
 import math
 import tomllib
 from collections.abc import Callable, Sequence
@@ -125,6 +126,12 @@ def parse_set(text: str) -> SweepAxis:
         raise SweepError(f"{where}: a scale (KEY*=...) takes numbers")
     if len(set(map(repr, values))) != len(values):
         raise SweepError(f"{where}: a value is given twice")
+    parts = key.split(".")
+    if parts[-1] == "name" and parts[0] in ("methods", "sensors", "aids"):
+        raise SweepError(
+            f"{where}: a name labels the results (every point's methods and sensors must "
+            "be the same names); sweep its settings instead"
+        )
     return SweepAxis(key, values, scale)
 
 
@@ -398,6 +405,15 @@ def _bounds(i: Interval | None, value: float | None = None) -> list[float]:
     return [i.value, i.lo, i.hi]
 
 
+def _coordinate(values: Sequence[Any]) -> list[Any]:
+    """A swept key's values as a coordinate: as they are when every one is a scalar,
+    else each as its text (an array value, e.g. ``faults.0.magnitude=[10, 0]``, is no
+    1-D coordinate)."""
+    if all(isinstance(v, int | float | str) for v in values):
+        return list(values)
+    return [json.dumps(v) if isinstance(v, list | dict) else str(v) for v in values]
+
+
 def sweep_dataset(sweep: SweepResult) -> xr.Dataset:
     """The sweep as one Dataset (module docstring); NaN where a metric is undefined (a
     method without a detector, a point without a fault window)."""
@@ -425,7 +441,7 @@ def sweep_dataset(sweep: SweepResult) -> xr.Dataset:
                 for k in DETECTION:
                     det[k][(*at, j, n)] = _bounds(getattr(d, k))
     dims = [a.label for a in sweep.axes]
-    coords: dict[str, Any] = {a.label: list(a.values) for a in sweep.axes}
+    coords: dict[str, Any] = {a.label: _coordinate(a.values) for a in sweep.axes}
     coords |= {
         "method": methods,
         "state": list(sweep.states),

@@ -105,3 +105,22 @@ def test_a_false_alarm_sweep_gives_its_roc(small, tmp_path):
     assert (
         out / "sweep_roc_methods-1-detector-false_alarm_probability.png"
     ).stat().st_size > 10_000
+
+
+def test_an_array_value_is_swept_and_a_name_is_refused(small, tmp_path, capsys):
+    """Found by a user's try: an array value (a fault of a sensor with several rows
+    needs one) ended in an internal error after the whole campaign had run; a swept
+    method name too (its results are labelled by the first point's names)."""
+    out = tmp_path / "arrays"
+    sets = "faults.0.magnitude=[10],[40]"
+    assert main(["sweep", str(small), "--set", sets, "--runs", "2", "--out", str(out)]) == 0
+    ds = xr.load_dataset(out / "sweep.nc")
+    assert list(ds["faults.0.magnitude"].values) == ["[10]", "[40]"]
+    pd = ds["detection_rate"].sel({"sensor": "pos1", "bound": "value", "method": KEEP[1]})
+    assert pd.values[1] >= pd.values[0]
+    capsys.readouterr()
+    out = tmp_path / "names"
+    assert main(["sweep", str(small), "--set", "methods.1.name=a,b", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a name labels the results" in err, err
+    assert not out.exists()
