@@ -441,12 +441,14 @@ def _parser() -> _Parser:
     r.add_argument(
         "--outage-length", type=_seconds(True), default=None, help="GNSS outage length, s"
     )
-    r.add_argument("--outage-every", type=_seconds(True), default=60.0, help="outage spacing, s")
+    r.add_argument(
+        "--outage-every", type=_seconds(True), default=None, help="outage spacing, s (60)"
+    )
     r.add_argument(
         "--outage-start",
         type=_seconds(False),
-        default=40.0,
-        help="first outage, s after the first GNSS epoch",
+        default=None,
+        help="first outage, s after the first GNSS epoch (40)",
     )
     r.add_argument(
         "--fault",
@@ -978,7 +980,17 @@ def _cmd_process(args) -> int:
     with _checking():
         outages = None
         if args.outage_length is not None:
-            outages = Outages(args.outage_length, args.outage_every, args.outage_start)
+            given = {"every": args.outage_every, "start": args.outage_start}
+            outages = Outages(
+                args.outage_length, **{k: v for k, v in given.items() if v is not None}
+            )
+        else:
+            for option in ("every", "start"):
+                if getattr(args, f"outage_{option}") is not None:
+                    raise UsageError(
+                        f"--outage-{option}: given without --outage-length (no outage would "
+                        "be made)"
+                    )
         prepared = prepare_recording(
             args.recording,
             methods=_name_list(args.methods, "--methods"),

@@ -97,7 +97,7 @@ class Outages(NamedTuple):
 
     length: float
     every: float = 60.0
-    start: float = 30.0
+    start: float = 40.0
 
 
 def resolve_recording(spec: str | Path) -> Path:
@@ -184,6 +184,61 @@ def parse_fault(text: str, aids: Mapping[str, str], field: str = "faults") -> Fa
     return Fault(sensor, checked, start, end, magnitude)
 
 
+def check_fault(f: Fault, aids: Mapping[str, str], field: str = "faults") -> Fault:
+    """A :class:`Fault` given as an object held to what :func:`parse_fault` accepts from
+    text: its window, its kind for its sensor, its magnitude's shape (a GNSS aid's six
+    rows E, N, U m then E, N, U m/s, or one number for all; the SINS's three body axes
+    in rad/s) and bounds.  The fault as the recording takes it (magnitude as floats)."""
+    where = f"{field}: Fault({f.sensor!r}, {f.kind!r}, ...)"
+    sins = (f.sensor, f.kind) == (SINS, "gyro-bias")
+    aid = f.sensor in aids and f.kind in RECORDING_FAULTS and f.kind != "gyro-bias"
+    if not (sins or aid):
+        return f  # no aid of the recording, or a kind it has not: refused once loaded
+    try:
+        start, end = float(f.start), float(f.end)
+        mag = np.array(f.magnitude, dtype=float)
+    except (TypeError, ValueError):
+        raise ProcessingError(f"{where}: start, end and magnitude must be numbers") from None
+    if not (math.isfinite(start) and math.isfinite(end)) or end <= start:
+        raise ProcessingError(f"{where}: end must be after start, both finite")
+    if not np.isfinite(mag).all():
+        raise ProcessingError(f"{where}: the magnitude must be finite")
+    if sins:
+        if mag.shape != (3,):
+            raise ProcessingError(
+                f"{where}: a gyro-bias is three rates (rad/s about the body x, y, z), got "
+                f"shape {mag.shape}"
+            )
+        limit = RANGES["angular_rate"]
+        if np.abs(mag).max() > limit.high:
+            raise ProcessingError(f"{where}: a gyro-bias beyond a gyro's range ({limit.text})")
+        return Fault(SINS, "gyro-bias", start, end, mag)
+    if aids.get(f.sensor) not in ("gnss", "gnss-velocity"):
+        gnss = [n for n, t in aids.items() if t.startswith("gnss")]
+        raise ProcessingError(f"{where}: {f.sensor!r} is not a GNSS aid of the recording ({gnss})")
+    if mag.shape not in ((), (6,)):
+        raise ProcessingError(
+            f"{where}: a magnitude of shape {mag.shape}; a GNSS aid's is one number or six "
+            "(E, N, U m, then E, N, U m/s)"
+        )
+    mag = np.broadcast_to(mag, (6,)).copy()
+    if f.kind in ("stuck", "outage") and mag.any():
+        raise ProcessingError(f"{where}: a {f.kind} takes no magnitude (give zeros)")
+    if f.kind == "noise-scale" and not ((mag >= 1.0) & (mag <= MAX_NOISE_FACTOR)).all():
+        raise ProcessingError(
+            f"{where}: a noise-scale's factors must be in [1, {MAX_NOISE_FACTOR:g}] (a "
+            "recording's noise can only grow)"
+        )
+    if f.kind in ("bias", "ramp") and (
+        np.abs(mag[:3]).max() > MAX_FAULT_M or np.abs(mag[3:]).max() > MAX_FAULT_M_S
+    ):
+        raise ProcessingError(
+            f"{where}: a magnitude beyond ±{MAX_FAULT_M:g} m or ±{MAX_FAULT_M_S:g} m/s (off the "
+            "Earth, or faster than any vehicle)"
+        )
+    return Fault(f.sensor, f.kind, start, end, mag)
+
+
 def _sins_fault(text: str, parts: list[str], field: str) -> Fault:
     """``sins:gyro-bias:START:END:X,Y,Z`` (deg/h) as a :class:`Fault` (rad/s)."""
     if parts[0] != SINS or parts[1] != "gyro-bias":
@@ -217,6 +272,8 @@ def _outages(outages: Outages | Sequence[float] | None, field: str) -> Outages |
     if outages is None:
         return None
     try:
+        if isinstance(outages, str | bytes):  # "15" would be read as (1, 5)
+            raise TypeError
         values = [float(x) for x in outages]
         if not 1 <= len(values) <= 3:
             raise ValueError
@@ -227,6 +284,11 @@ def _outages(outages: Outages | Sequence[float] | None, field: str) -> Outages |
     o = Outages(*values)
     if not all(math.isfinite(x) for x in o) or o.length <= 0 or o.every <= 0:
         raise ProcessingError(f"{field}: length and spacing must be positive seconds, got {o}")
+    if o.start < 0:
+        raise ProcessingError(
+            f"{field}: the first outage starts {o.start:g} s after the first GNSS epoch: "
+            "must be >= 0"
+        )
     if o.length >= o.every:
         raise ProcessingError(
             f"{field}: {o.length:g} s outages every {o.every:g} s leave no GNSS fix: the "
@@ -418,6 +480,11 @@ def prepare_recording(
     """Parse and prepare a recording (:func:`process_recording`'s arguments) without
     running it.  ``fields`` renames the arguments in error messages (the CLI's options)."""
     names = {f: f for f in ("faults", "outages", "methods", "aids")} | dict(fields or {})
+    # an iterator is read once: as a list here (a generator of names was used up by the
+    # check and then ran as an empty list)
+    methods, aids = (None if c is None or isinstance(c, str) else list(c) for c in (methods, aids))
+    if faults is not None and not isinstance(faults, str | Fault):
+        faults = list(faults)
     for field, chosen in (("methods", methods), ("aids", aids)):
         _check_names(chosen, names[field])
     if isinstance(recording, LoadedRecording):
@@ -437,7 +504,10 @@ def prepare_recording(
         parsed = parse_recording(resolve_recording(recording))  # read and validated once
         types = recording_aids(parsed)
         fault_list = [
-            parse_fault(f, types, names["faults"]) if isinstance(f, str) else f for f in faults
+            parse_fault(f, types, names["faults"])
+            if isinstance(f, str)
+            else check_fault(f, types, names["faults"])
+            for f in faults
         ]
         outage = _outages(outages, names["outages"])
         loaded = load_recording(

@@ -290,3 +290,48 @@ def test_a_fault_without_a_recorded_form_is_refused_from_python(tmp_path):
     fault = Fault("gnss", "gyro-bias", 1752003300.0, 1752003310.0, np.zeros(3))
     with pytest.raises(ScenarioError, match=r"faults\[0\]\.kind: 'gyro-bias' is the only fault"):
         process_recording(_write(tmp_path), methods=["ckf"], faults=[fault])
+
+
+T_IN = 1752003400.0  # inside the drive
+
+
+@pytest.mark.parametrize(
+    ("fault", "says"),
+    [
+        (Fault("gnss", "bias", T_IN, T_IN + 60, np.array([0, 5, 0.0])), "of shape (3,)"),
+        (Fault("gnss", "bias", T_IN, T_IN + 60, np.full(6, np.nan)), "must be finite"),
+        (Fault("gnss", "bias", T_IN + 60, T_IN, np.zeros(6)), "end must be after start"),
+        (Fault("gnss", "noise-scale", T_IN, T_IN + 60, np.full(6, 0.5)), "in [1, 1e+06]"),
+        (Fault("gnss", "bias", T_IN, T_IN + 60, np.full(6, 1e12)), "beyond ±100000 m"),
+        (Fault("gnss", "stuck", T_IN, T_IN + 60, np.ones(6)), "takes no magnitude"),
+        (Fault("sins", "gyro-bias", T_IN, T_IN + 60, np.array(0.01)), "three rates"),
+    ],
+)
+def test_a_fault_object_is_checked_like_a_fault_given_as_text(fault, says):
+    """Found by a user's try: a :class:`Fault` given to ``process_recording`` skipped the
+    checks of ``--fault`` (a (3,) magnitude ended in NumPy's broadcast error, a NaN or a
+    reversed window ran silently, a noise factor 0.5 did nothing, 1e12 m diverged)."""
+    with pytest.raises(ProcessingError) as err:
+        prepare_recording("rtklib-drive", methods=["ckf"], faults=[fault])
+    assert str(err.value).startswith(f"faults: Fault({fault.sensor!r}, {fault.kind!r}, ...)")
+    assert says in str(err.value), err.value
+
+
+def test_a_fault_object_of_one_number_is_every_row_and_outages_are_checked():
+    one = Fault("gnss", "bias", T_IN, T_IN + 60, np.array(5.0))
+    p = prepare_recording("rtklib-drive", methods=(m for m in ["ckf"]), faults=[one])
+    assert list(p.filters) == ["ckf"]  # a generator of names is read once, not used up
+    np.testing.assert_array_equal(p.loaded.recording.faults[0].magnitude, np.full(6, 5.0))
+    with pytest.raises(ProcessingError, match=r"^outages: expected \(length\[, every"):
+        prepare_recording("rtklib-drive", methods=["ckf"], outages="15")  # not (1, 5)
+    with pytest.raises(ProcessingError, match=r"^outages: the first outage starts -100 s"):
+        prepare_recording("rtklib-drive", methods=["ckf"], outages=(15, 60, -100))
+
+
+@pytest.mark.parametrize("option", ["--outage-every", "--outage-start"])
+def test_an_outage_option_without_its_length_is_refused(tmp_path, capsys, option):
+    """It was ignored: the run had no outage, exit 0."""
+    argv = ["process", "rtklib-drive", "--methods", "ckf", option, "20", "--out", tmp_path / "o"]
+    err = _refused(argv, capsys)
+    assert err == f"{option}: given without --outage-length (no outage would be made)", err
+    assert not (tmp_path / "o").exists()
