@@ -188,9 +188,35 @@ def test_a_fault_lasting_past_the_run_has_no_recovery():
     f[:, 95:] = True
     s = detection_stats(f, TIMES, [(90.0, 150.0), *WINDOWS], grace=10.0)
     assert s.mean_delay_s == pytest.approx(6.0)  # first alarm at t = 96; [10, 20) missed
-    assert s.mean_recovery_s == pytest.approx(0.0)  # [10, 20)'s only: off at t = 20
+    assert np.isnan(s.mean_recovery_s)  # [10, 20) never flagged: nothing to recover from
     alone = detection_stats(f, TIMES, [(90.0, 150.0)], grace=10.0)
     assert alone.events == 2 and np.isnan(alone.mean_recovery_s)
+
+
+def test_a_run_that_never_flagged_the_aid_has_no_recovery():
+    """Pd 0 printed a recovery of 0.0 s (found by a user's try): nothing was held, so
+    there is nothing to recover from; the detected run's recovery is the mean alone."""
+    f = np.zeros((2, 100), dtype=bool)
+    f[0, (TIMES >= 12) & (TIMES <= 22)] = True  # run 0: on until t = 22, off at 23
+    s = detection_stats(f, TIMES, WINDOWS, grace=10.0)
+    assert s.events == 2 and s.missed_rate == pytest.approx(0.5)
+    assert s.mean_recovery_s == pytest.approx(3.0)
+    assert np.isnan(detection_stats(f[1:], TIMES, WINDOWS, grace=10.0).mean_recovery_s)
+
+
+def test_an_aid_flagged_again_as_it_comes_back_has_not_recovered():
+    """A fault the filter followed (no flag at its end), then the aid's return to the
+    truth flagged for 5 s inside the grace period: recovered when that flag clears
+    (t = 25 s), not at t_off (0 s, found by a user's try on the drive: 0.08 s against a
+    10.5 s lock-out).  An undetected fault whose return is flagged counts the same."""
+    f = np.zeros(100, dtype=bool)
+    f[(TIMES >= 12) & (TIMES <= 14)] = True  # detected, then followed
+    f[(TIMES >= 21) & (TIMES <= 24)] = True  # the return flagged: off at t = 25
+    assert detection_stats(f[None], TIMES, WINDOWS, grace=10.0).mean_recovery_s == 5.0
+    f[(TIMES >= 12) & (TIMES <= 14)] = False  # undetected: the same recovery
+    s = detection_stats(f[None], TIMES, WINDOWS, grace=10.0)
+    assert s.missed_rate == 1.0 and s.mean_recovery_s == 5.0
+    assert s.false_alarm_rate == 0.0  # the return's flags are in the grace period
 
 
 def test_no_windows_gives_nan_event_metrics():
@@ -201,3 +227,29 @@ def test_no_windows_gives_nan_event_metrics():
     assert np.isnan(s.rate) and np.isnan(s.event_rate) and np.isnan(s.missed_rate)
     assert np.isnan(s.mean_recovery_s)
     assert s.false_alarm_rate == pytest.approx(2.0 / 100.0)
+
+
+def test_a_recorded_fault_with_nothing_to_detect_is_no_event():
+    """On a recording an ``outage`` fault (the aid absent, not wrong) and a fault inside
+    a GNSS outage of the schedule (the aid measured nothing) were counted as missed
+    detections: Pd 0, missed rate 1 (found by a user's try on the drive)."""
+    from types import SimpleNamespace
+
+    from ftnav.eval.recorded import _detection
+    from ftnav.model.scenario import Fault
+
+    times = np.arange(1, 101, dtype=float)
+    flag = np.zeros((100, 1), bool)
+    flag[(times >= 12) & (times < 15), 0] = True  # the bias [10, 20) detected
+    available = np.ones((100, 1), bool)
+    available[(times >= 40) & (times < 60), 0] = False  # an outage of the schedule
+    faults = [
+        Fault("gnss", "bias", 10.0, 20.0, np.ones(6)),
+        Fault("gnss", "bias", 45.0, 55.0, np.ones(6)),  # inside the schedule's outage
+        Fault("gnss", "outage", 70.0, 80.0, np.zeros(6)),
+    ]
+    rec = SimpleNamespace(sensor_names=("gnss",), faults=faults, times=times)
+    d = _detection(rec, flag, 10.0, available)["gnss"]  # type: ignore[arg-type]
+    assert d.events == 1 and d.event_rate == 1.0 and d.missed_rate == 0.0
+    everything = _detection(rec, flag, 10.0)["gnss"]  # type: ignore[arg-type]
+    assert everything.events == 2  # without the availability only the outage fault goes

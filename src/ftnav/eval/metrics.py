@@ -280,9 +280,14 @@ class DetectionStats(NamedTuple):
         ``nan`` if nothing was detected.
     mean_recovery_s : float
         Mean over events of all runs of the time in s from ``t_off`` until the
-        flag is first False at an epoch ``>= t_off``; if it never clears, the
-        time ``(times[-1] + dt) - t_off`` is used; events that last to the end of
-        the run have no recovery and are left out; ``nan`` if no events remain.
+        flag is False at an epoch ``>= t_off`` and stays so through the grace
+        period ``[t_off, t_off + G)`` (an alarm there is the fault's: the aid
+        re-flagged as it comes back, after a fault the filter followed, has not
+        recovered); if it never clears, the time ``(times[-1] + dt) - t_off`` is
+        used.  Left out: events that last to the end of the run (nothing to
+        recover from yet) and events of runs that never flagged the aid over the
+        window and its grace period (nothing was held: no recovery to time, not a
+        recovery of 0 s); ``nan`` if no events remain.
     events : int
         Number of fault events times number of runs.
     """
@@ -376,16 +381,26 @@ def detection_events(
         first = np.argmax(alarmed, axis=1)
         delays.append(np.where(detected, times[in_win][first] - t_on, np.nan))
 
-        # Recovery: first epoch at/after t_off where the flag is False.
+        # Recovery: the first epoch at/after t_off where the flag is False and stays so
+        # through the grace period (alarms there are the fault's: an aid re-flagged as it
+        # comes back has not recovered); none for a run that never flagged the aid over
+        # the window and its grace (nothing was held: nothing to recover from).
         after = times >= t_off
-        cleared = ~flags[:, after]  # (B, Ka)
+        fa = flags[:, after]  # (B, Ka)
+        ta = times[after]
+        in_grace = ta < t_off + grace  # a prefix of the epochs after t_off
+        flagged = detected | (fa & in_grace).any(axis=1)
         if t_off >= t_end:  # the fault lasts to the end of the run: no recovery to time
             rec = np.full(B, np.nan)
-        elif cleared.shape[1] == 0:
-            rec = np.full(B, t_end - t_off)
+        elif fa.shape[1] == 0:
+            rec = np.where(flagged, t_end - t_off, np.nan)
         else:
-            first_clear = np.argmax(cleared, axis=1)
-            rec = np.where(cleared.any(axis=1), times[after][first_clear] - t_off, t_end - t_off)
+            idx = np.arange(fa.shape[1])
+            last = np.max(np.where(fa & in_grace, idx, -1), axis=1)  # last alarm in grace
+            clear = ~fa & (idx > last[:, None])
+            first_clear = np.argmax(clear, axis=1)
+            rec = np.where(clear.any(axis=1), ta[first_clear] - t_off, t_end - t_off)
+            rec = np.where(flagged, rec, np.nan)
         recoveries.append(rec)
 
     clean = ~fault & ~graced

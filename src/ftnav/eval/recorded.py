@@ -410,7 +410,9 @@ def score_recording(
             nan_epochs=int(np.sum(~np.isfinite(tr.solution.p[0]).all(-1))),
             prediction=prediction,
             outages=_outages(per_run) if any(outages) else None,
-            detection=_detection(rec, tr.flag[0], grace)
+            detection=_detection(
+                rec, tr.flag[0], grace, None if tr.available is None else tr.available[0]
+            )
             if tr.flag is not None and rec.faults
             else None,
             truth=None if truth is None else score_truth(rec, tr, truth, outages[0]),
@@ -536,13 +538,27 @@ def _biases(rec: Recording, tr: Trace, truth: Truth, run: int) -> tuple[BiasScor
     return gyro_bias, accel_bias
 
 
-def _detection(rec: Recording, flag: np.ndarray, grace: float) -> dict[str, DetectionMetrics]:
+def _detection(
+    rec: Recording, flag: np.ndarray, grace: float, available: np.ndarray | None = None
+) -> dict[str, DetectionMetrics]:
     """Per aid with injected faults, its flags against the fault windows: a simulated
     campaign's :class:`~ftnav.eval.evaluate.DetectionMetrics` (one type, one name per
-    quantity), ``readmitted`` whether the aid was used again after each fault's end."""
+    quantity), ``readmitted`` whether the aid was used again after each fault's end.
+    A fault there is nothing to detect in is no event: an ``outage`` (the aid is
+    absent, not wrong) and a window where the aid measured nothing (``available``
+    (K, N), e.g. inside a GNSS outage of the schedule) were counted as missed."""
     out = {}
     for i, name in enumerate(rec.sensor_names):
-        windows = [(f.start, f.end) for f in rec.faults if f.sensor == name]
+        windows = [
+            (f.start, f.end)
+            for f in rec.faults
+            if f.sensor == name
+            and f.kind != "outage"
+            and (
+                available is None
+                or available[(rec.times >= f.start) & (rec.times < f.end), i].any()
+            )
+        ]
         if windows:
             flags = flag[None, :, i]
             out[name] = DetectionMetrics.of(
