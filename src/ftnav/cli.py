@@ -833,7 +833,11 @@ def _write_run(
             doc["second_trajectory"] = metrics_to_json(*second)
         doc.update(extra)
         write_metrics(doc, stage / "metrics.json")
-        (stage / "report.md").write_text(markdown_report(result, metrics, claims, figures))
+        md = markdown_report(result, metrics, claims, figures)
+        if stop_line is not None:  # the stopping rule's verdict under the title
+            head, _, rest = md.partition("\n\n")
+            md = f"{head}\n\n{stop_line}\n\n{rest}"
+        (stage / "report.md").write_text(md)
         written = ["metrics.json", "report.md", *figures]
         if header is not None:
             write_shard(stage / SHARD, header, result, second_result)
@@ -865,6 +869,8 @@ def _write_run(
         else:
             print(f"[not checked] {c['source']}: {c['claim']} ({c['note']})")
     print(f"Results written to {out}/: {', '.join(written)}")
+    if stop_line is not None and not extra["stopping"]["reached"]:
+        print(f"ftnav: warning: {stop_line}", file=sys.stderr)
     _integrity_warnings(m.integrity for m in metrics.values())
     return 0
 

@@ -49,7 +49,11 @@ def test_max_runs_bounds_it_and_says_so(small, tmp_path, capsys):
     stop = json.loads((out / "metrics.json").read_text())["stopping"]
     assert stop["runs"] == 6 and not stop["reached"]
     assert stop["half_width"] > stop["target_half_width"]
-    assert "NOT reached within --max-runs 6 after 6 runs" in capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert "NOT reached within --max-runs 6 after 6 runs" in captured.out
+    # a target not reached is a warning, and report.md says it under its title
+    assert "ftnav: warning: --until ckf.rmse.s:rel=0.0001: NOT reached" in captured.err
+    assert "NOT reached within --max-runs 6" in (out / "report.md").read_text()
 
 
 @pytest.mark.parametrize(
@@ -62,6 +66,8 @@ def test_max_runs_bounds_it_and_says_so(small, tmp_path, capsys):
         ("ckf.detection.pos1.rate:abs=0.1", "ckf has no detector"),
         ("fkf-inverse-trace-chi2.detection.gps.rate:abs=0.1", "no sensor 'gps'"),
         ("ckf.rmse.pos_E_m:rel=0.1", "no state 'pos_E_m' (states: s, v, a)"),
+        # ran to --max-runs and printed nan (found by a user's try)
+        ("fkf-inverse-trace-chi2.detection.pos2.rate:abs=0.1", "pos2 has no fault in the"),
     ],
 )
 def test_a_bad_target_is_one_line_before_anything_runs(small, tmp_path, capsys, until, says):

@@ -100,7 +100,8 @@ def parse_target(text: str, methods: list[str]) -> Target:
 
 def check_target(target: Target, scenario: Any) -> None:
     """Refuse, before anything runs, a target this scenario cannot measure: a state or
-    sensor it does not have, detection of a method without a detector."""
+    sensor it does not have, detection of a method without a detector, a detection
+    metric other than the false-alarm rate of a sensor without a fault."""
     where = f"--until {target.text}"
     head = target.path[0]
     if head == "detection":
@@ -110,6 +111,12 @@ def check_target(target: Target, scenario: Any) -> None:
         if target.path[1] not in scenario.sensor_names:
             names = ", ".join(scenario.sensor_names)
             raise ValueError(f"{where}: no sensor {target.path[1]!r} (sensors: {names})")
+        clean = target.path[2:] in (("false_alarm_rate",), ("false_alarms_per_hour",))
+        if not clean and not any(f.sensor == target.path[1] for f in scenario.faults):
+            raise ValueError(
+                f"{where}: {target.path[1]} has no fault in the scenario: only its false-alarm "
+                "rate can be measured"
+            )
     elif head != "anees":
         states = list(scenario.metric_states)
         if getattr(scenario, "kind", "linear") == "integrated":
