@@ -482,7 +482,7 @@ def prepare_recording(
     names = {f: f for f in ("faults", "outages", "methods", "aids")} | dict(fields or {})
     # an iterator is read once: as a list here (a generator of names was used up by the
     # check and then ran as an empty list)
-    methods, aids = (None if c is None or isinstance(c, str) else list(c) for c in (methods, aids))
+    methods, aids = (c if c is None or isinstance(c, str) else list(c) for c in (methods, aids))
     if faults is not None and not isinstance(faults, str | Fault):
         faults = list(faults)
     for field, chosen in (("methods", methods), ("aids", aids)):

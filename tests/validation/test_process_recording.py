@@ -108,3 +108,18 @@ def test_the_errors_figure_draws_the_errors_the_scores_use(short_drive):
     drawn = fig.axes[0].lines[0].get_ydata()
     e = r.errors("ckf")
     np.testing.assert_allclose(drawn, np.maximum(np.hypot(e[:, 0], e[:, 1]), 1e-4), rtol=1e-12)
+
+
+def test_the_smoothed_scores_have_no_prediction_and_the_table_shows_them(short_drive):
+    """A smoothed solution has no prediction: the forward filter's was scored as its
+    own (bit-identical ``prediction_horizontal_rms_m``), and the table's smoothed column
+    showed '-' without outages (found by a user's try)."""
+    from ftnav.report.recorded import recording_table
+
+    r = ftnav.process_recording(short_drive, smooth=True)
+    s = r.scores["ckf"]
+    assert s.prediction is not None and s.smoothed is not None
+    assert s.smoothed.prediction is None
+    assert "prediction_horizontal_rms_m" not in s.smoothed.as_dict()
+    row = recording_table(r.scores).splitlines()[1].split()
+    assert row[4] == "-" and float(row[5]) == pytest.approx(s.smoothed.horizontal_rms_m, abs=5e-4)

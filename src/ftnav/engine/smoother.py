@@ -158,7 +158,8 @@ def smoothed_trace(trace: Trace, smoothed: SmoothedTrace) -> Trace:
     """``trace`` with its estimate, variances, navigation covariance (where kept) and
     solution replaced by the smoothed ones, so that what scores or writes a trace
     (:mod:`ftnav.eval.recorded`, :mod:`ftnav.io.solution_file`) takes it as it is; the
-    detection, NIS and noise fields stay the forward filter's."""
+    detection, NIS and noise fields stay the forward filter's.  A smoothed solution has
+    no prediction (the forward filter's was scored as the smoothed one's)."""
     return replace(
         trace,
         x=smoothed.x,
@@ -166,4 +167,5 @@ def smoothed_trace(trace: Trace, smoothed: SmoothedTrace) -> Trace:
         P_nav=None if trace.P_nav is None else smoothed.P_nav,
         solution=smoothed.solution,
         smoothing=None,
+        prediction=None,
     )

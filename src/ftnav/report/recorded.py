@@ -79,7 +79,8 @@ def _f(x: Any, spec: str = ".3f") -> str:
 
 def recording_table(scores: dict[str, RecordedScores]) -> str:
     """One line per method: GNSS-on horizontal/vertical RMS (after the fix; before it,
-    the prediction), outage drift (and smoothed), detection (one aid per line when a
+    the prediction), outage drift (and the smoothed solution's, or without outages its
+    GNSS-on RMS), detection (one aid per line when a
     method tests several)."""
     smoothed = any(m.smoothed is not None for m in scores.values())
     head = "method           horiz RMS m  pred RMS m  vert RMS m  outages RMS max m   " + (
@@ -95,9 +96,15 @@ def recording_table(scores: dict[str, RecordedScores]) -> str:
             for s, d in (m.detection or {}).items()
         ] or ["-"]
         sm = ""
-        if smoothed:
-            so = None if m.smoothed is None else m.smoothed.outages
-            sm = f"{_f(so.rms_max_error_m) if so is not None else '-':>10}  "
+        if smoothed:  # its outage drift, or without outages its GNSS-on RMS
+            ms = m.smoothed
+            so = None if ms is None else ms.outages
+            value = (
+                _f(so.rms_max_error_m)
+                if so is not None
+                else (_f(ms.horizontal_rms_m) if ms is not None else "-")
+            )
+            sm = f"{value:>10}  "
         pred = None if m.prediction is None else m.prediction.horizontal_rms_m
         lines.append(
             f"{name:<16} {_f(m.horizontal_rms_m):>11}  "
