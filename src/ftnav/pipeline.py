@@ -526,12 +526,14 @@ def prepare_recording(
                 f"{names['faults']}: {f.sensor!r} is not an aid processed{left_out}; the aids "
                 f"processed are {', '.join(rec.sensor_names)}"
             )
-        if f.start < 0 or f.end > rec.times[-1]:
+        end = rec.times[-1] + rec.dt  # a window is [START, END): to the end is one past it
+        if f.start < 0 or f.end > end + 1e-6:
             raise ProcessingError(
                 f"{names['faults']}: [{f.start + rec.t_start:.3f}, {f.end + rec.t_start:.3f}) "
                 f"s is not within the processed span [{rec.t_start:.3f}, "
-                f"{rec.t_start + rec.times[-1]:.3f}] s (the recording's time base): a "
-                "fault starts and ends inside it (to the end: END the span's last time)"
+                f"{rec.t_start + end:.3f}) s (the recording's time base): a fault starts and "
+                f"ends inside it (to the end: END {rec.t_start + end:.3f}, one epoch past the "
+                "last, whose fix a window [START, END) leaves out)"
             )
     if smooth:
         _check_smoothable(rec)

@@ -123,3 +123,19 @@ def test_the_smoothed_scores_have_no_prediction_and_the_table_shows_them(short_d
     assert "prediction_horizontal_rms_m" not in s.smoothed.as_dict()
     row = recording_table(r.scores).splitlines()[1].split()
     assert row[4] == "-" and float(row[5]) == pytest.approx(s.smoothed.horizontal_rms_m, abs=5e-4)
+
+
+def test_a_fault_to_the_end_covers_the_last_epoch(short_drive):
+    """A window is [START, END): the refusal's advice, END the span's last time, left
+    the last fix clean, and that one epoch was scored (0.101 m against 0.027 on the
+    drive, found by a user's try).  END one epoch past the last is accepted and covers
+    it; beyond that is refused with the END to give."""
+    r0 = ftnav.process_recording(short_drive)
+    rec = r0.recording
+    end = rec.t_start + rec.times[-1] + rec.dt
+    start = rec.t_start + rec.times[-1] - 10.0
+    r = ftnav.process_recording(short_drive, faults=[f"gnss:bias:{start:.6f}:{end:.6f}:5"])
+    e = np.hypot(*r.errors("ckf")[:, :2].T)
+    assert e[-1] > 1.0  # the last fix is the fault's: the filter followed it there
+    with pytest.raises(ProcessingError, match=rf"to the end: END {end:.3f}, one epoch past"):
+        ftnav.process_recording(short_drive, faults=[f"gnss:bias:{start:.6f}:{end + 1:.6f}:5"])
