@@ -1074,6 +1074,8 @@ def _cmd_process(args) -> int:
     )
     print(recording_table(result.scores))
     print(f"Results written to {out}/: {', '.join(written)}")
+    for note in result.warnings[len(loaded.warnings) :]:  # the scores' own
+        print(f"ftnav: warning: {_one_line(note)}", file=sys.stderr)
     _integrity_warnings(m.integrity for m in result.scores.values())
     return 0
 

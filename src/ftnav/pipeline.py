@@ -464,7 +464,26 @@ class Prepared:
         if smoothed is not None:
             smooth_scores = score_recording(rec, smoothed, ref, loaded.outages, truth=loaded.truth)
             scores = {nm: replace(s, smoothed=smooth_scores[nm]) for nm, s in scores.items()}
-        return RecordingResult(loaded, traces, scores, smoothed, elapsed, tuple(loaded.warnings))
+        warnings = (*loaded.warnings, *_thin_scores(scores, len(ref.index)))
+        return RecordingResult(loaded, traces, scores, smoothed, elapsed, warnings)
+
+
+#: a score resting on fewer reference epochs than this (and this fraction of all) is
+#: warned about: the outages and fault windows left it next to nothing
+THIN_SCORE_EPOCHS, THIN_SCORE_FRACTION = 30, 0.1
+
+
+def _thin_scores(scores: Mapping[str, RecordedScores], total: int) -> list[str]:
+    """A warning per method whose GNSS-on score rests on a handful of reference epochs
+    (a fault over the whole drive left one epoch, scored 0.000 m)."""
+    out = []
+    for name, s in scores.items():
+        if s.reference_epochs < max(THIN_SCORE_EPOCHS, THIN_SCORE_FRACTION * total):
+            out.append(
+                f"methods[{name}]: scored on {s.reference_epochs} of the {total} reference "
+                "epochs (the rest inside outages or fault windows): its RMS says little"
+            )
+    return out
 
 
 def prepare_recording(

@@ -139,3 +139,16 @@ def test_a_fault_to_the_end_covers_the_last_epoch(short_drive):
     assert e[-1] > 1.0  # the last fix is the fault's: the filter followed it there
     with pytest.raises(ProcessingError, match=rf"to the end: END {end:.3f}, one epoch past"):
         ftnav.process_recording(short_drive, faults=[f"gnss:bias:{start:.6f}:{end + 1:.6f}:5"])
+
+
+def test_a_score_on_a_handful_of_epochs_is_a_warning(short_drive):
+    """A fault over the whole drive left one reference epoch, scored 0.000 m, and said
+    nothing (found by a user's try)."""
+    r0 = ftnav.process_recording(short_drive)
+    assert not [w for w in r0.warnings if "reference epochs" in w]
+    rec = r0.recording
+    end = rec.t_start + rec.times[-1] + rec.dt
+    r = ftnav.process_recording(short_drive, faults=[f"gnss:outage:{rec.t_start}:{end:.6f}"])
+    (thin,) = [w for w in r.warnings if "reference epochs" in w]
+    n = r.scores["ckf"].reference_epochs
+    assert thin.startswith(f"methods[ckf]: scored on {n} of the {len(r.reference.index)}"), thin
