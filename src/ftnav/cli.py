@@ -595,7 +595,10 @@ def _cmd_list(args) -> int:
         "sharing rules: equal | fixed | information | trace | eigen-trace | frobenius | "
         "inverse-trace"
     )
-    print("detectors: none | residual-chi2 | state-chi2 | oracle | rbf")
+    print(
+        "detectors: none | oracle | residual-chi2 | state-chi2 | cusum | glr | separation | rbf"
+        " (which an architecture offers: docs/scenario-format.md)"
+    )
     return 0
 
 

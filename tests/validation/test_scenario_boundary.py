@@ -457,3 +457,39 @@ def test_load_scenario_takes_a_built_in_name_and_refuses_a_non_path():
     assert sc.name == load_scenario(builtin_path("seed000")).name and sc.builtin == "seed000"
     with pytest.raises(ScenarioError, match=r"^scenario: expected a built-in scenario's name"):
         load_scenario(None)  # type: ignore[arg-type]
+
+
+# ------------------------------- legal but idle or too large (found by a user's try)
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "message"),
+    [
+        # a window between two epochs (k·dt: 10, 11, ...)
+        ("faults.0.start", 10.2, r"faults\[0\]: no measurement of p1 falls in \[10\.2, 20\)"),
+        ("sensors.0.every", 500, r"sensors\[0\]\.every: p1 measures every 500 steps"),
+        ("faults.0.magnitude", [5000.0], r"faults\[0\]\.magnitude: 5e\+03 is 2\.5e\+03 times"),
+    ],
+)
+def test_a_fault_that_never_acts_or_far_beyond_the_noise_is_a_warning(path, value, message):
+    """Legal, but a fault between two measurements of its sensor, or on a sensor that
+    never measures, was scored as a miss without a word; a bias a thousand σ off is
+    seen by any test (a unit slip, most likely)."""
+    data = _linear(path, value)
+    if path == "faults.0.start":
+        data["faults"][0]["end"] = 10.7
+        message = message.replace(r"20\)", r"10\.7\)")
+    with pytest.warns(ScenarioWarning, match=message):
+        parse_scenario(data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ScenarioWarning)
+        parse_scenario(copy.deepcopy(LINEAR))  # the base: none
+
+
+def test_an_integrated_bias_a_thousand_sigmas_off_is_a_warning():
+    """A star tracker's 2 rad for 2 deg; here a GNSS bias of 5e4 m against its σ."""
+    text = INTEGRATED.replace(
+        "magnitude = [30.0, 0.0, 0.0, 0.0, 0.0, 0.0]", "magnitude = [5e4, 0.0, 0.0, 0.0, 0.0, 0.0]"
+    )
+    with pytest.warns(ScenarioWarning, match=r"faults\[0\]\.magnitude\[0\]: 5e\+04 m is .* times"):
+        parse_ins_scenario(tomllib.loads(text))

@@ -536,6 +536,11 @@ def sensor_from_table(
     return sensor
 
 
+#: a bias or ramp fault this many times its aid's σ is warned about (a unit slip: 2 rad
+#: for 2 deg is 40 000 times a star tracker's 10″)
+LARGE_FAULT_SIGMAS = 1e3
+
+
 def _offset_range(component: str) -> tuple[str, float]:
     """Unit and largest |offset| of a fault on a measurement row (by the row's name):
     velocities 1e4 m/s, angles π rad (star tracker), lengths 1e7 m (the Earth's size)."""
@@ -678,8 +683,9 @@ def parse_ins_scenario(
         if x.kind in ("noise-scale", "noise-ramp") and mag[0] > MAX_NOISE_FACTOR:
             raise _err(f"{p}.magnitude", f"must be at most {MAX_NOISE_FACTOR:g}", origin)
         if x.kind in ("bias", "ramp"):
-            components = aids[names.index(x.sensor)].sensor.components
-            for j, (c, v) in enumerate(zip(components, mag, strict=True)):
+            sensor = aids[names.index(x.sensor)].sensor
+            sigma = np.sqrt(np.diag(sensor.R))
+            for j, (c, v) in enumerate(zip(sensor.components, mag, strict=True)):
                 unit, high = _offset_range(c)
                 if abs(v) > high:
                     raise _err(
@@ -687,6 +693,14 @@ def parse_ins_scenario(
                         f"implausibly large offset of {c} ({v:.3g} {unit}; at most "
                         f"{high:.3g} {unit})",
                         origin,
+                    )
+                if sigma[j] > 0 and abs(v) > LARGE_FAULT_SIGMAS * sigma[j]:
+                    warnings.warn(
+                        f"{origin}: {p}.magnitude[{j}]: {v:.3g} {unit} is "
+                        f"{abs(v) / sigma[j]:.3g} times the σ of {c} ({sigma[j]:.3g} {unit}): "
+                        "any test sees it at once; is the unit right (rad, not deg)?",
+                        ScenarioWarning,
+                        stacklevel=2,
                     )
         faults.append(Fault(x.sensor, x.kind, float(x.start), float(x.end), mag))
     methods = list(f.methods)

@@ -51,7 +51,12 @@ from ftnav.io.common import (
     to_scenario_error,
     unique,
 )
-from ftnav.io.ins_scenario_file import InsScenarioFile, ScenarioWarning, parse_ins_scenario
+from ftnav.io.ins_scenario_file import (
+    LARGE_FAULT_SIGMAS,
+    InsScenarioFile,
+    ScenarioWarning,
+    parse_ins_scenario,
+)
 from ftnav.io.sections import (
     EvaluationFile,
     FigureFile,
@@ -405,6 +410,16 @@ def _build_fault(f: FaultFile, sensors: Sequence[Sensor], i: int, duration: floa
             i,
             "magnitude",
         )
+    sigma = np.sqrt(np.diag(sensors[j].R))
+    if f.kind in ("bias", "ramp") and np.any(np.abs(magnitude) > LARGE_FAULT_SIGMAS * sigma):
+        k = int(np.argmax(np.abs(magnitude) / sigma))
+        warnings.warn(
+            f"faults[{i}].magnitude: {magnitude[k]:.3g} is {abs(magnitude[k]) / sigma[k]:.3g} "
+            f"times the σ of {f.sensor}'s row {k} ({sigma[k]:.3g}, from R): any test sees it "
+            "at once; is the unit right?",
+            ScenarioWarning,
+            stacklevel=3,
+        )
     if np.any(np.abs(magnitude) > MAX_OFFSET):
         raise fail(
             f"implausibly large offset {np.abs(magnitude).max():.3g} (at most "
@@ -414,6 +429,34 @@ def _build_fault(f: FaultFile, sensors: Sequence[Sensor], i: int, duration: floa
             "magnitude",
         )
     return Fault(f.sensor, f.kind, float(f.start), float(f.end), magnitude)
+
+
+def _warn_idle(sensors: Sequence[Sensor], faults: Sequence[Fault], dt: float, steps: int) -> None:
+    """Warn of a sensor that never measures in the run (``every`` or ``offset`` past its
+    steps) and of a fault whose window holds none of its sensor's measurements (between
+    two of them, or on a sensor that never measures): legal, but nothing is tested there,
+    and the fault was scored as a miss."""
+    times = dt * np.arange(1, steps + 1)
+    names = [s.name for s in sensors]
+    for i, s in enumerate(sensors):
+        if not s.available(steps).any():
+            warnings.warn(
+                f"sensors[{i}].every: {s.name} measures every {s.every} steps from step "
+                f"{s.offset}, never within the run's {steps} steps: it aids nothing",
+                ScenarioWarning,
+                stacklevel=3,
+            )
+    for i, f in enumerate(faults):
+        s = sensors[names.index(f.sensor)]
+        measured = s.available(steps) & (times >= f.start) & (times < f.end)
+        if not measured.any():
+            warnings.warn(
+                f"faults[{i}]: no measurement of {f.sensor} falls in [{f.start:g}, {f.end:g}) s "
+                f"(it measures every {s.every * dt:g} s; epochs at k·dt, dt = {dt:g} s): the "
+                "fault never acts",
+                ScenarioWarning,
+                stacklevel=3,
+            )
 
 
 def _build(f: ScenarioFile) -> Scenario:
@@ -427,6 +470,7 @@ def _build(f: ScenarioFile) -> Scenario:
         sensors.append(_build_sensor(s, model, i))
     duration = f.dt * f.steps
     faults = tuple(_build_fault(x, sensors, i, duration) for i, x in enumerate(f.faults))
+    _warn_idle(sensors, faults, float(f.dt), f.steps)
     methods = list(f.methods)
     ev = f.evaluation
     if not ev.skip_initial < duration:
