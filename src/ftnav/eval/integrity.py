@@ -52,6 +52,8 @@ __all__ = ["MIN_SAMPLES", "AidWatch", "MethodWatch", "WatchSettings", "nis_band"
 MIN_SAMPLES = 10
 #: isolations of one aid in one run that suggest a noise increase, not a fault
 TOGGLES = 10
+#: every aid that measured left out this long (s) is a lock-out finding
+LOCKOUT_S = 30.0
 
 
 class WatchSettings(NamedTuple):
@@ -122,6 +124,8 @@ class MethodWatch(NamedTuple):
     max_sigma_h_m : the largest fused horizontal position σ (m), None for a linear model.
     runs_over_bound : runs whose σ passed ``sigma_bound_m``; first_over_bound_s : when.
     findings : one line each (method, aid, time), for ``ftnav: warning:``.
+    locked_out_s : the longest time over which every aid that measured was left out
+        (isolated or gated: the solution coasted although measurements came), s.
     """
 
     aids: tuple[AidWatch, ...]
@@ -130,6 +134,12 @@ class MethodWatch(NamedTuple):
     runs_over_bound: int
     first_over_bound_s: float | None
     findings: tuple[str, ...]
+    locked_out_s: float = 0.0
+
+    @property
+    def locked_out(self) -> bool:
+        """Every aid that measured left out for :data:`LOCKOUT_S` or longer."""
+        return self.locked_out_s >= LOCKOUT_S
 
     @property
     def trusted(self) -> bool:
@@ -157,6 +167,7 @@ class MethodWatch(NamedTuple):
             "max_sigma_h_m": self.max_sigma_h_m,
             "runs_over_sigma_bound": self.runs_over_bound,
             "first_over_sigma_bound_s": self.first_over_bound_s,
+            "locked_out_s": self.locked_out_s,
             "aids": {
                 a.name: {k: v for k, v in a._asdict().items() if k != "name"} for a in self.aids
             },
@@ -213,6 +224,24 @@ def _inconsistent(
         ends = times[start + (np.argmax(which, 1) + 1) * w - 1]
         first = float(ends[bad].min())
     return bad, first
+
+
+def _longest_coast(times: np.ndarray, present: np.ndarray, out: np.ndarray) -> tuple[float, float]:
+    """The longest span (s) and its start over which every epoch with a measurement
+    (``present``, (B, K)) had it left out (``out``); epochs without one do not end it."""
+    best, start = 0.0, float("nan")
+    for p, o in zip(present, out, strict=True):
+        k = np.flatnonzero(p)
+        if k.size == 0:
+            continue
+        bad = o[k]
+        # runs of consecutive present epochs all left out
+        edges = np.flatnonzero(np.diff(np.r_[0, bad.astype(np.int8), 0]))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            span = float(times[k[b - 1]] - times[k[a]])
+            if span > best:
+                best, start = span, float(times[k[a]])
+    return best, start
 
 
 def _first(times: np.ndarray, mask: np.ndarray) -> float | None:
@@ -376,6 +405,15 @@ def watch(
                 f"{relaxed} re-admission(s) with the covariance inflated): a fault of it "
                 f"cannot be told apart from drift for long there"
             )
+    present = np.asarray(available.any(-1), bool)
+    coast, coast_from = _longest_coast(times, present, present & ~np.asarray(used.any(-1), bool))
+    if coast >= LOCKOUT_S:
+        findings.append(
+            f"methods[{name}]: every aid that measured was left out for {coast:.0f} s from "
+            f"t = {coast_from:.1f} s (isolated or gated): the solution coasted on its "
+            "model alone while measurements came, a lock-out unless every aid was faulty "
+            "at once; its numbers there are a coast's"
+        )
     max_sigma = runs_over = first_over = None
     n_over = 0
     if sigma_h is not None:
@@ -394,4 +432,4 @@ def watch(
                     f"{settings.sigma_bound_m:g} m at t = {first_over:.1f} s{runs_over} "
                     f"(up to {max_sigma:.3g} m): the solution no longer meets its bound"
                 )
-    return MethodWatch(tuple(aids), B, max_sigma, n_over, first_over, tuple(findings))
+    return MethodWatch(tuple(aids), B, max_sigma, n_over, first_over, tuple(findings), coast)

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from ftnav.eval.integrity import LOCKOUT_S
 from ftnav.eval.recorded import RecordedScores, TruthScores
 from ftnav.io.recording_file import LoadedRecording
 
@@ -106,12 +107,19 @@ def recording_table(scores: dict[str, RecordedScores]) -> str:
             )
             sm = f"{value:>10}  "
         pred = None if m.prediction is None else m.prediction.horizontal_rms_m
+        mark = "! " if m.integrity is not None and m.integrity.locked_out else "  "
         lines.append(
-            f"{name:<16} {_f(m.horizontal_rms_m):>11}  "
+            f"{name:<16} {_f(m.horizontal_rms_m):>11}{mark}"
             f"{_f(pred):>10}  {_f(m.vertical_rms_m):>10}  "
             f"{drift:>17}   {sm}{det[0]}"
         )
         lines += [" " * len(head) + d for d in det[1:]]
+    locked = [nm for nm, m in scores.items() if m.integrity is not None and m.integrity.locked_out]
+    if locked:
+        lines.append(
+            f"! {', '.join(locked)}: every aid that measured was left out for "
+            f"{LOCKOUT_S:g} s or longer (a lock-out; the warnings say when): a coast's numbers"
+        )
     truth = {nm: m.truth for nm, m in scores.items() if m.truth is not None}
     if truth:
         lines += ["", truth_table(truth)]
