@@ -555,8 +555,8 @@ def test_a_sins_gyro_step_in_an_outage_does_not_lock_the_returning_gnss_out(tmp_
     ),
 )
 def test_after_a_large_sins_gyro_step_with_the_gnss_on_the_gnss_is_not_locked_out(tmp_path):
-    """Found by a newcomer's try (2026-12-07): a 1 °/s pitch-gyro (x, right) bias step of the SINS for
-    30 s with the GNSS on (every aid).  ``ckf`` keeps the fixes through it and is at
+    """Found by a newcomer's try (2026-12-07): a 1 °/s pitch-gyro (x, right) bias step of
+    the SINS for 30 s with the GNSS on (every aid).  ``ckf`` keeps the fixes through it and is at
     its fault-free level after it; the χ² and GLR methods hold both halves of the
     receiver as the tilt drives the INS off, and then never take them back: the error
     grows without bound (879 m at the fault's end, 390 km at the drive's end; a 10 °/s
