@@ -493,3 +493,15 @@ def test_an_integrated_bias_a_thousand_sigmas_off_is_a_warning():
     )
     with pytest.warns(ScenarioWarning, match=r"faults\[0\]\.magnitude\[0\]: 5e\+04 m is .* times"):
         parse_ins_scenario(tomllib.loads(text))
+
+
+@pytest.mark.parametrize("mode", ["fusion-reset", "no-reset", "zero-reset"])
+def test_a_federated_method_takes_the_correction_of_every_method(mode):
+    """``correction`` is a key of every method (docs); the federated modes refused it as
+    'not a setting of the fusion-reset mode' (found by a user's try)."""
+    text = INTEGRATED + (
+        f'\n[[methods]]\nname = "f"\narchitecture = "federated"\nmode = "{mode}"\n'
+        'correction = "output"\n'
+    )
+    sc = parse_ins_scenario(tomllib.loads(text))
+    assert sc.methods[1].correction == "output"

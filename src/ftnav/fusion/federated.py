@@ -124,9 +124,7 @@ class FederatedConfig(MethodBase):
     @model_validator(mode="after")
     def _check(self) -> FederatedConfig:
         allowed = MODE_SETTINGS[self.mode]
-        for key in sorted(
-            self.model_fields_set - {"name", "architecture", "detector", "noise", "guard"}
-        ):
+        for key in sorted(self.model_fields_set - {"architecture", *MethodBase.model_fields}):
             if key not in allowed:
                 raise config_error(f"not a setting of the {self.mode} mode", key)
         self.check_pieces()
