@@ -4,20 +4,25 @@ import os as _os
 
 from ftnav.version import __version__
 
-__all__ = ["__version__", "process_recording", "run_scenario"]
+__all__ = ["__version__", "load_scenario", "process_recording", "run_scenario"]
+
+#: the public entry points, imported when first used: name -> (module, attribute)
+_LAZY = {
+    "load_scenario": ("ftnav.io.scenario_file", "load_scenario"),
+    "process_recording": ("ftnav.pipeline", "process_recording"),
+    "run_scenario": ("ftnav.eval.montecarlo", "run_scenario"),
+}
 
 
 def __getattr__(name: str) -> object:
-    """``ftnav.process_recording`` (:mod:`ftnav.pipeline`) and ``ftnav.run_scenario``
-    (:mod:`ftnav.eval.montecarlo`), imported when first used."""
-    if name == "process_recording":
-        from ftnav.pipeline import process_recording
+    """``ftnav.load_scenario`` (:mod:`ftnav.io.scenario_file`), ``ftnav.process_recording``
+    (:mod:`ftnav.pipeline`) and ``ftnav.run_scenario`` (:mod:`ftnav.eval.montecarlo`),
+    imported when first used."""
+    if name in _LAZY:
+        import importlib
 
-        return process_recording
-    if name == "run_scenario":
-        from ftnav.eval.montecarlo import run_scenario
-
-        return run_scenario
+        module, attr = _LAZY[name]
+        return getattr(importlib.import_module(module), attr)
     raise AttributeError(f"module 'ftnav' has no attribute {name!r}")
 
 

@@ -178,7 +178,8 @@ def test_top_level_exports_load_lazily():
     """``import ftnav`` stays light; ``ftnav.process_recording`` is the pipeline's, and
     ``dir(ftnav)`` (tab completion) lists the lazy names without importing them."""
     code = (
-        "import sys, ftnav; shown = {'process_recording', 'run_scenario'} <= set(dir(ftnav));"
+        "import sys, ftnav;"
+        "shown = {'load_scenario', 'process_recording', 'run_scenario'} <= set(dir(ftnav));"
         "light = shown and 'ftnav.pipeline' not in sys.modules;"
         "from ftnav.pipeline import process_recording;"
         "from ftnav.eval.montecarlo import run_scenario;"

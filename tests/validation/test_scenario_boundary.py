@@ -437,6 +437,14 @@ def test_scale_factor_states_need_the_body_frame():
         (2, 1, {"workers": 0}, r"^workers: must be an integer >= 1, got 0$"),
         (2, 1, {"workers": 1.5}, r"^workers: must be an integer >= 1, got 1\.5$"),
         (2, 1, {"first_run": -2}, r"^first_run: must be an integer >= 0, got -2$"),
+        # found by a user's try: a bare AttributeError, NumPy's concatenate, int('x'),
+        # 0.5 truncated to 0
+        (2, 1, {"methods": "ckf"}, r"^methods: expected a list of method names or settings"),
+        (2, 1, {"methods": []}, r"^methods: an empty list chooses nothing"),
+        (2, 1, {"methods": ["nope"]}, r"^methods: 'nope' is not a method of the scenario"),
+        (2, 1, {"methods": ["ckf", "ckf"]}, r"^methods: 'ckf' given twice$"),
+        (2, 1, {"chunk": "x"}, r"^chunk: must be an integer >= 1, got 'x'$"),
+        (2, 1, {"chunk": 0.5}, r"^chunk: must be an integer >= 1, got 0\.5$"),
     ],
 )
 def test_run_scenarios_whole_numbers_are_refused_by_name(runs, seed, options, message):
@@ -448,6 +456,16 @@ def test_run_scenarios_whole_numbers_are_refused_by_name(runs, seed, options, me
     sc = load_scenario(builtin_path("seed000"))
     with pytest.raises(ValueError, match=message):
         run_scenario(sc, runs, seed, **options)
+
+
+def test_run_scenario_takes_method_names_and_refuses_a_path():
+    import ftnav
+
+    sc = ftnav.load_scenario("seed000")
+    r = ftnav.run_scenario(sc, 1, 1, methods=["ckf", "fkf-fr-equal"], fault_free=False)
+    assert list(r.results) == ["ckf", "fkf-fr-equal"]
+    with pytest.raises(ValueError, match=r"^scenario: expected a loaded scenario"):
+        ftnav.run_scenario("seed000.toml", 1, 1)
 
 
 def test_load_scenario_takes_a_built_in_name_and_refuses_a_non_path():

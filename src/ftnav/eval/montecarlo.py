@@ -42,6 +42,7 @@ from ftnav.eval.navigation import N_NAV, metric_errors, metric_variances
 from ftnav.fusion import registry
 from ftnav.fusion.config import NOTHING_LEARNED
 from ftnav.fusion.protocol import Architecture
+from ftnav.model.scenario import InsScenario, Scenario
 from ftnav.model.streams import concat_streams, scheduled
 from ftnav.model.system import LinearSystem
 from ftnav.nav.mechanization import navigation_errors
@@ -329,6 +330,35 @@ def run_scenario(
     return result
 
 
+def _chosen_methods(scenario: Any, methods: Sequence[Any] | None) -> tuple[Any, ...]:
+    """``methods`` as the scenario's method settings: None (all of them), or names of
+    its methods, or method settings; refused by name when empty, a string, or unknown."""
+    if methods is None:
+        return tuple(scenario.methods)
+    if isinstance(methods, str):
+        raise ValueError(f"methods: expected a list of method names or settings, got {methods!r}")
+    chosen = list(methods)
+    if not chosen:
+        raise ValueError("methods: an empty list chooses nothing (None: all of them)")
+    by_name = {m.name: m for m in scenario.methods}
+    out = []
+    for m in chosen:
+        if isinstance(m, str):
+            if m not in by_name:
+                raise ValueError(
+                    f"methods: {m!r} is not a method of the scenario ({', '.join(by_name)})"
+                )
+            m = by_name[m]
+        elif not hasattr(m, "architecture"):
+            raise ValueError(f"methods: expected method names or settings, got {m!r}")
+        out.append(m)
+    names = [m.name for m in out]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ValueError(f"methods: {', '.join(map(repr, twice))} given twice")
+    return tuple(out)
+
+
 def _check_whole(name: str, value: Any, low: int) -> None:
     """An argument that must be an integer ``>= low`` (ValueError naming it)."""
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < low:
@@ -372,6 +402,14 @@ def run_points(
     points = tuple(points)
     if not points:
         raise ValueError("points: none given")
+    for p in points:
+        if not isinstance(p, Scenario | InsScenario):
+            raise ValueError(
+                "scenario: expected a loaded scenario (ftnav.load_scenario(path_or_name)), "
+                f"got {p!r}"
+            )
+    if chunk is not None:
+        _check_whole("chunk", chunk, 1)
     scenario = points[0]
     for other in points[1:]:
         if (other.kind, other.steps, other.dt, [m.name for m in other.methods]) != (
@@ -384,7 +422,7 @@ def run_points(
                 "points: the scenarios must differ in their faults only (kind, steps, dt "
                 "and methods differ)"
             )
-    methods = tuple(scenario.methods if methods is None else methods)
+    methods = _chosen_methods(scenario, methods)
     system = scenario.system()
     build_filters(scenario, system, methods)  # every method builds before anything runs
     twin = fault_free and any(bool(p.faults) for p in points)
