@@ -100,3 +100,25 @@ def test_a_run_off_its_dem_is_warned_about_and_flagged(watched, capsys):
     # the fault-free twin's consistency is reported beside the faulty run's
     for name in ("ckf", "fkf-chi2"):
         assert "anees" in doc["methods"][name]
+
+
+def test_past_twelve_findings_every_method_gets_its_grave_ones_printed(capsys):
+    """Only the first twelve findings of all methods were printed: a neural method 30
+    times worse than the plain filter, listed last, had none of its findings on the
+    terminal (found by a user's try).  Past twelve, each method's first two, its
+    lock-out or σ past its bound first."""
+    from ftnav.cli import _integrity_warnings
+    from ftnav.eval.integrity import MethodWatch
+
+    def w(name: str, n: int, grave: bool = False) -> MethodWatch:
+        lines = [f"methods[{name}]: finding {i}" for i in range(n)]
+        if grave:
+            lines.append(f"methods[{name}]: every aid that measured was left out for 90 s")
+        return MethodWatch((), 1, None, 0, None, tuple(lines))
+
+    _integrity_warnings([w("a", 10), w("b", 5), w("nn", 3, grave=True)])
+    err = capsys.readouterr().err.splitlines()
+    assert err[4] == "ftnav: warning: methods[nn]: every aid that measured was left out for 90 s"
+    assert len(err) == 7 and err[-1].startswith("ftnav: warning: 13 more integrity finding")
+    _integrity_warnings([w("a", 3), w("b", 2)])  # twelve or fewer: all of them
+    assert len(capsys.readouterr().err.splitlines()) == 5
