@@ -111,7 +111,7 @@ from ftnav.report.summary import detector_table, markdown_report, results_table
 from ftnav.scenarios import builtin_names, builtin_path
 from ftnav.sim.fault_family import fault_variants
 from ftnav.sim.imu import simulate_imu_errors
-from ftnav.sim.trajectory import generate
+from ftnav.sim.trajectory import Unflyable, generate
 from ftnav.training.detector import (
     DetectorTraining,
     default_method,
@@ -1388,7 +1388,7 @@ def main(argv: list[str] | None = None) -> int:
             return _COMMANDS[args.command](args)
     except _Exit as e:
         return e.status
-    except (UsageError, ScenarioError, ModelFileError, OutputRefused) as e:
+    except (UsageError, ScenarioError, ModelFileError, OutputRefused, Unflyable) as e:
         if debug:
             traceback.print_exception(e)
         print(f"ftnav: error: {_one_line(e)}", file=sys.stderr)

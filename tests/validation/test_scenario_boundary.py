@@ -523,3 +523,20 @@ def test_a_federated_method_takes_the_correction_of_every_method(mode):
     )
     sc = parse_ins_scenario(tomllib.loads(text))
     assert sc.methods[1].correction == "output"
+
+
+def test_a_flight_over_the_pole_is_refused(tmp_path, capsys):
+    """It gave latitude 90.097° in truth.csv, and a scenario on it ran 33 m off with a
+    1 m GNSS, exit 0 (found by a user's try): the north-east-up frame is singular at the
+    poles."""
+    path = tmp_path / "prof.toml"
+    path.write_text(
+        'name = "polar"\nimu_rate_hz = 100.0\n'
+        "[start]\nlat_deg = 89.4\nlon_deg = 179.9\nh_m = 5.0\nspeed_m_s = 200.0\n"
+        "heading_deg = 0.0\n[[segments]]\nduration_s = 60.0\n"
+    )
+    out = tmp_path / "t"
+    assert main(["trajectory", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("ftnav: error: profile: segments[0] reaches latitude 89.5"), err
+    assert "singular at the poles" in err and not out.exists()
