@@ -119,7 +119,7 @@ from ftnav.training.detector import (
     train_detector,
 )
 from ftnav.training.fusion import FusionTraining, check_training, fusion_table, train_fusion
-from ftnav.training.ins_fusion import ins_configurations, train_ins_fusion
+from ftnav.training.ins_fusion import check_ins_training, ins_configurations, train_ins_fusion
 from ftnav.version import __version__
 
 __all__ = ["MANIFEST", "main"]
@@ -1221,6 +1221,8 @@ def _cmd_train_fusion(args) -> int:
             )
             n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
             check_training(sc, settings)
+        else:
+            check_ins_training(sc)
     if _integrated(sc):
         return _train_ins_fusion(sc, output, args)
     _compile_note("train-linear", args.quiet)

@@ -540,3 +540,16 @@ def test_a_flight_over_the_pole_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert err.startswith("ftnav: error: profile: segments[0] reaches latitude 89.5"), err
     assert "singular at the poles" in err and not out.exists()
+
+
+def test_training_the_neuron_centre_on_a_flight_too_short_is_refused(tmp_path, capsys):
+    """A 120 s flight ended in the LMS's own 'need more samples than inputs' and an
+    internal error (found by a user's try): the samples start 60 s after each
+    configuration's fault at 150 s."""
+    path = tmp_path / "s.toml"
+    path.write_text(INTEGRATED)  # 60 s
+    out = tmp_path / "m.npz"
+    assert main(["train-fusion", str(path), "--out", str(out), "--runs", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("ftnav: error: filter.duration_s: the flight lasts 60 s;"), err
+    assert not out.exists()

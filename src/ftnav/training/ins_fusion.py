@@ -64,6 +64,19 @@ def ins_configurations(sc: InsScenario) -> list[tuple[str, np.ndarray, Fault | N
     return out
 
 
+def check_ins_training(sc: InsScenario, fault_start: float = 150.0, skip: float = 60.0) -> None:
+    """Refuse a flight too short to train on (ValueError naming ``filter.duration_s``):
+    each configuration's samples start ``skip`` s after its fault, injected from
+    ``fault_start`` s (a 120 s flight had none and ended in the LMS's own message)."""
+    duration = sc.steps * sc.dt
+    if duration <= fault_start + skip:
+        raise ValueError(
+            f"filter.duration_s: the flight lasts {duration:g} s; training the neuron "
+            f"centre needs it past {fault_start + skip:g} s (each configuration's fault "
+            f"from {fault_start:g} s, its samples from {skip:g} s after)"
+        )
+
+
 def train_ins_fusion(
     sc: InsScenario,
     runs: int = 4,
@@ -90,6 +103,7 @@ def train_ins_fusion(
     ``correction``: the trained method's (default: the scenario's); ``run_offset``: the
     first run number of the training runs (module docstring).
     """
+    check_ins_training(sc, fault_start, skip)
     correction = correction or sc.correction
     system = sc.system()
     model_ = navigation_model(sc, system)
