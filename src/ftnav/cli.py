@@ -73,8 +73,6 @@ from ftnav.eval.resources import (
     format_bytes,
     kernels_compiled,
     mark_kernels_compiled,
-    max_runs_within,
-    run_memory_bytes,
     trajectory_memory_bytes,
 )
 from ftnav.eval.stopping import check_target, parse_target, run_until
@@ -527,26 +525,12 @@ def _build_filters(sc) -> None:
 
 
 def _check_memory(sc, runs: int, **options) -> None:
-    """Refuse a run whose estimated peak memory exceeds what the machine has available."""
-    available = resources.available_memory_bytes()
-    if available is None:
-        return
-    need = run_memory_bytes(sc, runs, **options)
-    if need <= available:
-        return
-    have = f"more than the {format_bytes(available)} available"
-    fit = max_runs_within(sc, available, **options)
-    if fit == 0:
-        field = "filter.duration_s" if _integrated(sc) else "steps"
-        one = run_memory_bytes(sc, 1, **options)
-        raise UsageError(
-            f"{field}: one run of {sc.name} ({sc.steps} epochs of {sc.dt:g} s) "
-            f"needs about {format_bytes(one)}, {have}"
-        )
-    raise UsageError(
-        f"--runs: {runs} runs of {sc.name} need about {format_bytes(need)}, "
-        f"{have} (at most {fit} would fit)"
-    )
+    """Refuse a run whose estimated peak memory exceeds what the machine has available
+    (:func:`ftnav.eval.resources.check_memory`, the runs named as the option)."""
+    try:
+        resources.check_memory(sc, runs, **options)
+    except ValueError as e:
+        raise UsageError(str(e).replace("runs: ", "--runs: ", 1)) from None
 
 
 def _compile_note(kind: str, quiet: bool) -> None:

@@ -314,6 +314,12 @@ def run_scenario(
     before it is scored: a method that diverges raises
     :class:`~ftnav.engine.driver.Diverged`, naming it, the epoch and its time.
     """
+    if isinstance(scenario, Scenario | InsScenario):  # else refused by name below
+        _check_whole("runs", runs, 1)
+        _check_whole("workers", workers, 1)
+        from ftnav.eval.resources import check_memory  # it imports this module
+
+        check_memory(scenario, runs, workers=workers, fault_free=fault_free, chunk=chunk)
     (result,) = run_points(
         (scenario,),
         runs,

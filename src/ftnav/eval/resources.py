@@ -38,11 +38,13 @@ compiled kernels (``ftnav`` says so when a first run compiles them).
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import re
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol, TypedDict, Unpack
+from typing import TYPE_CHECKING, Any, Protocol, TypedDict, Unpack
 
 from ftnav.eval.montecarlo import PARALLEL_MIN_WORK, chunk_runs
 from ftnav.model.scenario import InsScenario
@@ -73,6 +75,9 @@ _TRAJECTORY_SAMPLE = 17 * _F8
 #: copies of one local filter's (n, n) covariance alive within an epoch per run
 #: (state, prior, posterior, gain and update temporaries, fused values)
 _STATE_COPIES = 12
+#: copies of the guard's pulls alive at once (the state, an epoch's mapped blocks, the
+#: alternative's)
+_GUARD_COPIES = 3
 
 
 def format_bytes(n: float) -> str:
@@ -120,6 +125,25 @@ def _result_bytes(
     if local and method.architecture != "centralized":
         floats += 3 * N  # local position tracks (integrated runs)
     return B * K * (floats * _F8 + flags) + B * N * _F8
+
+
+def _guard_bytes(methods: Sequence[Any], B: int, dt: float, aids: int, n: int) -> int:
+    """Bytes of the isolation guard's tracked pulls over B runs (:mod:`ftnav.fusion.guard`,
+    :func:`ftnav.fdi.separation.init_pulls`): per guarded method, each aid's J blocks of
+    a vector and an n × n matrix, its rotation map, and the copies an epoch's update
+    makes (left out before: an integrated campaign took about twice its estimate)."""
+    total = 0
+    for me in methods:
+        g = getattr(me, "guard", None)
+        if g is None or me.detector.kind in ("none", "oracle"):
+            continue
+        nb = int(g.blocks)
+        fine = max(1, round(g.fine_s / dt))
+        span = math.ceil(fine / nb) * nb
+        nc = max(0, math.ceil(g.window_s / dt / span) - 1)
+        J = nb + 1 + (nc + 1 if nc else 0)
+        total += _GUARD_COPIES * B * aids * (J + 2) * (n * n + n) * _F8
+    return total
 
 
 def _state_bytes(B: int, local_sizes: list[int]) -> int:
@@ -199,6 +223,7 @@ def _integrated_chunk_bytes(sc: InsScenario, b: int, twin: bool) -> tuple[int, i
     # every method's SINS, Φ, Q and H per run, plus each method's filters
     M = max(1, len(sc.methods))
     temporaries = M * _state_bytes(Bf, sizes) + M * Bf * 4 * n * n * _F8
+    temporaries += _guard_bytes(sc.methods, Bf, float(sc.dt), N, max(sizes, default=n))
     return simulation, held, temporaries
 
 
@@ -344,6 +369,31 @@ def _cgroup_headroom() -> int | None:
         return max(0, int(limit) - used)
     except (OSError, ValueError):
         return None
+
+
+def check_memory(scenario: Scenario | InsScenario, runs: int, **options: Any) -> None:
+    """Refuse (ValueError naming ``runs``, or the run's length when one run does not fit)
+    a campaign whose estimated peak memory (:func:`run_memory_bytes`) exceeds what the
+    machine has available; nothing where that is unknown."""
+    available = available_memory_bytes()
+    if available is None:
+        return
+    need = run_memory_bytes(scenario, runs, **options)
+    if need <= available:
+        return
+    have = f"more than the {format_bytes(available)} available"
+    fit = max_runs_within(scenario, available, **options)
+    if fit == 0:
+        field = "filter.duration_s" if isinstance(scenario, InsScenario) else "steps"
+        one = run_memory_bytes(scenario, 1, **options)
+        raise ValueError(
+            f"{field}: one run of {scenario.name} ({scenario.steps} epochs of "
+            f"{scenario.dt:g} s) needs about {format_bytes(one)}, {have}"
+        )
+    raise ValueError(
+        f"runs: {runs} runs of {scenario.name} need about {format_bytes(need)}, {have} "
+        f"(at most {fit} would fit)"
+    )
 
 
 def available_memory_bytes() -> int | None:
