@@ -100,7 +100,7 @@ from ftnav.io.solution_file import (
 )
 from ftnav.io.trajectory_files import write_imu_csv, write_truth_csv
 from ftnav.model.imu import imu_preset
-from ftnav.parallel import default_workers
+from ftnav.parallel import ClusterError, check_scheduler_address, default_workers
 from ftnav.pipeline import Outages, prepare_recording, resolve_recording
 from ftnav.recordings import recording_names
 from ftnav.report.claims import check_claims
@@ -231,6 +231,15 @@ def _run_range(text: str) -> _Runs:
     return _Runs(first, end - first, True)
 
 
+def _scheduler(text: str) -> str:
+    """``--scheduler``: a Dask scheduler's address, its form checked before anything runs."""
+    try:
+        check_scheduler_address(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e).removeprefix("--scheduler: ")) from None
+    return text
+
+
 def _seconds(strict: bool):
     """argparse type: a finite number of seconds, > 0 (``strict``) or >= 0."""
 
@@ -276,7 +285,8 @@ def _parser() -> _Parser:
         prog="ftnav",
         description="Fault-tolerant multi-sensor navigation fusion.",
         epilog="exit status: 0 done, 2 bad input (one line naming the field), "
-        "3 a method diverged (nothing written), 130 interrupted, 143 terminated, "
+        "3 a method diverged (nothing written), 4 the Dask cluster failed (no scheduler at "
+        "--scheduler, or lost mid-run: nothing written), 130 interrupted, 143 terminated, "
         "1 internal error (a bug: please report it)",
     )
     p.add_argument("--version", action="version", version=f"ftnav {__version__}")
@@ -329,6 +339,7 @@ def _parser() -> _Parser:
     )
     r.add_argument(
         "--scheduler",
+        type=_scheduler,
         default=None,
         metavar="tcp://HOST:PORT",
         help="run the batches on this Dask scheduler's workers (pip install 'ftnav[cluster]'; "
@@ -363,7 +374,11 @@ def _parser() -> _Parser:
     w.add_argument("--quiet", action="store_true", help="no progress bar")
     w.add_argument("--workers", type=_positive, default=None, help="worker processes (as for run)")
     w.add_argument(
-        "--scheduler", default=None, metavar="tcp://HOST:PORT", help="a Dask scheduler (as for run)"
+        "--scheduler",
+        type=_scheduler,
+        default=None,
+        metavar="tcp://HOST:PORT",
+        help="a Dask scheduler (as for run)",
     )
     t = command("trajectory", help="generate a flight's truth and IMU increments")
     t.add_argument("profile", help="built-in profile (seed001, seed002) or a profile TOML path")
@@ -1384,6 +1399,11 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exception(e)
         print(f"ftnav: error: {_one_line(e)}; nothing written", file=sys.stderr)
         return 3
+    except ClusterError as e:
+        if debug:
+            traceback.print_exception(e)
+        print(f"ftnav: error: {_one_line(e)}", file=sys.stderr)
+        return 4
     except _Terminated as e:
         print(f"ftnav: terminated (signal {e.signum})", file=sys.stderr)
         return 128 + e.signum

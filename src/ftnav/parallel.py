@@ -24,10 +24,13 @@ layer may import it.
 
 from __future__ import annotations
 
+import asyncio
+import concurrent.futures
 import contextlib
 import multiprocessing
 import os
 import queue
+import re
 import signal
 import sys
 import threading
@@ -37,7 +40,9 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Any, TypeVar
 
 __all__ = [
+    "ClusterError",
     "available_cpus",
+    "check_scheduler_address",
     "default_workers",
     "run_on_cluster",
     "run_tasks",
@@ -301,20 +306,76 @@ def run_on_cluster(
         raise ValueError(
             "--scheduler: Dask is not installed (pip install 'ftnav[cluster]')"
         ) from None
-    try:
-        client = Client(scheduler, timeout=10, set_as_default=False)
-    except OSError as exc:
-        raise ValueError(f"--scheduler: no Dask scheduler at {scheduler} ({exc})") from None
-    with client:
-        futures = [client.submit(_on_worker, fn, t, pure=False) for t in tasks]
-        if progress is not None and units is not None:
-            from distributed import as_completed
+    check_scheduler_address(scheduler)
+    with _quiet_dask():
+        try:
+            client = Client(scheduler, timeout=10, set_as_default=False)
+        except (OSError, ValueError, MemoryError) as exc:  # MemoryError: not Dask's protocol
+            raise ClusterError(
+                f"--scheduler: no Dask scheduler at {scheduler} "
+                f"({type(exc).__name__}: {str(exc)[:120] or 'no answer'})"
+            ) from None
+        with client:
+            try:
+                futures = [client.submit(_on_worker, fn, t, pure=False) for t in tasks]
+                if progress is not None and units is not None:
+                    from distributed import as_completed
 
-            order = {f.key: i for i, f in enumerate(futures)}
-            with client.as_current():  # as_completed follows the current client
-                for f in as_completed(futures):
-                    progress(units[order[f.key]])
-        return list(client.gather(futures))
+                    order = {f.key: i for i, f in enumerate(futures)}
+                    with client.as_current():  # as_completed follows the current client
+                        for f in as_completed(futures):
+                            progress(units[order[f.key]])
+                return list(client.gather(futures))
+            except (
+                TimeoutError,
+                asyncio.CancelledError,
+                concurrent.futures.CancelledError,
+                OSError,
+            ) as exc:
+                # (distributed's CommClosedError is an OSError, its FutureCancelledError
+                # a concurrent.futures CancelledError: the scheduler went away)
+                raise ClusterError(
+                    f"--scheduler: lost the Dask scheduler at {scheduler} during the "
+                    f"campaign ({type(exc).__name__}); nothing written"
+                ) from None
+
+
+class ClusterError(Exception):
+    """The Dask cluster failed: no scheduler at the address, or lost during a campaign
+    (the command line's exit status 4, one line; nothing written)."""
+
+
+#: a Dask scheduler's address: ``tcp://HOST:PORT`` (or ``tls://``)
+_ADDRESS = re.compile(r"^(tcp|tls)://[^/:\s]+:(\d{1,5})$")
+
+
+def check_scheduler_address(address: str) -> None:
+    """ValueError naming ``--scheduler`` unless ``address`` is ``tcp://HOST:PORT`` or
+    ``tls://HOST:PORT`` (an ``http://`` address or one without its port kept Dask's
+    half-built client 20 s in its destructor, then ended in an internal error)."""
+    m = _ADDRESS.match(address or "")
+    if m is None or not 0 < int(m.group(2)) < 65536:
+        raise ValueError(
+            f"--scheduler: {address!r} is no Dask scheduler address (tcp://HOST:PORT, as "
+            "'dask scheduler' prints it)"
+        )
+
+
+@contextlib.contextmanager
+def _quiet_dask() -> Iterator[None]:
+    """Dask's own logging above CRITICAL during the block: a lost scheduler printed
+    about 25 lines of tracebacks before ftnav's one-line message."""
+    import logging
+
+    loggers = [logging.getLogger(n) for n in ("distributed", "tornado", "asyncio")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        yield
+    finally:
+        for lg, level in zip(loggers, levels, strict=True):
+            lg.setLevel(level)
 
 
 @contextlib.contextmanager

@@ -102,3 +102,30 @@ def test_a_worker_killed_mid_campaign_loses_nothing(cluster, serial000):
     t.join()
     assert killed and killed[0] < done  # the worker died while the campaign ran
     assert _differences(serial000, evaluate(remote)) == []
+
+
+def test_a_scheduler_lost_mid_campaign_is_one_line_and_exit_4():
+    """It ended in an internal error after about 25 lines of Dask's tracebacks (found by
+    a user's try): now a ClusterError, which the command line prints as one line with
+    exit status 4 (nothing written).  A malformed address is refused before anything
+    runs (exit 2); nothing listening is exit 4."""
+    from ftnav.cli import main
+    from ftnav.parallel import ClusterError, check_scheduler_address
+
+    c = distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address=None,
+    )  # fmt: skip
+    sc = replace(_seed000(), steps=450)
+    stop = threading.Timer(3.0, c.close)
+    stop.start()
+    try:
+        with pytest.raises(ClusterError, match=r"^--scheduler: lost the Dask scheduler at tcp"):
+            run_scenario(sc, 400, 1, chunk=1, scheduler=c.scheduler_address)
+    finally:
+        stop.cancel()
+        c.close()
+    for bad in ("http://127.0.0.1:8786", "tcp://127.0.0.1", ""):
+        with pytest.raises(ValueError, match="is no Dask scheduler address"):
+            check_scheduler_address(bad)
+    assert main(["run", "seed000", "--runs", "1", "--scheduler", "tcp://127.0.0.1"]) == 2
