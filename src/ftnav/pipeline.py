@@ -384,7 +384,10 @@ class RecordingResult:
         return pd.concat(frames, ignore_index=True)
 
     def scores_frame(self) -> Any:
-        """A :class:`pandas.DataFrame` of the scalar scores, one row per method."""
+        """A :class:`pandas.DataFrame` of the scalar scores, one row per method: the
+        top-level ones, the outage drift, with ``smooth=True`` the smoothed solution's
+        (``smoothed_…``), against a full truth its horizontal RMSE and NEES
+        (``truth_…``)."""
         import pandas as pd
 
         rows = {}
@@ -393,6 +396,15 @@ class RecordingResult:
             if s.outages is not None:
                 row["outage_rms_max_m"] = s.outages.rms_max_error_m
                 row["outages"] = s.outages.count
+            if s.smoothed is not None:
+                row |= {f"smoothed_{k}": v for k, v in s.smoothed.scalars().items()}
+                if s.smoothed.outages is not None:
+                    row["smoothed_outage_rms_max_m"] = s.smoothed.outages.rms_max_error_m
+            if s.truth is not None:
+                row["truth_horizontal_m"] = s.truth.rmse.horizontal_m
+                if s.truth.nees is not None:
+                    row["truth_nees_mean"] = s.truth.nees.mean
+                    row["truth_nees_fraction_inside"] = s.truth.nees.fraction_inside
             rows[name] = row
         return pd.DataFrame.from_dict(rows, orient="index")
 

@@ -121,6 +121,8 @@ def test_the_smoothed_scores_have_no_prediction_and_the_table_shows_them(short_d
     assert s.prediction is not None and s.smoothed is not None
     assert s.smoothed.prediction is None
     assert "prediction_horizontal_rms_m" not in s.smoothed.as_dict()
+    frame = r.scores_frame()  # the smoothed scores too (left out before)
+    assert frame.loc["ckf", "smoothed_horizontal_rms_m"] == s.smoothed.horizontal_rms_m
     row = recording_table(r.scores).splitlines()[1].split()
     assert row[4] == "-" and float(row[5]) == pytest.approx(s.smoothed.horizontal_rms_m, abs=5e-4)
 
