@@ -45,7 +45,7 @@ from ftnav.engine.driver import Trace, run
 from ftnav.engine.smoother import smooth, smoothed_trace
 from ftnav.eval.montecarlo import build_filters
 from ftnav.eval.recorded import RecordedScores, Reference, reference_errors, score_recording
-from ftnav.io.common import MAX_NOISE_FACTOR
+from ftnav.io.common import MAX_NOISE_FACTOR, ScenarioError
 from ftnav.io.ins_scenario_file import ScenarioWarning
 from ftnav.io.recording_file import (
     LoadedRecording,
@@ -541,14 +541,20 @@ def prepare_recording(
             for f in faults
         ]
         outage = _outages(outages, names["outages"])
-        loaded = load_recording(
-            parsed,
-            outage=None if outage is None else (outage.length, outage.every, outage.start),
-            faults=fault_list,
-            methods=None if methods is None else list(methods),
-            aids=None if aids is None else list(aids),
-            warn=False,
-        )
+        try:
+            loaded = load_recording(
+                parsed,
+                outage=None if outage is None else (outage.length, outage.every, outage.start),
+                faults=fault_list,
+                methods=None if methods is None else list(methods),
+                aids=None if aids is None else list(aids),
+                warn=False,
+            )
+        except ScenarioError as e:  # a choice of methods or aids: the caller's argument
+            option = {"--methods": "methods", "--aids": "aids"}.get(e.path)
+            if option is None:
+                raise
+            raise ProcessingError(f"{names[option]}: {e.reason}") from None
     rec = loaded.recording
     for f in rec.faults:
         if f.sensor != SINS and f.sensor not in rec.sensor_names:

@@ -174,3 +174,12 @@ def test_the_gnss_on_prediction_leaves_out_the_first_fix_after_an_outage():
     want = np.sqrt(np.mean(np.hypot(ep[keep, 0], ep[keep, 1]) ** 2))
     got = r.scores["ckf"].prediction.horizontal_rms_m
     assert got == pytest.approx(want, rel=1e-12) and got < 0.1
+
+
+def test_an_unknown_method_or_aid_is_a_processing_error_naming_the_argument(short_drive):
+    """It was the loader's ScenarioError naming the CLI's ``--methods`` (found by a user
+    following the docs, which promise a ProcessingError naming the argument)."""
+    with pytest.raises(ProcessingError, match=r"^methods: no method 'nope' \(known: ckf\)$"):
+        process_recording(short_drive, methods=["nope"])
+    with pytest.raises(ProcessingError, match=r"^aids: no aid 'odometer'"):
+        process_recording(short_drive, aids=["odometer"])
