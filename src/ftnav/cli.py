@@ -610,7 +610,7 @@ def _cmd_schema(args) -> int:
         return 0
     assert output is not None
     with output.staged() as stage:
-        (stage / args.out.name).write_text(text + "\n")
+        (stage / args.out.name).write_text(text + "\n", encoding="utf-8")
     return 0
 
 
@@ -658,7 +658,7 @@ def _cmd_sweep(args) -> int:
             from ftnav.plot.sweep import save_sweep_figures
 
             figures = [p.name for p in save_sweep_figures(ds, stage)]
-        (stage / "report.md").write_text(sweep_report(ds, command, figures))
+        (stage / "report.md").write_text(sweep_report(ds, command, figures), encoding="utf-8")
         written = ["sweep.nc", "report.md", *figures]
         title = f"ftnav sweep: {sc.name}"
         table = ("sweep.nc", ds.to_dataframe().dropna(how="all").to_csv())
@@ -839,7 +839,7 @@ def _write_run(
         if stop_line is not None:  # the stopping rule's verdict under the title
             head, _, rest = md.partition("\n\n")
             md = f"{head}\n\n{stop_line}\n\n{rest}"
-        (stage / "report.md").write_text(md)
+        (stage / "report.md").write_text(md, encoding="utf-8")
         written = ["metrics.json", "report.md", *figures]
         if header is not None:
             write_shard(stage / SHARD, header, result, second_result)
@@ -890,16 +890,16 @@ def _write_html(
     command."""
     from ftnav.report.html import html_report
 
-    md = (stage / "report.md").read_text()
+    md = (stage / "report.md").read_text(encoding="utf-8")
     texts = []
     for heading, path in sources:
         try:
-            texts.append((f"{heading}: {path.name}", path.read_text()))
+            texts.append((f"{heading}: {path.name}", path.read_text(encoding="utf-8")))
         except (OSError, UnicodeDecodeError) as e:
             texts.append((f"{heading}: {path.name}", f"(not readable now: {e})"))
     metrics = stage / "metrics.json"
     if data is None and metrics.exists():
-        data = ("metrics.json", metrics.read_text())
+        data = ("metrics.json", metrics.read_text(encoding="utf-8"))
     command = "ftnav " + " ".join(getattr(args, "argv", []))
     footer = f"ftnav {__version__}" + ("" if seed is None else f" · root seed {seed}")
     page = html_report(
@@ -910,7 +910,7 @@ def _write_html(
         data=data,
         footer=f"{footer} · `{command}`",
     )
-    (stage / "report.html").write_text(page)
+    (stage / "report.html").write_text(page, encoding="utf-8")
     return "report.html"
 
 
@@ -1078,7 +1078,8 @@ def _cmd_process(args) -> int:
             for m in result.scores.values()
             for line in (() if m.integrity is None else m.integrity.findings)
         ]
-        (stage / "report.md").write_text(recording_report(loaded, result.scores, figures, findings))
+        report = recording_report(loaded, result.scores, figures, findings)
+        (stage / "report.md").write_text(report, encoding="utf-8")
         source = resolve_recording(args.recording)
         title = f"ftnav process: {rec.name}"
         _write_html(stage, args, title, [("Recording as run", source)], None)
@@ -1343,17 +1344,24 @@ class _PipeSafe:
 
     def write(self, text: str) -> int:
         if not self.gone:
+            if self._inner is None:  # stdout closed (``ftnav list >&-``): nowhere to write
+                self.gone = True
+                return len(text)
             try:
                 return int(self._inner.write(text))
-            except BrokenPipeError:
+            except UnicodeEncodeError:  # a terminal that cannot show σ or ±: shown escaped
+                enc = getattr(self._inner, "encoding", None) or "ascii"
+                safe = text.encode(enc, "backslashreplace").decode(enc)
+                return int(self._inner.write(safe))
+            except OSError:  # the reader closed the pipe, or /dev/full: the rest discarded
                 self._close()
         return len(text)
 
     def flush(self) -> None:
-        if not self.gone:
+        if not self.gone and self._inner is not None:
             try:
                 self._inner.flush()
-            except BrokenPipeError:
+            except OSError:
                 self._close()
 
     def _close(self) -> None:
@@ -1374,6 +1382,8 @@ def main(argv: list[str] | None = None) -> int:
     debug = False
     stdout = sys.stdout
     sys.stdout = _PipeSafe(stdout)  # type: ignore[assignment]
+    if hasattr(sys.stderr, "reconfigure"):  # a terminal that cannot show σ: escaped, not fatal
+        sys.stderr.reconfigure(errors="backslashreplace")
     try:
         parser = _parser()
         args = parser.parse_args(argv)

@@ -81,3 +81,50 @@ def test_a_reader_that_closes_the_pipe_early_is_no_internal_error() -> None:
     assert proc.wait(timeout=120) == 0, err
     assert first.startswith(b"seed000:")
     assert "internal error" not in err and "Broken" not in err, err
+
+
+@pytest.mark.parametrize(
+    ("env", "redirect"),
+    [
+        ({"PYTHONIOENCODING": "ascii"}, None),  # a terminal that cannot show σ or ±
+        ({"LC_ALL": "C", "PYTHONUTF8": "0"}, None),  # report.md in the locale's encoding
+        ({}, "closed"),  # ftnav list >&-
+        ({}, "/dev/full"),  # no space left for stdout
+    ],
+)
+def test_the_output_streams_environment_is_no_internal_error(tmp_path, env, redirect) -> None:
+    """Each ended in ``internal error, please report`` (a UnicodeEncodeError, once after
+    the whole campaign with nothing written; an AttributeError on a closed stdout, exit
+    120; ENOSPC), found by a user's try.  Files are UTF-8 whatever the locale; what the
+    terminal cannot show is escaped; a stdout gone is no error."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "cli"))
+    from seed000_copy import seed000_copy
+
+    sc = seed000_copy(tmp_path / "s.toml", ("ckf",), steps=400)
+    out = tmp_path / "o"
+    argv = ["run", str(sc), "--runs", "1", "--out", str(out), "--no-figures", "--quiet"]
+    code = f"import sys; from ftnav.cli import main; sys.exit(main({argv!r}))"
+    stdout: object = subprocess.PIPE
+    if redirect == "closed":
+        code = "import os; os.close(1); " + code
+    elif redirect == "/dev/full":
+        if not os.path.exists("/dev/full"):
+            pytest.skip("no /dev/full here")
+        stdout = open("/dev/full", "w")  # noqa: SIM115 - closed below
+    proc = subprocess.run(
+        [sys.executable, "-c", code],
+        stdout=stdout,
+        stderr=subprocess.PIPE,
+        env={**os.environ, **env},
+        timeout=300,
+    )
+    if redirect == "/dev/full":
+        stdout.close()  # type: ignore[attr-defined]
+    err = proc.stderr.decode("utf-8", "replace")
+    assert proc.returncode == 0 and "internal error" not in err, err
+    assert "±" in (out / "report.md").read_text(encoding="utf-8")

@@ -335,7 +335,7 @@ class Output:
             files = [n for n in before["files"] if n not in names]
             kept = sorted({*before["kept"], *names})
             gone = []
-        (stage / MANIFEST).write_text(_manifest_text(files, kept, names))
+        (stage / MANIFEST).write_text(_manifest_text(files, kept, names), encoding="utf-8")
         if self.folder and not self.target.exists():
             os.rename(stage, self.target)  # a new folder: one atomic rename
             return

@@ -49,7 +49,7 @@ def write_metrics(doc: dict[str, Any], path: Path) -> Path:
     """Write the metrics document as strict JSON (no NaN literals: null, "not
     applicable"); an infinite metric of a method raises :class:`Diverged` instead."""
     path = Path(path)
-    path.write_text(json.dumps(_clean(doc), indent=2, allow_nan=False) + "\n")
+    path.write_text(json.dumps(_clean(doc), indent=2, allow_nan=False) + "\n", encoding="utf-8")
     return path
 
 

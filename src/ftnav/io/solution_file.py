@@ -121,7 +121,8 @@ def write_track_geojson(
                 },
             }
         )
-    path.write_text(json.dumps({"type": "FeatureCollection", "features": features}))
+    text = json.dumps({"type": "FeatureCollection", "features": features})
+    path.write_text(text, encoding="utf-8")
     return path
 
 
