@@ -624,6 +624,13 @@ def _cmd_sweep(args) -> int:
         keys = [a.key for a in axes]
         if len(set(keys)) != len(keys):
             raise UsageError(f"--set: a key is swept twice ({', '.join(keys)})")
+        for a in keys:  # a key and a part of it: the later setting overwrites the other
+            for b in keys:
+                if b.startswith(a + "."):
+                    raise UsageError(
+                        f"--set: {b} is a part of {a}, swept too: one would overwrite the "
+                        "other at every point"
+                    )
         points = grid(source, axes)
         sc = points[0][1]
         out = args.out if args.out is not None else Path("results") / f"{sc.name}-sweep"

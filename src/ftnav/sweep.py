@@ -113,6 +113,13 @@ def _scalar(text: str, where: str) -> Any:
     return value
 
 
+def _same(value: Any) -> str:
+    """A value's identity for the repeat check: numbers by their value (10 and 10.0)."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return repr(float(value))
+    return repr(value)
+
+
 def parse_set(text: str) -> SweepAxis:
     """``KEY=V1,V2,...`` or ``KEY*=F1,F2,...`` (module docstring)."""
     key, sep, rest = text.partition("=")
@@ -124,7 +131,7 @@ def parse_set(text: str) -> SweepAxis:
     values = tuple(_scalar(v, where) for v in rest.split(","))
     if scale and not all(isinstance(v, int | float) and not isinstance(v, bool) for v in values):
         raise SweepError(f"{where}: a scale (KEY*=...) takes numbers")
-    if len(set(map(repr, values))) != len(values):
+    if len(set(map(_same, values))) != len(values):  # 10 and 10.0 alike
         raise SweepError(f"{where}: a value is given twice")
     parts = key.split(".")
     if parts[-1] == "name" and parts[0] in ("methods", "sensors", "aids"):
