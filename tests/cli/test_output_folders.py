@@ -347,3 +347,20 @@ def test_single_files_in_one_folder_are_all_kept_in_its_manifest(tmp_path, capsy
         assert main(["schema", "--out", str(tmp_path / name)]) == 0
     assert json.loads((tmp_path / MANIFEST).read_text())["kept"] == ["a.json", "b.json"]
     capsys.readouterr()
+
+
+def test_a_file_a_user_wrote_again_under_an_outputs_name_is_never_replaced(tmp_path, capsys):
+    """ftnav listed ``s1.json`` as its own; the user deleted it and wrote notes under
+    that name; ``ftnav schema --out s1.json`` replaced them, exit 0 (found by a user's
+    try).  The manifest holds each file's size and modification time as written: a file
+    that is no longer what ftnav wrote is the user's."""
+    out = tmp_path / "s1.json"
+    assert main(["schema", "--out", str(out)]) == 0
+    assert main(["schema", "--out", str(out)]) == 0  # its own: replaced
+    out.unlink()
+    out.write_text("USER NOTES\n")
+    capsys.readouterr()
+    assert main(["schema", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "exists and no ftnav manifest lists it (or it changed since" in err, err
+    assert out.read_text() == "USER NOTES\n"

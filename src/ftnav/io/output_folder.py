@@ -46,6 +46,7 @@ import zipfile
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from ftnav.io.model_file import FORMAT, METADATA_MEMBER
 from ftnav.parallel import signals_held
@@ -85,17 +86,30 @@ class OutputRefused(ValueError):
 # ------------------------------------------------------------------------- manifest
 
 
-def _read_manifest(folder: Path) -> dict[str, list[str]]:
-    """The manifest's ``files`` and ``kept`` lists (names of plain files in ``folder``)."""
+def _read_manifest(folder: Path) -> dict[str, Any]:
+    """The manifest's ``files`` and ``kept`` lists (names of plain files in ``folder``)
+    and ``stamps`` (name -> [size, mtime_ns] of the file as ftnav wrote it)."""
     try:
         doc = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return {"files": [], "kept": []}
-    out: dict[str, list[str]] = {}
+        return {"files": [], "kept": [], "stamps": {}}
+    out: dict[str, Any] = {}
     for key in ("files", "kept"):
         names = doc.get(key, []) if isinstance(doc, dict) else []
         out[key] = [n for n in names if _plain_name(n)] if isinstance(names, list) else []
+    stamps = doc.get("stamps", {}) if isinstance(doc, dict) else {}
+    out["stamps"] = {
+        n: v
+        for n, v in (stamps.items() if isinstance(stamps, dict) else ())
+        if _plain_name(n) and isinstance(v, list) and len(v) == 2
+    }
     return out
+
+
+def _stamp(p: Path) -> list[int]:
+    """A file's size and modification time (ns): what ftnav wrote, or a file replaced."""
+    st = p.stat()
+    return [int(st.st_size), int(st.st_mtime_ns)]
 
 
 def _plain_name(n: object) -> bool:
@@ -127,8 +141,16 @@ def _is_model_file(p: Path) -> bool:
         return False
 
 
-def _manifest_text(files: list[str], kept: list[str], last: list[str]) -> str:
-    doc = {"written_by": f"ftnav {__version__}", "files": files, "kept": kept, "last": last}
+def _manifest_text(
+    files: list[str], kept: list[str], last: list[str], stamps: dict[str, list[int]]
+) -> str:
+    doc = {
+        "written_by": f"ftnav {__version__}",
+        "files": files,
+        "kept": kept,
+        "last": last,
+        "stamps": stamps,
+    }
     return json.dumps(doc, indent=1) + "\n"
 
 
@@ -262,8 +284,17 @@ class Output:
 
     # -- ownership
     def _owned(self, folder: Path) -> set[str]:
+        """The files ftnav wrote here and that are still what it wrote: a name it listed
+        whose file a user has since replaced (deleted and written again) is the user's
+        (``ftnav schema --out s.json`` replaced a user's new ``s.json`` before)."""
         m = _read_manifest(folder)
-        return {n for n in m["files"] + m["kept"] if _is_plain_file(folder / n)}
+        stamps = m["stamps"]
+        owned = set()
+        for n in m["files"] + m["kept"]:
+            p = folder / n
+            if _is_plain_file(p) and (n not in stamps or stamps[n] == _stamp(p)):
+                owned.add(n)
+        return owned
 
     def check_names(self, names: Iterable[str]) -> None:
         """Refuse if a file this command would write is a user's (module docstring)."""
@@ -275,7 +306,8 @@ class Output:
             p = home / name
             if (p.exists() or p.is_symlink()) and name not in owned and not _is_model_file(p):
                 raise OutputRefused(
-                    f"{str(p)!r} exists and no ftnav manifest lists it: it is not replaced; "
+                    f"{str(p)!r} exists and no ftnav manifest lists it (or it changed since "
+                    "ftnav wrote it): it is not replaced; "
                     "move it or choose another --out"
                 )
 
@@ -327,7 +359,8 @@ class Output:
             raise
 
     def _commit(self, stage: Path, names: list[str], home: Path) -> None:
-        before = _read_manifest(home) if home.is_dir() else {"files": [], "kept": []}
+        empty: dict[str, Any] = {"files": [], "kept": [], "stamps": {}}
+        before = _read_manifest(home) if home.is_dir() else empty
         if self.folder:
             files, kept = names, [n for n in before["kept"] if n not in names]
             gone = before["files"]  # the earlier run's files: deleted
@@ -335,7 +368,11 @@ class Output:
             files = [n for n in before["files"] if n not in names]
             kept = sorted({*before["kept"], *names})
             gone = []
-        (stage / MANIFEST).write_text(_manifest_text(files, kept, names), encoding="utf-8")
+        # what is written now, as the renames below keep it (size and mtime)
+        stamps = {n: v for n, v in before["stamps"].items() if n in {*files, *kept}}
+        stamps |= {n: _stamp(stage / n) for n in names}
+        text = _manifest_text(files, kept, names, stamps)
+        (stage / MANIFEST).write_text(text, encoding="utf-8")
         if self.folder and not self.target.exists():
             os.rename(stage, self.target)  # a new folder: one atomic rename
             return
