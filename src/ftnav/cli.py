@@ -76,6 +76,7 @@ from ftnav.eval.resources import (
     trajectory_memory_bytes,
 )
 from ftnav.eval.stopping import check_target, parse_target, run_until
+from ftnav.fdi.rbf import KMEANS_SAMPLES
 from ftnav.io.common import ScenarioError, read_toml
 from ftnav.io.learned import save_neuron_model, save_rbf_model
 from ftnav.io.model_file import ModelFileError
@@ -179,6 +180,25 @@ def _out_path(text: str) -> Path:
     if "\0" in text:
         raise argparse.ArgumentTypeError("must not contain a NUL character")
     return Path(text)
+
+
+class _Once(argparse.Action):
+    """An option given at most once (a second ``--until`` dropped the first in silence:
+    the rule stops on one target)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[no-untyped-def]
+        if getattr(namespace, self.dest, None) is not None:
+            raise argparse.ArgumentError(self, "given twice: the rule stops on one target")
+        setattr(namespace, self.dest, values)
+
+
+def _out_file(text: str) -> Path:
+    """``--out`` of a command that writes one file: a path that does not end in a folder
+    separator (``newdir/`` wrote a file named ``newdir``)."""
+    path = _out_path(text)
+    if text.endswith(("/", os.sep)):
+        raise argparse.ArgumentTypeError(f"{text!r} names a folder; give a file name")
+    return path
 
 
 def _name_list(text: str | None, option: str) -> list[str] | None:
@@ -329,6 +349,7 @@ def _parser() -> _Parser:
     )
     r.add_argument(
         "--until",
+        action=_Once,
         default=None,
         metavar="METHOD.METRIC:rel=F",
         help="add runs (from --runs) until the metric's 95 %% interval has this half-width, "
@@ -386,13 +407,15 @@ def _parser() -> _Parser:
     t.add_argument(
         "--imu", default=None, help="IMU error preset (ideal increments if omitted), e.g. seed001"
     )
-    t.add_argument("--seed", type=_seed, default=1, help="random seed of the IMU errors")
+    t.add_argument(
+        "--seed", type=_seed, default=None, help="random seed of the IMU errors (with --imu; 1)"
+    )
     t.add_argument("--no-figure", action="store_true", help="skip trajectory.png")
     d = command(
         "train-detector", help="train the RBF fault detector (paper 000) on a scenario's system"
     )
     d.add_argument("scenario", help="built-in scenario name or a TOML path")
-    d.add_argument("--out", type=_out_path, required=True, help="model file to write (.npz)")
+    d.add_argument("--out", type=_out_file, required=True, help="model file to write (.npz)")
     d.add_argument(
         "--runs", type=_positive, default=8, help="training runs per typical fault (default 8)"
     )
@@ -413,7 +436,7 @@ def _parser() -> _Parser:
         "train-fusion", help="train the neuron fusion centre (paper 001) on a scenario's system"
     )
     f.add_argument("scenario", help="built-in scenario name or a TOML path")
-    f.add_argument("--out", type=_out_path, required=True, help="model file to write (.npz)")
+    f.add_argument("--out", type=_out_file, required=True, help="model file to write (.npz)")
     f.add_argument(
         "--runs", type=_positive, default=4, help="training runs per typical fault (default 4)"
     )
@@ -487,7 +510,7 @@ def _parser() -> _Parser:
     )
     command("list", help="list built-in scenarios and their methods")
     s = command("schema", help="print the JSON schema of scenario files (linear and integrated)")
-    s.add_argument("--out", type=_out_path, default=None, help="write to a file instead")
+    s.add_argument("--out", type=_out_file, default=None, help="write to a file instead")
     s.add_argument("--recording", action="store_true", help="the schema of recording files instead")
     return p
 
@@ -1110,6 +1133,8 @@ def _cmd_trajectory(args) -> int:
         errors = None
         if args.imu is not None:
             errors = imu_preset(args.imu)
+        elif args.seed is not None:
+            raise UsageError("--seed: given without --imu (the ideal IMU has no errors to draw)")
         out = Path(args.out)
         output = _claim(out, folder=True, names=["truth.csv", "imu.csv"])
         need = trajectory_memory_bytes(profile, errors is not None)
@@ -1124,7 +1149,8 @@ def _cmd_trajectory(args) -> int:
     traj = generate(profile)
     dtheta, dv = traj.dtheta, traj.dv
     if errors is not None:
-        dtheta, dv, _ = simulate_imu_errors(dtheta, dv, traj.dt, errors, seed=args.seed)
+        seed = 1 if args.seed is None else args.seed
+        dtheta, dv, _ = simulate_imu_errors(dtheta, dv, traj.dt, errors, seed=seed)
     mark_kernels_compiled("trajectory")
     with output.staged() as stage:
         written = [
@@ -1137,7 +1163,7 @@ def _cmd_trajectory(args) -> int:
             fig = trajectory_figure(traj, title=f"{profile.name}: {profile.duration:g} s")
             fig.savefig(stage / "trajectory.png", dpi=110)
             written.append("trajectory.png")
-    imu = f"IMU errors '{args.imu}', seed {args.seed}" if errors is not None else "ideal IMU"
+    imu = f"IMU errors '{args.imu}', seed {seed}" if errors is not None else "ideal IMU"
     print(
         f"{profile.name}: {profile.duration:g} s at {profile.imu_rate:g} Hz, "
         f"{len(profile.segments)} segments, {imu}"
@@ -1187,6 +1213,16 @@ def _cmd_train_detector(args) -> int:
             runs=args.runs, holdout_runs=args.holdout, seed=args.seed, n_centres=args.centres
         )
         n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+        # every training run, variant and epoch is one sample at most, and k-means reads
+        # at most KMEANS_SAMPLES of them: more centres than that ended in an internal
+        # error after the training
+        samples = min(args.runs * n_var * sc.steps, KMEANS_SAMPLES)
+        if args.centres > samples:
+            raise UsageError(
+                f"--centres: {args.centres} hidden units need at least as many training "
+                f"samples; {args.runs} run(s) of {n_var} fault variants over {sc.steps} "
+                f"epochs give at most {samples} (k-means reads {KMEANS_SAMPLES} at most)"
+            )
     _compile_note("train-linear", args.quiet)
     total = sc.steps * n_var * (args.runs * (1 + settings.closed_loop) + 2 * args.holdout)
     t0 = time.perf_counter()
@@ -1228,6 +1264,11 @@ def _cmd_train_fusion(args) -> int:
             )
             n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
             check_training(sc, settings)
+            if args.method is not None:
+                raise UsageError(
+                    "--method: for an integrated scenario's neural methods; a linear "
+                    "scenario's centre is trained on its system alone"
+                )
         else:
             check_ins_training(sc)
     if _integrated(sc):

@@ -256,8 +256,10 @@ def _sins_fault(text: str, parts: list[str], field: str) -> Fault:
             f"{field}: a gyro-bias needs X,Y,Z, the step in deg/h about the body axes "
             f"(x right, y forward, z up) ({text!r})"
         )
-    if not all(math.isfinite(x) for x in (start, end, *rate)) or end <= start:
-        raise ProcessingError(f"{field}: END must be after START, all finite ({text!r})")
+    if not all(math.isfinite(x) for x in rate):
+        raise ProcessingError(f"{field}: X,Y,Z must be finite ({text!r})")
+    if not (math.isfinite(start) and math.isfinite(end)) or end <= start:
+        raise ProcessingError(f"{field}: END must be after START, both finite ({text!r})")
     limit = RANGES["angular_rate"]
     mag = np.asarray(rate) / limit.per_si
     if np.abs(mag).max() > limit.high:

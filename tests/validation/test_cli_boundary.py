@@ -128,3 +128,50 @@ def test_the_output_streams_environment_is_no_internal_error(tmp_path, env, redi
     err = proc.stderr.decode("utf-8", "replace")
     assert proc.returncode == 0 and "internal error" not in err, err
     assert "±" in (out / "report.md").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        # an internal error after the training
+        (["train-detector", "{sc}", "--out", "{tmp}/d.npz", "--runs", "1", "--holdout", "1",
+          "--centres", "4000", "--no-figure", "--quiet"], "--centres: 4000 hidden units need"),
+        # wrote a file named 'newdir'
+        (["schema", "--out", "{tmp}/newdir/"], "--out: '{tmp}/newdir/' names a folder"),
+        # ignored on a linear scenario
+        (["train-fusion", "{sc}", "--out", "{tmp}/f.npz", "--method", "nope", "--quiet"],
+         "--method: for an integrated scenario's neural methods"),
+        # ignored with the ideal IMU
+        (["trajectory", "seed001", "--out", "{tmp}/t", "--seed", "5"],
+         "--seed: given without --imu"),
+        # the first target dropped in silence
+        (["run", "{sc}", "--until", "ckf.rmse.s:rel=0.5", "--until", "ckf.anees:rel=0.5",
+          "--out", "{tmp}/u"], "--until: given twice"),
+        # blamed END
+        (["process", "rtklib-drive", "--fault", "sins:gyro-bias:1752003400:1752003430:nan,0,0",
+          "--out", "{tmp}/p"], "--fault: X,Y,Z must be finite"),
+    ],
+)  # fmt: skip
+def test_an_option_ignored_or_misread_is_refused_by_name(tmp_path, capsys, argv, says) -> None:
+    """Found by a user's try of every option: each was ignored, misread or an internal
+    error; now one line naming the option, exit 2, nothing written."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "cli"))
+    from seed000_copy import seed000_copy
+
+    sc = seed000_copy(tmp_path / "s.toml", ("ckf", "fkf-inverse-trace-chi2"), steps=60)
+    (tmp_path / "s.toml").write_text(
+        (tmp_path / "s.toml")
+        .read_text()
+        .replace("start = 300.0", "start = 20.0")
+        .replace("end = 500.0", "end = 50.0")
+    )
+    args = [a.format(sc=sc, tmp=tmp_path) for a in argv]
+    before = set(tmp_path.iterdir())
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    (line,) = [ln for ln in err.splitlines() if not ln.startswith("ftnav: warning:")]
+    assert says.format(tmp=tmp_path) in line and line.startswith("ftnav: error: "), err
+    assert set(tmp_path.iterdir()) == before

@@ -27,12 +27,16 @@ import numpy as np
 
 from ftnav.fdi.chi2 import DetectorOutput, DetectorState, apply_hysteresis
 
-__all__ = ["RBFNetwork", "RBFModel", "RBFDetector", "MODEL_KIND"]
+__all__ = ["KMEANS_SAMPLES", "MODEL_KIND", "RBFDetector", "RBFModel", "RBFNetwork"]
 
 #: ``kind`` of an RBF detector model file (:mod:`ftnav.io.learned`).
 MODEL_KIND = "rbf-detector"
 
 _WIDTHS = ("global", "nearest")
+
+
+#: training samples k-means reads at most (a random subset of a larger set)
+KMEANS_SAMPLES = 20000
 
 
 class RBFNetwork:
@@ -84,7 +88,7 @@ class RBFNetwork:
         ridge: float = 1e-6,
         n_init: int = 10,
         class_weight: str = "none",
-        kmeans_samples: int = 20000,
+        kmeans_samples: int = KMEANS_SAMPLES,
         transform: str = "signed-log",
         balance: bool = True,
         random_state: int | None = None,
