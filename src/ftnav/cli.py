@@ -494,7 +494,8 @@ def _parser() -> _Parser:
         help="inject a fault into a recorded aid (repeatable); START, END on the recording's "
         "time base; a bias or ramp MAGNITUDE in metres on the north position (m/s on the "
         "north velocity of an aid that measures velocity only); a noise-scale "
-        "MAGNITUDE the factor (>= 1) on the aid's noise σ; or sins:gyro-bias:START:END:X,Y,Z, "
+        "MAGNITUDE the factor (>= 1) on the aid's noise σ; stuck and outage take none; "
+        "or sins:gyro-bias:START:END:X,Y,Z, "
         "a gyro bias step in deg/h about the body axes (x right, y forward, z up)",
     )
     r.add_argument(
@@ -522,6 +523,8 @@ def _resolve(spec: str, models: bool = True):
 
 def _scenario_path(spec: str) -> Path:
     """The file of the built-in scenario or scenario file ``spec``."""
+    if not spec.strip():  # Path("") is the current folder: '.: is a folder' named nothing
+        raise UsageError("scenario: an empty name; give a built-in scenario or a file")
     if spec in builtin_names():
         return builtin_path(spec)
     path = Path(spec)

@@ -107,6 +107,8 @@ def resolve_recording(spec: str | Path) -> Path:
             "recording: expected a built-in recording's name, a recording file's path or a "
             f"LoadedRecording, got {spec!r}"
         )
+    if isinstance(spec, str) and not spec.strip():  # Path("") is the current folder
+        raise ProcessingError("recording: an empty name; give a built-in recording or a file")
     if isinstance(spec, str) and spec in recording_names():
         return recording_path(spec)
     path = Path(spec)

@@ -147,6 +147,9 @@ def test_the_output_streams_environment_is_no_internal_error(tmp_path, env, redi
         # the first target dropped in silence
         (["run", "{sc}", "--until", "ckf.rmse.s:rel=0.5", "--until", "ckf.anees:rel=0.5",
           "--out", "{tmp}/u"], "--until: given twice"),
+        # '.: is a folder, not a file', naming neither the argument nor the value
+        (["run", ""], "scenario: an empty name"),
+        (["process", ""], "recording: an empty name"),
         # blamed END
         (["process", "rtklib-drive", "--fault", "sins:gyro-bias:1752003400:1752003430:nan,0,0",
           "--out", "{tmp}/p"], "--fault: X,Y,Z must be finite"),

@@ -100,6 +100,8 @@ def load_profile(source: str | Path) -> Profile:
 
 def resolve_profile(name_or_path: str) -> Profile:
     """A built-in profile by name (``seed001``, ``seed002``) or a TOML file path."""
+    if not name_or_path.strip():  # Path("") is the current folder
+        raise ScenarioError("PROFILE", "an empty name; give a built-in profile or a file")
     if name_or_path in builtin_profile_names():
         return load_profile(builtin_profile_path(name_or_path))
     if not name_or_path.endswith(".toml") and not Path(name_or_path).exists():
