@@ -37,8 +37,10 @@ from ftnav.engine.driver import (
     iterate,
     method_feedback,
 )
+from ftnav.eval.batching import CHUNK_BYTES, PARALLEL_MIN_WORK, chunk_runs
 from ftnav.eval.metrics import nees
 from ftnav.eval.navigation import N_NAV, metric_errors, metric_variances
+from ftnav.eval.resources import check_memory
 from ftnav.fusion import registry
 from ftnav.fusion.config import NOTHING_LEARNED
 from ftnav.fusion.protocol import Architecture
@@ -64,12 +66,6 @@ __all__ = [
     "simulate_runs",
     "split_results",
 ]
-
-#: smallest ``methods × epochs`` of a linear scenario worth worker processes (~2 s each)
-PARALLEL_MIN_WORK = 10_000
-#: memory budget of one batch's simulated IMU increments (bytes); the simulation's
-#: temporaries roughly double it at its peak
-CHUNK_BYTES = 2 << 30
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -139,20 +135,6 @@ def simulate_runs(scenario: Any, runs: range, seed: int) -> Simulated | Simulate
     if scenario.kind == "integrated":
         return simulate_ins(scenario, runs, seed)
     return simulate(scenario, len(runs), seed, first_run=runs.start)
-
-
-def chunk_runs(sc: Any, twin: bool = True, points: int = 1) -> int:
-    """Runs per batch of an integrated scenario so its IMU increments stay within
-    :data:`CHUNK_BYTES` (a linear scenario runs in one batch).
-
-    Per run and per SINS: the increments ``dθ``, ``Δv``, ``2 × 3`` float64 per IMU
-    sample, for each of ``points`` streams (:func:`run_points`) and the fault-free
-    twin.  A 3600 s flight at 100 Hz gives 62 runs per batch.
-    """
-    if sc.kind != "integrated":
-        return 1 << 62
-    per_run: int = sc.samples_per_epoch * sc.steps * 6 * 8 * (int(points) + bool(twin))
-    return max(1, CHUNK_BYTES // per_run)
 
 
 # --------------------------------------------------------------------------- scoring
@@ -317,8 +299,6 @@ def run_scenario(
     if isinstance(scenario, Scenario | InsScenario):  # else refused by name below
         _check_whole("runs", runs, 1)
         _check_whole("workers", workers, 1)
-        from ftnav.eval.resources import check_memory  # it imports this module
-
         check_memory(scenario, runs, workers=workers, fault_free=fault_free, chunk=chunk)
     (result,) = run_points(
         (scenario,),

@@ -11,7 +11,7 @@ runners hold at their peak:
   of every method (``x`` and ``P_diag`` ``(2B, K, n_c)``, NEES ``(2B, K)``, sharing
   coefficients and detector outputs ``(2B, K, N)``, noise ``(2B, K, Σm)``);
 * integrated scenarios (:func:`ftnav.eval.montecarlo.run_scenario`): per batch of
-  :func:`~ftnav.eval.montecarlo.chunk_runs` runs, the IMU increments ``(b, n_imu, 3)``
+  :func:`~ftnav.eval.batching.chunk_runs` runs, the IMU increments ``(b, n_imu, 3)``
   at their peak in :func:`ftnav.sim.imu.simulate_imu_errors` (outputs, Markov drifts,
   one temporary), the fault-free twin and the concatenated batch; the results of every
   method, local tracks ``(2b, K, N, 3)`` included; every run's results are held until
@@ -46,7 +46,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TypedDict, Unpack
 
-from ftnav.eval.montecarlo import PARALLEL_MIN_WORK, chunk_runs
+from ftnav.eval.batching import PARALLEL_MIN_WORK, chunk_runs
 from ftnav.model.scenario import InsScenario
 
 if TYPE_CHECKING:
@@ -57,6 +57,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "available_memory_bytes",
+    "check_memory",
     "format_bytes",
     "kernels_compiled",
     "mark_kernels_compiled",
@@ -296,7 +297,7 @@ def run_memory_bytes(
     fault_free : the fault-free twin runs beside the faults (what ``ftnav run`` does).
     save_estimates : ``estimates.nc`` is written after the run.
     chunk : runs per batch of an integrated run (default
-        :func:`ftnav.eval.montecarlo.chunk_runs`).
+        :func:`ftnav.eval.batching.chunk_runs`).
 
     Returns
     -------
