@@ -67,7 +67,7 @@ from tqdm import tqdm
 from ftnav.engine.driver import Diverged
 from ftnav.eval import resources
 from ftnav.eval.evaluate import evaluate, metrics_to_json
-from ftnav.eval.integrity import MethodWatch
+from ftnav.eval.integrity import GRAVE, MethodWatch
 from ftnav.eval.montecarlo import ScenarioResult, build_filters, join_results, run_scenario
 from ftnav.eval.resources import (
     format_bytes,
@@ -1002,8 +1002,6 @@ def _cmd_merge(args) -> int:
 #: integrity findings printed in all; past it, per method, before the rest is left to
 #: metrics.json
 MAX_FINDINGS, MAX_FINDINGS_EACH = 12, 2
-#: findings printed first: a method's numbers are a coast's, or past its bound
-_GRAVE = ("every aid that measured was left out", "the horizontal position σ passed")
 
 
 def _integrity_warnings(watches: Iterable[MethodWatch | None]) -> None:
@@ -1013,7 +1011,7 @@ def _integrity_warnings(watches: Iterable[MethodWatch | None]) -> None:
     which ``metrics.json`` holds.  (The first twelve of all methods were printed: a
     method 30 times worse than the plain filter, listed last, had none printed.)"""
     each = [
-        sorted(w.findings, key=lambda f: not any(g in f for g in _GRAVE))
+        sorted(w.findings, key=lambda f: not any(g in f for g in GRAVE))
         for w in watches
         if w is not None
     ]
@@ -1400,10 +1398,6 @@ class _PipeSafe:
                 return len(text)
             try:
                 return int(self._inner.write(text))
-            except UnicodeEncodeError:  # a terminal that cannot show σ or ±: shown escaped
-                enc = getattr(self._inner, "encoding", None) or "ascii"
-                safe = text.encode(enc, "backslashreplace").decode(enc)
-                return int(self._inner.write(safe))
             except OSError:  # the reader closed the pipe, or /dev/full: the rest discarded
                 self._close()
         return len(text)
@@ -1433,8 +1427,9 @@ def main(argv: list[str] | None = None) -> int:
     debug = False
     stdout = sys.stdout
     sys.stdout = _PipeSafe(stdout)  # type: ignore[assignment]
-    if hasattr(sys.stderr, "reconfigure"):  # a terminal that cannot show σ: escaped, not fatal
-        sys.stderr.reconfigure(errors="backslashreplace")
+    for stream in (stdout, sys.stderr):  # a terminal that cannot show σ or ±: escaped
+        if hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
     try:
         parser = _parser()
         args = parser.parse_args(argv)

@@ -550,8 +550,8 @@ def prepare_recording(
                 parsed,
                 outage=None if outage is None else (outage.length, outage.every, outage.start),
                 faults=fault_list,
-                methods=None if methods is None else list(methods),
-                aids=None if aids is None else list(aids),
+                methods=methods,  # lists or None (above)
+                aids=aids,
                 warn=False,
             )
         except ScenarioError as e:  # a choice of methods or aids: the caller's argument
@@ -582,7 +582,7 @@ def prepare_recording(
     return Prepared(loaded, dict(filters), smooth)
 
 
-def _check_names(chosen: Sequence[str] | None, field: str) -> None:
+def _check_names(chosen: list[str] | str | None, field: str) -> None:
     """A chosen list of methods or aids: None (all), else names, at least one, none twice."""
     if chosen is None:
         return
@@ -590,7 +590,7 @@ def _check_names(chosen: Sequence[str] | None, field: str) -> None:
         raise ProcessingError(f"{field}: expected a list of names, got {chosen!r}")
     if not chosen:
         raise ProcessingError(f"{field}: an empty list chooses nothing (None: all of them)")
-    repeated = sorted({n for n in chosen if list(chosen).count(n) > 1})
+    repeated = sorted({n for n in chosen if chosen.count(n) > 1})
     if repeated:
         raise ProcessingError(f"{field}: {', '.join(map(repr, repeated))} given twice")
 

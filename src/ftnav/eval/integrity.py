@@ -54,6 +54,10 @@ MIN_SAMPLES = 10
 TOGGLES = 10
 #: every aid that measured left out this long (s) is a lock-out finding
 LOCKOUT_S = 30.0
+#: the words of the findings that say a method's numbers are a coast's or past its
+#: bound (printed first, :func:`ftnav.cli`'s warnings)
+LOCKED_OUT, OVER_BOUND = "every aid that measured was left out", "the horizontal position σ passed"
+GRAVE = (LOCKED_OUT, OVER_BOUND)
 
 
 class WatchSettings(NamedTuple):
@@ -409,7 +413,7 @@ def watch(
     coast, coast_from = _longest_coast(times, present, present & ~np.asarray(used.any(-1), bool))
     if coast >= LOCKOUT_S:
         findings.append(
-            f"methods[{name}]: every aid that measured was left out for {coast:.0f} s from "
+            f"methods[{name}]: {LOCKED_OUT} for {coast:.0f} s from "
             f"t = {coast_from:.1f} s (isolated or gated): the solution coasted on its "
             "model alone while measurements came, a lock-out unless every aid was faulty "
             "at once; its numbers there are a coast's"
@@ -428,7 +432,7 @@ def watch(
             if first_over is not None:
                 runs_over = f" in {n_over} of {B} runs" if B > 1 else ""
                 findings.append(
-                    f"methods[{name}]: the horizontal position σ passed "
+                    f"methods[{name}]: {OVER_BOUND} "
                     f"{settings.sigma_bound_m:g} m at t = {first_over:.1f} s{runs_over} "
                     f"(up to {max_sigma:.3g} m): the solution no longer meets its bound"
                 )

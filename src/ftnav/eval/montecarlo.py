@@ -296,10 +296,6 @@ def run_scenario(
     before it is scored: a method that diverges raises
     :class:`~ftnav.engine.driver.Diverged`, naming it, the epoch and its time.
     """
-    if isinstance(scenario, Scenario | InsScenario):  # else refused by name below
-        _check_whole("runs", runs, 1)
-        _check_whole("workers", workers, 1)
-        check_memory(scenario, runs, workers=workers, fault_free=fault_free, chunk=chunk)
     (result,) = run_points(
         (scenario,),
         runs,
@@ -397,6 +393,8 @@ def run_points(
     if chunk is not None:
         _check_whole("chunk", chunk, 1)
     scenario = points[0]
+    if len(points) == 1:  # a campaign (a sweep's points have their own estimate)
+        check_memory(scenario, runs, workers=workers, fault_free=fault_free, chunk=chunk)
     for other in points[1:]:
         if (other.kind, other.steps, other.dt, [m.name for m in other.methods]) != (
             scenario.kind,

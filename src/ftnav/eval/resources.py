@@ -38,7 +38,6 @@ compiled kernels (``ftnav`` says so when a first run compiles them).
 from __future__ import annotations
 
 import hashlib
-import math
 import os
 import re
 import sys
@@ -47,6 +46,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TypedDict, Unpack
 
 from ftnav.eval.batching import PARALLEL_MIN_WORK, chunk_runs
+from ftnav.fusion.guard import pull_blocks
 from ftnav.model.scenario import InsScenario
 
 if TYPE_CHECKING:
@@ -138,11 +138,7 @@ def _guard_bytes(methods: Sequence[Any], B: int, dt: float, aids: int, n: int) -
         g = getattr(me, "guard", None)
         if g is None or me.detector.kind in ("none", "oracle"):
             continue
-        nb = int(g.blocks)
-        fine = max(1, round(g.fine_s / dt))
-        span = math.ceil(fine / nb) * nb
-        nc = max(0, math.ceil(g.window_s / dt / span) - 1)
-        J = nb + 1 + (nc + 1 if nc else 0)
+        J = pull_blocks(g, dt)[3]
         total += _GUARD_COPIES * B * aids * (J + 2) * (n * n + n) * _F8
     return total
 

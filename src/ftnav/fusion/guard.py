@@ -212,9 +212,22 @@ __all__ = [
     "GuardTest",
     "Guarded",
     "devices_of",
+    "pull_blocks",
     "inflation",
     "reduction",
 ]
+
+
+def pull_blocks(config: GuardSettings, dt: float) -> tuple[int, int, int, int]:
+    """How an aid's tracked pull is kept at a filter period ``dt``: ``(nb, L, nc, J)``,
+    the fine blocks, the epochs of one, the coarse blocks (each ``nb`` fine blocks long)
+    before them, and the blocks the pull holds in all (the current fine and coarse ones
+    included)."""
+    nb = int(config.blocks)
+    fine = max(1, int(round(config.fine_s / dt)))
+    L = max(1, int(math.ceil(fine / nb)))
+    nc = max(0, int(math.ceil(config.window_s / dt / (L * nb))) - 1)
+    return nb, L, nc, nb + 1 + (nc + 1 if nc else 0)
 
 
 class GuardState(NamedTuple):
@@ -612,12 +625,8 @@ class Guard:
         for gi, g in enumerate(self.groups):
             for s, a in enumerate(g):
                 self.group_of[a], self.slot[a] = gi, s
-        self.nb = int(config.blocks)
-        fine = max(1, int(round(config.fine_s / dt)))
-        self.L = max(1, int(math.ceil(fine / self.nb)))  # epochs of a fine block
+        self.nb, self.L, self.nc, self.J = pull_blocks(config, dt)
         span = self.L * self.nb  # epochs of a coarse block: the fine blocks' span
-        self.nc = max(0, int(math.ceil(config.window_s / dt / span)) - 1)
-        self.J = self.nb + 1 + (self.nc + 1 if self.nc else 0)
         self.patience = max(1, int(math.ceil(config.patience_s / dt)))
         self.lasting = max(1, int(math.ceil(config.lasting_s / dt)))
         self.pfa = float(config.false_alarm_probability)
