@@ -495,3 +495,74 @@ def test_a_jump_while_the_device_mate_is_held_is_still_held():
     held, error = _receiver_halves(step=30.0)
     assert held[41:45].any(0).all(), held[40:46]
     assert np.abs(error[41:50]).max() < 10.0, np.abs(error[41:50]).max()
+
+
+def _drifted_receiver(
+    step: float = 0.0, frozen: bool = False, noise: float = 1.0, guard_on: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """A receiver's position (σ 1) and velocity (σ 0.1), one device and the only aids, on
+    a constant-velocity model whose truth accelerates by 0.3 per epoch² over epochs
+    30-44 (the model's INS fault: the estimate drifts where the receiver does not).  The
+    detector flags both halves from epoch 32 to 89 (it tests against the drifting
+    estimate).  ``step`` adds a lasting offset to the fix from 32 on, ``frozen`` repeats
+    both halves' outputs over 32-89, ``noise`` scales both halves' noise there.  With
+    ``guard_on`` False the plain filter (every aid used).  Returns per epoch (K, B) the
+    position half's hold and the position error."""
+    rng = np.random.default_rng(5)
+    F = np.array([[1.0, 1.0], [0.0, 1.0]])
+    Q = np.diag([1e-4, 1e-4])
+    Hs, Rs = [np.array([[1.0, 0.0]]), np.array([[0.0, 1.0]])], [np.eye(1), 0.01 * np.eye(1)]
+    B, n = 4, 2
+    guard = Guard(GuardSettings(), [(0, 1)], [n], [1, 1], devices=["rx", "rx"])
+    state = guard.init(B)
+    x, P = np.zeros((B, n)), np.broadcast_to(np.eye(n) * 10.0, (B, n, n)).copy()
+    p, v = np.zeros(B), np.ones(B)
+    zs: list[np.ndarray] = []
+    rows = []
+    for k in range(1, 151):
+        v = v + (0.3 if 30 <= k < 45 else 0.0)
+        p = p + v
+        during = 32 <= k < 90
+        s = noise if during else 1.0
+        fresh = [(p + s * rng.normal(size=B) + (step if k >= 32 else 0.0))[:, None]]
+        fresh.append((v + 0.1 * s * rng.normal(size=B))[:, None])
+        rep = frozen and during and bool(zs)
+        zs = zs if rep else fresh
+        if guard_on:
+            state, x, P, g, amend = _aids_step(
+                guard, state, x, P, F, Q, zs, Hs, Rs, [during, during], [rep, rep]
+            )
+            x = np.where(amend.where[:, None], x - amend.dx, x)
+            P = np.where(amend.where[:, None, None], P + amend.dP, P)
+            held = g.flags[:, 0].copy()
+        else:
+            x, P = kf.predict(x, P, F, Q)
+            for a in range(2):
+                x, P = kf.update(x, P, zs[a], Hs[a], Rs[a])[:2]
+            held = np.zeros(B, bool)
+        rows.append((held, x[:, 0] - p))
+    held, error = (np.array(c) for c in zip(*rows, strict=True))
+    return held, error
+
+
+def test_a_receiver_consistent_with_itself_is_taken_back_from_an_estimate_that_drifted():
+    """Both halves held, nothing else measuring: before, they were tested against the
+    drifting estimate only and never came back (a SINS gyro step on the drive: 164 km).
+    The receiver's position increments agree with its velocities (the estimate's drift
+    cancels in that test), so after the patience the device is back, relaxed, its
+    covariance scaled to cover it, and the error after the fault is the plain
+    filter's."""
+    held, error = _drifted_receiver()
+    _, plain = _drifted_receiver(guard_on=False)
+    patience = int(np.ceil(GuardSettings().patience_s))
+    assert held[32].all() and not held[32 + patience + 5 :].any(), np.flatnonzero(held.any(1))
+    rms, bar = (float(np.sqrt(np.mean(e[60:] ** 2))) for e in (error, plain))
+    assert rms <= 1.5 * bar, (rms, bar)
+
+
+def test_a_frozen_or_noisy_receiver_is_not_taken_back_on_its_own_consistency():
+    """Its repeats are no measurements, and a noise increase of both halves fails the
+    device's own test, so neither comes back before the flags end (epoch 90)."""
+    for kw in ({"frozen": True}, {"noise": 10.0}):
+        held, _ = _drifted_receiver(**kw)
+        assert held[34:90].all(), (kw, np.flatnonzero(~held[34:90].all(1)) + 34)

@@ -270,6 +270,9 @@ class GuardState(NamedTuple):
         none; not held).
     due : a hold whose patience ended between the aid's measurements, its jump to be
         taken at the aid's next measurement (module docstring, 3).
+    own : consecutive increments of a held aid consistent with its own device's rate
+        half's measurements (its positions' increments against its velocities, over
+        the same epochs: module docstring, 7); 0 where not held or untested.
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -299,6 +302,7 @@ class GuardState(NamedTuple):
     level_A: tuple[np.ndarray, ...]
     level_age: np.ndarray
     due: np.ndarray
+    own: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -319,6 +323,9 @@ class GuardOutput(NamedTuple):
     noisy : held, the only aid measuring, its increments showing a noise far above its
         R: used with that noise where its innovation is consistent with it (module
         docstring, 3).
+    device : re-admitted with every aid of its device, the device consistent with itself
+        while no other sensor measured: the estimate, not the device, had drifted
+        (module docstring, 7); a relaxed re-admission as well.
     """
 
     statistic: np.ndarray
@@ -330,6 +337,7 @@ class GuardOutput(NamedTuple):
     relaxed: np.ndarray
     taken: np.ndarray
     noisy: np.ndarray
+    device: np.ndarray
 
 
 class _AidTest(NamedTuple):
@@ -421,6 +429,9 @@ BLIND_SHARE = 0.5
 #: the witnesses' rows span the directions whose singular value is at least this share of
 #: the largest (their rows scaled to unit length)
 BLIND_RANK = 1e-3
+#: a device mate measures an aid's rate where its rows fit the aid's one-epoch rate rows
+#: ``H_a(Φ − I)`` but for this share of their weight (each state in its own σ)
+RATE_FIT = 0.05
 
 
 def devices_of(sensors: Sequence[Sensor]) -> tuple[str, ...]:
@@ -709,6 +720,7 @@ class Guard:
             tuple(np.zeros((B, m, m)) for m in self.dims),
             zi.copy() - 1,
             zb.copy(),
+            zi.copy(),
         )
 
     @staticmethod
@@ -717,6 +729,30 @@ class Guard:
             np.broadcast_to(H, (B,) + H.shape[-2:]),
             np.broadcast_to(R, (B,) + R.shape[-2:]),
         )
+
+    def _stacked(
+        self,
+        aids: Sequence[int],
+        H: Sequence[np.ndarray],
+        R: Sequence[np.ndarray],
+        usable: np.ndarray,
+        B: int,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``H`` and block-diagonal ``R`` of ``aids`` stacked, a row of an aid not
+        measuring (``usable``) left out (zero in ``H``, :data:`LEFT_OUT` in ``R``)."""
+        Hs, Rs = [], []
+        for a in aids:
+            Ha, Ra = self._matrices(H[a], R[a], B)
+            Hs.append(np.where(usable[:, a, None, None], Ha, 0.0))
+            Rs.append(np.where(usable[:, a, None, None], Ra, LEFT_OUT * np.eye(Ra.shape[-1])))
+        m = sum(r.shape[-1] for r in Rs)
+        R_all = np.zeros((B, m, m))
+        i = 0
+        for r in Rs:
+            j = i + r.shape[-1]
+            R_all[:, i:j, i:j] = r
+            i = j
+        return np.concatenate(Hs, -2), R_all
 
     # ---------------------------------------------------------------------------- test
     def test(
@@ -1008,6 +1044,27 @@ class Guard:
         for b in np.flatnonzero(backed.any(0)).tolist():
             backed[:, b] &= ~self._offset_seen(b, usable, test, state, device=True)
         settled |= backed & ~undone
+        # a whole device held, no other sensor measuring unheld, and the device consistent
+        # with itself for ``n_off`` of its own increments since the patience: the
+        # estimate drifted, not the device (a SINS gyro step: the receiver's positions
+        # and velocities both held, the vehicle constraints gated by the same error, and
+        # nothing measured again: 164 km against ckf's 0.03 m).  Back, relaxed, with no
+        # jump taken: the whole innovation is the estimate's error
+        own_tested, own_good = self._own(state, test, inc, judged)
+        agree = np.where(own_tested, np.where(own_good, state.own + 1, 0), state.own)
+        sensor = usable & ~state.hold & ~self.pseudo
+        device = np.zeros((B, N), bool)
+        for a in np.flatnonzero((agree >= self.n_off).any(0)).tolist():
+            mates = list(self.mates[a])
+            whole = state.hold[:, a] & state.hold[:, mates].all(-1)
+            alone_d = ~(sensor & self.apart[a]).any(-1)
+            ready = (agree[:, a] >= self.n_off) & (state.length[:, a] >= self.patience)
+            # (never while a half shows a noise increase: its increments agree by chance)
+            quiet_d = ~shows[:, a] & ~(shows[:, mates] & state.hold[:, mates]).any(-1)
+            on = whole & alone_d & ready & quiet_d & usable[:, a] & fresh[:, a] & ~undone[:, a]
+            device[:, a] |= on
+            device[:, mates] |= on[:, None] & state.hold[:, mates]
+        settled |= device
         # a held aid beside aids of its rate only, at one constant offset from the
         # estimate for ``lasting_s``: that offset is taken (a rollback the rate aids could
         # not judge, or a lasting step: the plain filter's choice)
@@ -1020,7 +1077,7 @@ class Guard:
         # freeze's, ends relaxed with nothing to take); a lasting offset is taken too,
         # its jump sum kept for the jump back at the fault's end
         # (independent locals keep no pulls: a hold of theirs takes no jump)
-        taken = (settled & ~steady & (state.jumps > 0) & self.rollback) | lasting
+        taken = (settled & ~steady & (state.jumps > 0) & self.rollback & ~device) | lasting
         returned &= ~undone & ~settled
         release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
         relaxed = (release & ~undone & ~strict) | settled | returned
@@ -1262,6 +1319,7 @@ class Guard:
         pending = np.where(reset, doubt, state.pending)
         support = np.where(reset, 0.0, support)
         length = np.where(hold & ~rising, state.length + 1, 0)
+        agree = np.where(hold & ~rising, agree, 0)
         level_age = np.where(hold & ~rising, level_age, -1)  # a new or ended hold: none
         owed = owed & hold & ~rising
         new_state = state._replace(
@@ -1271,6 +1329,7 @@ class Guard:
             due=owed,
             support=support,
             length=length,
+            own=agree,
             pulls=test.pulls,
             alternative=test.alternative,
             hold=hold,
@@ -1290,7 +1349,7 @@ class Guard:
             spread=spread,
         )
         out = GuardOutput(
-            ratio, flags, alarm, choose, undone, unobs, relaxed | welcome, taken, noisy
+            ratio, flags, alarm, choose, undone, unobs, relaxed | welcome, taken, noisy, device
         )
         # ``rate`` (above): a held only aid's consistent increment (after a step the aid
         # moves as the vehicle does, offset) still tells the estimate's rate, once
@@ -1541,6 +1600,57 @@ class Guard:
             read = ~self._unseen(a, usable & ~state.hold, test, rates=False)
             out[:, a] = back & ~(moved & read).any(-1)
         return out
+
+    def _own(
+        self,
+        state: GuardState,
+        test: GuardTest,
+        inc: Sequence[tuple[np.ndarray, np.ndarray]],
+        judged: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Each held aid's test against its own device (module docstring, 7).
+
+        Where a mate ``b`` of aid ``a``'s device measures its rate (``H_b`` fits the
+        rate rows ``H_a(Φ − I) ≈ G H_b`` but for :data:`RATE_FIT` of their weight, each
+        state in its own σ: a receiver's velocities beside its positions) and both
+        measured now and at the same epoch before, ``Δk`` epochs back, the aid's
+        increment less the trapezoid of the mate's,
+        ``e = (ν_a − r_a) − Δk G (ν_b + r_b)/2``, holds the device's disagreement with
+        itself only: the estimate's drift enters both alike and cancels to first order,
+        whatever it is (a SINS fault's).  Its covariance ``2R_a + Δk² G (R_b/2) Gᵀ``.
+        Returns ``tested`` and ``consistent`` (B, N), each where some mate tested it.
+        """
+        B, N = judged.shape
+        tested, bad = np.zeros((B, N), bool), np.zeros((B, N), bool)
+        for a in range(N):
+            for b in self.mates[a]:
+                g = self.group_of[a]
+                both = judged[:, a] & judged[:, b] & (state.since[:, a] >= 0)
+                both &= state.since[:, a] == state.since[:, b]
+                if g != self.group_of[b] or not both.any():
+                    continue
+                P = test.P[g]
+                Ha, Hb = test.H[a], test.H[b]
+                D = Ha @ (np.broadcast_to(test.F[g], P.shape) - np.eye(P.shape[-1]))
+                var = np.maximum(np.diagonal(P, axis1=-2, axis2=-1), 0.0)[:, None, :]
+                HbW = Hb * var
+                Gram = HbW @ kf.mT(Hb)
+                fine = _pd_rows(Gram) & both
+                if not fine.any():
+                    continue
+                Gram = np.where(fine[:, None, None], Gram, np.eye(Gram.shape[-1]))
+                G = kf.mT(np.linalg.solve(Gram, HbW @ kf.mT(D)))
+                sd = np.sqrt(var)
+                miss = (((D - G @ Hb) * sd) ** 2).sum((-2, -1))
+                whole = ((D * sd) ** 2).sum((-2, -1))
+                fine &= miss <= RATE_FIT * whole
+                ta, tb = test.aids[a], test.aids[b]
+                dk = (state.since[:, a] + 1).astype(float)
+                e = inc[a][0] - dk[:, None] * kf.mv(G, 0.5 * (tb.nu + state.last[b]))
+                S = 2.0 * ta.R + (dk**2)[:, None, None] * (G @ (0.5 * tb.R) @ kf.mT(G))
+                tested[:, a] |= fine
+                bad[:, a] |= fine & (_chi2(e, kf.symmetrize(S)) > self.T1[a])
+        return tested, tested & ~bad
 
     def _jumps(
         self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
@@ -1992,6 +2102,27 @@ class Guard:
                 fits = _pd_rows(P + dP - dP_undo)
                 dP = dP - np.where(fits[:, None, None], dP_undo, 0.0)
             x, P = x - dx, P + dP
+            # a device back whole (the estimate drifted): every variance was optimistic,
+            # the attitude's and the biases' that drove the drift with the rest, so the
+            # whole covariance is scaled to cover the device's innovation (a fading
+            # factor, as a strong tracking filter's) before its relaxed update
+            whole = [a for a in grp if (out.device[:, a] & usable[:, a]).any()]
+            if whole:
+                on = np.zeros(B, bool)
+                for a in whole:
+                    on |= out.device[:, a] & usable[:, a]
+                Hs, Rs = self._stacked(whole, H, R, usable, B)
+                nu = np.where(
+                    on[:, None],
+                    np.nan_to_num(np.concatenate([z[a] for a in whole], -1)) - kf.mv(Hs, x),
+                    0.0,
+                )
+                A = kf.symmetrize(Hs @ P @ kf.mT(Hs))
+                gam = np.where(on, inflation(nu, A, Rs), 0.0)
+                grow = gam[:, None, None] * P
+                P = kf.symmetrize(P + grow)
+                dP += grow
+                where |= on
             for s, a in enumerate(grp):
                 # the relaxed re-admissions: the covariance inflated along the aid's
                 # measurement to cover its innovation, and the aid taken at this epoch
