@@ -32,6 +32,7 @@ import os
 import queue
 import re
 import signal
+import socket
 import sys
 import threading
 import time
@@ -307,6 +308,7 @@ def run_on_cluster(
             "--scheduler: Dask is not installed (pip install 'ftnav[cluster]')"
         ) from None
     check_scheduler_address(scheduler)
+    _answers_as_dask(scheduler)
     with _quiet_dask():
         try:
             client = Client(scheduler, timeout=10, set_as_default=False)
@@ -359,6 +361,38 @@ def check_scheduler_address(address: str) -> None:
             f"--scheduler: {address!r} is no Dask scheduler address (tcp://HOST:PORT, as "
             "'dask scheduler' prints it)"
         )
+
+
+#: seconds a Dask scheduler has to accept the connection and send its handshake
+ANSWER_S = 10.0
+
+
+def _answers_as_dask(address: str) -> None:
+    """ClusterError unless something at ``address`` accepts a connection and, over
+    ``tcp://``, speaks first within ``timeout`` seconds, as a Dask scheduler does (its
+    handshake).  A server of another kind there (a web server waits for a request) kept
+    Dask's client waiting for ever.  Over ``tls://`` the client speaks first: only the
+    connection is checked.  ``timeout`` is :data:`ANSWER_S`."""
+    timeout = ANSWER_S
+    m = _ADDRESS.match(address)
+    assert m is not None  # checked by check_scheduler_address
+    host = address.split("://", 1)[1].rsplit(":", 1)[0].strip("[]")
+    try:
+        with socket.create_connection((host, int(m.group(2))), timeout=timeout) as sock:
+            if m.group(1) == "tcp":
+                sock.settimeout(timeout)
+                if not sock.recv(1):
+                    raise ConnectionResetError("closed without a word")
+    except TimeoutError:
+        raise ClusterError(
+            f"--scheduler: no Dask scheduler at {address} (no answer within {timeout:g} s: "
+            "another kind of server, or none)"
+        ) from None
+    except OSError as exc:
+        raise ClusterError(
+            f"--scheduler: no Dask scheduler at {address} "
+            f"({type(exc).__name__}: {str(exc)[:120] or 'no answer'})"
+        ) from None
 
 
 @contextlib.contextmanager

@@ -129,3 +129,30 @@ def test_a_scheduler_lost_mid_campaign_is_one_line_and_exit_4():
         with pytest.raises(ValueError, match="is no Dask scheduler address"):
             check_scheduler_address(bad)
     assert main(["run", "seed000", "--runs", "1", "--scheduler", "tcp://127.0.0.1"]) == 2
+
+
+def test_a_server_that_is_no_dask_scheduler_is_one_line_not_a_hang(monkeypatch):
+    """Found by a user's try: a server of another kind at the address (here one that
+    accepts and never speaks, as a web server waits for a request) kept Dask's client
+    waiting for ever (killed after 140 s).  Now a ClusterError within the answer time
+    (exit status 4 on the command line), nothing run; a closed port is one too."""
+    import socket
+
+    from ftnav import parallel
+    from ftnav.cli import main
+
+    monkeypatch.setattr(parallel, "ANSWER_S", 0.5)
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(4)
+        address = f"tcp://127.0.0.1:{silent.getsockname()[1]}"
+        start = time.monotonic()
+        with pytest.raises(parallel.ClusterError, match="no answer within 0.5 s"):
+            run_scenario(_seed000(), 2, 1, scheduler=address)
+        assert time.monotonic() - start < 5.0
+        assert main(["run", "seed000", "--runs", "2", "--scheduler", address]) == 4
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        closed = f"tcp://127.0.0.1:{probe.getsockname()[1]}"
+    with pytest.raises(parallel.ClusterError, match="no Dask scheduler at"):
+        run_scenario(_seed000(), 2, 1, scheduler=closed)

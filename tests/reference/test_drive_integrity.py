@@ -547,32 +547,40 @@ def test_a_sins_gyro_step_in_an_outage_does_not_lock_the_returning_gnss_out(tmp_
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "an INS fault makes every aid disagree at once: both halves of the receiver are "
-        "held and never re-admitted (390 km at the drive's end; docs/integrity.md §5)"
-    ),
+@pytest.mark.parametrize(
+    ("axis", "deg_s"), [(0, 1.0), (2, 2.0), (2, 10.0)], ids=["pitch-1", "heading-2", "heading-10"]
 )
-def test_after_a_large_sins_gyro_step_with_the_gnss_on_the_gnss_is_not_locked_out(tmp_path):
-    """Found by a newcomer's try (2026-12-07): a 1 °/s pitch-gyro (x, right) bias step of
-    the SINS for 30 s with the GNSS on (every aid).  ``ckf`` keeps the fixes through it and is at
-    its fault-free level after it; the χ² and GLR methods hold both halves of the
-    receiver as the tilt drives the INS off, and then never take them back: the error
-    grows without bound (879 m at the fault's end, 390 km at the drive's end; a 10 °/s
-    heading step: 5 km), while the run exits 0 with the method marked untrusted."""
+def test_after_a_large_sins_gyro_step_with_the_gnss_on_the_gnss_is_not_locked_out(
+    tmp_path, axis, deg_s
+):
+    """Found by a newcomer's try (2026-12-07): a large gyro bias step of the SINS for 30 s
+    with the GNSS on (every aid).  ``ckf`` keeps the fixes through it and is at its
+    fault-free level after it; the χ² and GLR methods held both halves of the receiver
+    as the tilt drove the INS off (the vehicle constraints gated by the same error),
+    tested them only against that drifting INS, and never took them back: 164 km after
+    a 1 °/s pitch step, 5.4 km after a 10 °/s heading step.  Now the receiver,
+    consistent with itself (its positions' increments against its velocities), is taken
+    back after the patience (the guard's device rule), within 1.5 × ``ckf`` after the
+    fault, or of its own level without the fault where that is higher (the GLR's on
+    the drive, 1.7 × ``ckf``'s: its own expected failure)."""
     path = _short(tmp_path, ("ckf",) + TESTED, span=300.0)
     t0 = load_recording(path, methods=["ckf"]).recording.t_start
     start, end = 102.0, 132.0
-    step = Fault(SINS, "gyro-bias", t0 + start, t0 + end, np.radians([1.0, 0.0, 0.0]))
+    rate = np.zeros(3)
+    rate[axis] = np.radians(deg_s)
+    step = Fault(SINS, "gyro-bias", t0 + start, t0 + end, rate)
     loaded, traces, _ = process(path, faults=[step])
-    t_ref, ckf = horizontal(loaded, traces["ckf"])
+    _, clean, _ = process(path)
+    t_ref, _ = horizontal(loaded, traces["ckf"])
     after = t_ref >= end + 30.0
-    bar = float(np.sqrt(np.mean(ckf[after] ** 2)))
+
+    def rms(trace):
+        return float(np.sqrt(np.mean(horizontal(loaded, trace)[1][after] ** 2)))
+
+    bar = rms(traces["ckf"])
     for name in TESTED:
-        _, err = horizontal(loaded, traces[name])
-        got = float(np.sqrt(np.mean(err[after] ** 2)))
-        assert got <= 1.5 * bar, (name, got, bar)
+        got, own = rms(traces[name]), rms(clean[name])
+        assert got <= 1.5 * max(bar, own), (name, got, bar, own)
 
 
 @pytest.mark.parametrize("metres", [1.0, 2.0])

@@ -17,9 +17,9 @@ from ftnav.eval.integrity import watch
 K, M = 900, 2
 
 
-def _guard(hold: np.ndarray) -> GuardTrace:
+def _guard(hold: np.ndarray, device: np.ndarray | None = None) -> GuardTrace:
     z = np.zeros_like(hold)
-    return GuardTrace(z.astype(float), hold, z, z, z, z, z, z, z)
+    return GuardTrace(z.astype(float), hold, z, z, z, z, z, z, z, z if device is None else device)
 
 
 def _watched(faulty: slice, held: slice | None, with_guard: bool = True) -> tuple[str, ...]:
@@ -52,3 +52,32 @@ def test_a_consistent_filter_has_no_finding():
 def test_the_finding_says_whether_the_aid_was_held(faulty, held, guard, said):
     found = [f for f in _watched(faulty, held, guard) if "inconsistent with aid 'gnss'" in f]
     assert len(found) == 1 and said in found[0], found
+
+
+def test_a_device_taken_back_from_a_drifted_estimate_is_said_once_with_its_time():
+    """Both halves of a receiver re-admitted together at epoch 400 (the guard's device
+    rule): one finding naming both aids and the time; none without it."""
+    times = np.arange(1, K + 1, dtype=float)
+    nis = np.random.default_rng(2).chisquare(M, (1, K, 2))
+    every = np.ones((1, K, 2), bool)
+    hold = np.zeros((1, K, 2), bool)
+    hold[0, 300:399] = True
+    device = np.zeros_like(hold)
+    for dev, n in ((device, 0), (device.copy(), 1)):
+        if n:
+            dev[0, 399] = True
+        found = watch(
+            "m",
+            times,
+            ["gnss", "gnss-vel"],
+            [M, M],
+            nis,
+            every,
+            every & ~hold,
+            every,
+            _guard(hold, dev),
+        ).findings
+        said = [f for f in found if "consistent with each other" in f]
+        assert len(said) == n, found
+        if n:
+            assert "'gnss', 'gnss-vel'" in said[0] and "t = 400.0 s" in said[0], said

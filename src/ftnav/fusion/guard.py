@@ -175,6 +175,22 @@ and decides the method's isolation from its detector's flags:
    drive's GLR held the GNSS velocities at 429 s and flagged the positions 0.25 s
    later: both halves out, the coast 0.7 m; docs/integrity.md §1.7).  Where the device
    is all that measures, the flag may be the only sign of its fault: held as before.
+7. **A device consistent with itself.**  Where every aid of one device is held and no
+   other sensor measures unheld (the vehicle constraints gated off by the same error),
+   every test against the estimate is a test against its drift: a SINS gyro step made
+   the receiver's positions and velocities disagree with the INS, and nothing took them
+   back (the drive: 164 km).  A device whose rate half measures another half's rate
+   (the velocities, the positions' rate: ``H_a(Φ − I) ≈ G H_b``, :meth:`Guard._own`)
+   tests itself: the positions' increment less the trapezoid of the velocities over
+   the same epochs, where the estimate's drift cancels to first order whatever it is.
+   ``n_off`` such increments in a row consistent once the hold has lasted the patience
+   (never a repeated output, never while a half shows a noise increase) and the device
+   is back whole, relaxed, with no jump taken, the whole covariance first scaled to
+   cover its innovation (a fading factor, as a strong tracking filter's: the attitude
+   and biases that drove the drift must be re-learned, not only the position).  A
+   receiver fault both halves share consistently is followed from there, as the plain
+   filter follows it; a step or a noise of one half fails the test.  The fused estimate
+   only (independent locals keep their own rules).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
