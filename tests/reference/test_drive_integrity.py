@@ -509,21 +509,17 @@ def test_gnss_alone_a_fast_ramp_of_the_only_aid_does_not_lock_it_out(tmp_path):
     assert np.sqrt(np.mean(err[late] ** 2)) < 1.0, np.sqrt(np.mean(err[late] ** 2))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "the receiver's two aids are one device and do not back each other, and the NHC "
-        "cannot see a heading error: held 45 s (docs/integrity.md §5)"
-    ),
-)
 def test_a_sins_gyro_step_in_an_outage_does_not_lock_the_returning_gnss_out(tmp_path):
     """A fault of the INS nobody else can see: a 0.5 °/s heading-gyro bias step 1.5 s
     into a 15 s GNSS outage, for 48 s (every aid).  The GNSS returns 11 m off the
     drifted INS; its positions and velocities are both held, and the NHC cannot see a
-    heading error (it holds the INS's own velocity in the INS's own frame).  Measured:
-    held 45 s, 32 m off at the fault's end against ``ckf``'s 0.05 m.  Letting the
-    receiver's two halves back each other passes this (10.2-10.6 s, after the fault as
-    ``ckf``) but locks out a receiver whose two halves fail together (docs).
+    heading error (it holds the INS's own velocity in the INS's own frame).  Was: held
+    45 s, 32 m off at the fault's end against ``ckf``'s 0.05 m (a strict expected
+    failure since 2026-12-05).  Letting the receiver's two halves back each other
+    passed this but locked out a receiver whose two halves fail together; now the
+    receiver consistent with itself (its positions' increments against its velocities,
+    the NHC's updates between the fixes taken out) is taken back after the patience
+    (the guard's device rule, docs/integrity.md §1.8).
     """
     path = _short(tmp_path, ("ckf",) + TESTED, span=340.0)
     t0 = load_recording(path, methods=["ckf"]).recording.t_start

@@ -183,14 +183,18 @@ and decides the method's isolation from its detector's flags:
    (the velocities, the positions' rate: ``H_a(Φ − I) ≈ G H_b``, :meth:`Guard._own`)
    tests itself: the positions' increment less the trapezoid of the velocities over
    the same epochs, where the estimate's drift cancels to first order whatever it is.
-   ``n_off`` such increments in a row consistent once the hold has lasted the patience
-   (never a repeated output, never while a half shows a noise increase) and the device
-   is back whole, relaxed, with no jump taken, the whole covariance first scaled to
-   cover its innovation (a fading factor, as a strong tracking filter's: the attitude
-   and biases that drove the drift must be re-learned, not only the position).  A
-   receiver fault both halves share consistently is followed from there, as the plain
-   filter follows it; a step or a noise of one half fails the test.  The fused estimate
-   only (independent locals keep their own rules).
+   The other aids' updates since (the vehicle constraints between the fixes) are taken
+   out of both innovations (``GuardState.moved``).  ``n_off`` such increments in a row
+   consistent once the hold has lasted the patience (never a repeated output; a noise
+   increase of the device fails its own test, its increments against the estimate
+   cannot tell it from the estimate's drift) and the device is back whole, relaxed,
+   with no jump taken, the whole covariance first scaled to cover its innovation (a
+   fading factor, as a strong tracking filter's: the attitude and biases that drove
+   the drift must be re-learned, not only the position).  A receiver fault both halves
+   share consistently is followed from there, as the plain filter follows it; a step
+   of one half fails the test once, a noise larger than about twice the declared σ
+   almost always.  The fused estimate only (independent locals keep their own
+   rules).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
@@ -289,6 +293,11 @@ class GuardState(NamedTuple):
     own : consecutive increments of a held aid consistent with its own device's rate
         half's measurements (its positions' increments against its velocities, over
         the same epochs: module docstring, 7); 0 where not held or untested.
+    moved : per aid, (B, n) the estimate's corrections since the aid's measurement
+        before (from its epoch on where the aid was held then, from the next where its
+        residual is against the posterior), carried to the present by ``Φ``: what the
+        other aids' updates added to its innovation (``ν + H moved`` is the innovation
+        without them), for the device's own test.
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -319,6 +328,7 @@ class GuardState(NamedTuple):
     level_age: np.ndarray
     due: np.ndarray
     own: np.ndarray
+    moved: tuple[np.ndarray, ...]
 
 
 class GuardOutput(NamedTuple):
@@ -737,6 +747,7 @@ class Guard:
             zi.copy() - 1,
             zb.copy(),
             zi.copy(),
+            tuple(np.zeros((B, self.sizes[g])) for g in self.group_of),
         )
 
     @staticmethod
@@ -1066,7 +1077,11 @@ class Guard:
         # and velocities both held, the vehicle constraints gated by the same error, and
         # nothing measured again: 164 km against ckf's 0.03 m).  Back, relaxed, with no
         # jump taken: the whole innovation is the estimate's error
-        own_tested, own_good = self._own(state, test, inc, judged)
+        moved = tuple(
+            kf.mv(test.F[self.group_of[a]], state.moved[a]) if self.rollback else state.moved[a]
+            for a in range(N)
+        )
+        own_tested, own_good = self._own(state, test, inc, judged, moved)
         agree = np.where(own_tested, np.where(own_good, state.own + 1, 0), state.own)
         sensor = usable & ~state.hold & ~self.pseudo
         device = np.zeros((B, N), bool)
@@ -1075,9 +1090,7 @@ class Guard:
             whole = state.hold[:, a] & state.hold[:, mates].all(-1)
             alone_d = ~(sensor & self.apart[a]).any(-1)
             ready = (agree[:, a] >= self.n_off) & (state.length[:, a] >= self.patience)
-            # (never while a half shows a noise increase: its increments agree by chance)
-            quiet_d = ~shows[:, a] & ~(shows[:, mates] & state.hold[:, mates]).any(-1)
-            on = whole & alone_d & ready & quiet_d & usable[:, a] & fresh[:, a] & ~undone[:, a]
+            on = whole & alone_d & ready & usable[:, a] & fresh[:, a] & ~undone[:, a]
             device[:, a] |= on
             device[:, mates] |= on[:, None] & state.hold[:, mates]
         settled |= device
@@ -1346,6 +1359,7 @@ class Guard:
             support=support,
             length=length,
             own=agree,
+            moved=moved,
             pulls=test.pulls,
             alternative=test.alternative,
             hold=hold,
@@ -1623,6 +1637,7 @@ class Guard:
         test: GuardTest,
         inc: Sequence[tuple[np.ndarray, np.ndarray]],
         judged: np.ndarray,
+        moved: Sequence[np.ndarray],
     ) -> tuple[np.ndarray, np.ndarray]:
         """Each held aid's test against its own device (module docstring, 7).
 
@@ -1631,9 +1646,11 @@ class Guard:
         state in its own σ: a receiver's velocities beside its positions) and both
         measured now and at the same epoch before, ``Δk`` epochs back, the aid's
         increment less the trapezoid of the mate's,
-        ``e = (ν_a − r_a) − Δk G (ν_b + r_b)/2``, holds the device's disagreement with
-        itself only: the estimate's drift enters both alike and cancels to first order,
-        whatever it is (a SINS fault's).  Its covariance ``2R_a + Δk² G (R_b/2) Gᵀ``.
+        ``e = (ν_a + H_a m_a − r_a) − Δk G (ν_b + H_b m_b + r_b)/2``, holds the device's
+        disagreement with itself only: the estimate's drift enters both alike and
+        cancels to first order, whatever it is (a SINS fault's), and the other aids'
+        updates since (``moved``, ``m``: the vehicle constraints between the fixes) are
+        taken out of both.  Its covariance ``2R_a + Δk² G (R_b/2) Gᵀ``.
         Returns ``tested`` and ``consistent`` (B, N), each where some mate tested it.
         """
         B, N = judged.shape
@@ -1662,7 +1679,12 @@ class Guard:
                 fine &= miss <= RATE_FIT * whole
                 ta, tb = test.aids[a], test.aids[b]
                 dk = (state.since[:, a] + 1).astype(float)
-                e = inc[a][0] - dk[:, None] * kf.mv(G, 0.5 * (tb.nu + state.last[b]))
+                nu_b = tb.nu + kf.mv(Hb, moved[b])
+                e = (
+                    inc[a][0]
+                    + kf.mv(Ha, moved[a])
+                    - dk[:, None] * kf.mv(G, 0.5 * (nu_b + state.last[b]))
+                )
                 S = 2.0 * ta.R + (dk**2)[:, None, None] * (G @ (0.5 * tb.R) @ kf.mT(G))
                 tested[:, a] |= fine
                 bad[:, a] |= fine & (_chi2(e, kf.symmetrize(S)) > self.T1[a])
@@ -2065,6 +2087,7 @@ class Guard:
         pulls, alts = list(after.pulls), list(after.alternative)
         anchor = list(after.anchor)
         last = list(after.last)
+        moved = list(after.moved)
         amends = []
         rising = out.hold & ~before.hold
         released = before.hold & ~after.hold
@@ -2242,6 +2265,14 @@ class Guard:
                         Ha = self._matrices(H[a], R[a], B)[0]
                         r = np.nan_to_num(z[a]) - kf.mv(Ha, x)
                         last[a] = np.where(used[:, None], r, last[a])
+                # the epoch's corrections of the estimate, for each aid's ``moved``: none
+                # after a used aid's residual, all of them after a held aid's innovation
+                d_all = x - priors[gi][0]
+                for a in grp:
+                    used = (usable[:, a] & ~out.hold[:, a]) | g.rate[:, a] | informed[:, a]
+                    held = usable[:, a] & ~used
+                    m_a = np.where(held[:, None], d_all, moved[a] + d_all)
+                    moved[a] = np.where(used[:, None], 0.0, m_a)
             # the aids that informed the estimate now: its coasting without them is
             # measured from this epoch's prior (with a rollback's covariance)
             P_from = priors[gi][1] + dP_back
@@ -2258,6 +2289,7 @@ class Guard:
             close = age == 0 and self.nc > 0  # a coarse block's span is over
             pulls = [sep.rotate(p, self.nc, close) for p in pulls]
         new = after._replace(
+            moved=tuple(moved),
             pulls=tuple(pulls),
             alternative=tuple(alts),
             anchor=tuple(anchor),
