@@ -574,6 +574,25 @@ def _check_memory(sc, runs: int, **options) -> None:
         raise UsageError(str(e).replace("runs: ", "--runs: ", 1)) from None
 
 
+def _check_training_memory(sc, runs: int, per_run: int, held_out: int = 0) -> None:
+    """Refuse a training whose batch (``runs`` and ``held_out`` runs, each ``per_run``
+    simulated at once: the fault variants or configurations) needs more memory than the
+    machine has available (``--runs 1e12`` ended in an internal MemoryError)."""
+    available = resources.available_memory_bytes()
+    if available is None:
+        return
+    need = resources.run_memory_bytes(sc, (runs + held_out) * per_run)
+    if need <= available:
+        return
+    fit = max(resources.max_runs_within(sc, available) // max(per_run, 1) - held_out, 0)
+    extra = f" and {held_out} held out" if held_out else ""
+    raise UsageError(
+        f"--runs: {runs} training runs{extra} of {sc.name} ({per_run} simulated at once "
+        f"each) need about {resources.format_bytes(need)}, more than the "
+        f"{resources.format_bytes(available)} available (at most {fit} would fit)"
+    )
+
+
 def _compile_note(kind: str, quiet: bool) -> None:
     if not quiet and not kernels_compiled(kind):
         print(COMPILING.format(_COMPILE_S[kind]), file=sys.stderr, flush=True)
@@ -1214,6 +1233,7 @@ def _cmd_train_detector(args) -> int:
             runs=args.runs, holdout_runs=args.holdout, seed=args.seed, n_centres=args.centres
         )
         n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+        _check_training_memory(sc, args.runs, n_var, args.holdout)
         # every training run, variant and epoch is one sample at most, and k-means reads
         # at most KMEANS_SAMPLES of them: more centres than that ended in an internal
         # error after the training
@@ -1264,6 +1284,7 @@ def _cmd_train_fusion(args) -> int:
                 free_input=args.free_input,
             )
             n_var = len(fault_variants(sc, settings.family, np.random.default_rng(0)))
+            _check_training_memory(sc, args.runs, n_var, args.holdout)
             check_training(sc, settings)
             if args.method is not None:
                 raise UsageError(
@@ -1272,6 +1293,7 @@ def _cmd_train_fusion(args) -> int:
                 )
         else:
             check_ins_training(sc)
+            _check_training_memory(sc, args.runs, len(ins_configurations(sc)))
     if _integrated(sc):
         return _train_ins_fusion(sc, output, args)
     _compile_note("train-linear", args.quiet)

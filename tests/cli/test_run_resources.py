@@ -90,6 +90,27 @@ def test_huge_runs_are_refused_before_anything_is_written(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    ("command", "scenario", "per_run"),
+    [("train-detector", "seed000", 32), ("train-fusion", "seed000", 28),
+     ("train-fusion", "seed001", 5)],
+)  # fmt: skip
+def test_huge_training_runs_are_refused_before_anything_is_written(
+    tmp_path, capsys, command, scenario, per_run
+):
+    """A training simulates its runs times its fault variants (or configurations) at once:
+    ``--runs 1e12`` ended in an internal MemoryError (exit 1)."""
+    out = tmp_path / "model.npz"
+    err = _refused([command, scenario, "--runs", 10**12, "--out", out], capsys)
+    assert re.fullmatch(
+        r"ftnav: error: --runs: 1000000000000 training runs( and \d+ held out)? of "
+        rf"{scenario} \({per_run} simulated at once each\) need about [\d.]+ TiB, more "
+        r"than the [\d.]+ [GMT]iB available \(at most \d+ would fit\)",
+        err,
+    ), err
+    assert not out.exists() and not out.with_suffix(".png").exists()
+
+
 def test_huge_steps_are_refused_naming_steps(tmp_path, capsys):
     path = _write(tmp_path, SMALL.format(steps=10**10))
     out = tmp_path / "out"
