@@ -192,8 +192,10 @@ and decides the method's isolation from its detector's flags:
    fading factor, as a strong tracking filter's: the attitude and biases that drove
    the drift must be re-learned, not only the position).  A receiver fault both halves
    share consistently is followed from there, as the plain filter follows it; a step
-   of one half fails the test once, a noise larger than about twice the declared σ
-   almost always.  The fused estimate only (independent locals keep their own
+   of one half fails the test once (from the flag's onset: ``GuardState.own_jump``),
+   and that jump against itself is kept as the device's jump sum, taken, so the jump
+   back at the step's end comes home at once (3); a noise larger than about twice the
+   declared σ fails it almost always.  The fused estimate only (independent locals keep their own
    rules).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
