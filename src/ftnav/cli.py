@@ -1152,7 +1152,10 @@ def _cmd_trajectory(args) -> int:
         profile = resolve_profile(args.profile)
         errors = None
         if args.imu is not None:
-            errors = imu_preset(args.imu)
+            try:
+                errors = imu_preset(args.imu)
+            except ValueError as e:  # named as the option the user gave
+                raise UsageError(str(e).replace("imu.preset: ", "--imu: ", 1)) from None
         elif args.seed is not None:
             raise UsageError("--seed: given without --imu (the ideal IMU has no errors to draw)")
         out = Path(args.out)

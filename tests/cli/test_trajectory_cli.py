@@ -70,9 +70,10 @@ def test_imu_preset_corrupts_deterministically(tmp_path):
     assert 1e-7 < d.std() < 1e-6
 
 
-def test_unknown_imu_preset_exits_2(tmp_path, capsys):
+def test_unknown_imu_preset_exits_2_naming_the_option(tmp_path, capsys):
+    """Named as the option the user gave (it said ``imu.preset``, a scenario file's key)."""
     f = tmp_path / "short.toml"
     f.write_text(PROFILE)
     assert main(["trajectory", str(f), "--out", str(tmp_path / "x"), "--imu", "nope"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("ftnav: error: imu.preset:") and "\n" not in err
+    assert err.startswith("ftnav: error: --imu: unknown preset 'nope'") and "\n" not in err
