@@ -77,7 +77,7 @@ def test_a_device_taken_back_from_a_drifted_estimate_is_said_once_with_its_time(
             every,
             _guard(hold, dev),
         ).findings
-        said = [f for f in found if "consistent with each other" in f]
+        said = [f for f in found if "a device consistent with itself" in f]
         assert len(said) == n, found
         if n:
             assert "'gnss', 'gnss-vel'" in said[0] and "t = 400.0 s" in said[0], said

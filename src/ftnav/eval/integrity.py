@@ -412,12 +412,12 @@ def watch(
     if guard is not None and guard.device.any():
         whole = [s for i, s in enumerate(sensors) if guard.device[..., i].any()]
         findings.append(
-            f"methods[{name}]: aids {', '.join(map(repr, whole))}, held together as one "
-            f"device with no other sensor measuring, were taken back as consistent with "
-            f"each other while the estimate had drifted from them (first at "
-            f"{_when(times, guard.device.any(-1))}; {int(guard.device.any(-1).sum())} "
-            f"time(s)): the INS or its model, not the device, failed there, and the "
-            f"covariance was widened to re-learn from the device"
+            f"methods[{name}]: aids {', '.join(map(repr, whole))}, held with no other "
+            f"sensor measuring, were taken back (a device consistent with itself, or the "
+            f"only aid past the longest coast) while the estimate had drifted from them "
+            f"(first at {_when(times, guard.device.any(-1))}; "
+            f"{int(guard.device.any(-1).sum())} time(s)): the INS or its model, not the "
+            f"aid, failed there, and the covariance was widened to re-learn from the aid"
         )
     present = np.asarray(available.any(-1), bool)
     coast, coast_from = _longest_coast(times, present, present & ~np.asarray(used.any(-1), bool))

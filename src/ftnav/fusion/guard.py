@@ -195,8 +195,12 @@ and decides the method's isolation from its detector's flags:
    of one half fails the test once (from the flag's onset: ``GuardState.own_jump``),
    and that jump against itself is kept as the device's jump sum, taken, so the jump
    back at the step's end comes home at once (3); a noise larger than about twice the
-   declared σ fails it almost always.  The fused estimate only (independent locals keep their own
-   rules).
+   declared σ fails it almost always.  And an only aid with no such mate (GNSS positions
+   alone), held past the longest coast (:data:`COAST_PATIENCES` patiences) with fresh
+   outputs, is taken back the same way: its increments against an estimate that drifts
+   past the model are all jumps, and the patience after the last one never comes (the
+   drive's positions alone under a 1 °/s pitch-gyro step: 126 km).  The fused estimate
+   only (independent locals keep their own rules).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
@@ -464,6 +468,9 @@ BLIND_SHARE = 0.5
 #: the witnesses' rows span the directions whose singular value is at least this share of
 #: the largest (their rows scaled to unit length)
 BLIND_RANK = 1e-3
+#: an only aid held this many patiences with fresh outputs is taken back, the covariance
+#: scaled to cover it (module docstring, 7): the longest a sole source coasts
+COAST_PATIENCES = 3
 #: a device mate measures an aid's rate where its rows fit the aid's one-epoch rate rows
 #: ``H_a(Φ − I)`` but for this share of their weight (each state in its own σ)
 RATE_FIT = 0.05
@@ -1115,6 +1122,21 @@ class Guard:
             on = whole & alone_d & ready & usable[:, a] & fresh[:, a] & ~undone[:, a]
             device[:, a] |= on
             device[:, mates] |= on[:, None] & state.hold[:, mates]
+        # the only aid measuring at all, held past the longest coast (COAST_PATIENCES
+        # patiences) with a fresh output it is not used for its noise: nothing is left to
+        # judge it but the estimate's drift, and the plain filter would have used it all
+        # along (the drive's GNSS positions alone under a 1 °/s pitch-gyro step: every
+        # increment a jump against the drifting INS, the patience never came, 126 km).
+        # Back as a device consistent with itself is, the covariance scaled to cover it
+        device |= (
+            state.hold
+            & only
+            & (state.length >= COAST_PATIENCES * self.patience)
+            & usable
+            & fresh
+            & ~undone
+            & self.rollback
+        )
         settled |= device
         # a held aid beside aids of its rate only, at one constant offset from the
         # estimate for ``lasting_s``: that offset is taken (a rollback the rate aids could
