@@ -239,7 +239,8 @@ def test_a_frozen_sole_source_is_not_taken_back_on_its_increments():
         lambda k: 0.0, frozen, steps=110, frozen=frozen, settings=GuardSettings(patience_s=5.0)
     )
     assert held[49:79].all(), np.flatnonzero(~held[49:79].all(1)) + 50
-    assert not relaxed[49:80].any(), np.flatnonzero(relaxed.any(1))
+    # (the first fresh fix after the freeze may be taken: the longest coast has passed)
+    assert not relaxed[49:79].any(), np.flatnonzero(relaxed.any(1))
     assert not rate[49:80].any(), np.flatnonzero(rate.any(1))
     assert not held[-10:].any()
     assert np.abs(err).max() < 3.0, err

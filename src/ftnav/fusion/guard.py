@@ -196,11 +196,12 @@ and decides the method's isolation from its detector's flags:
    and that jump against itself is kept as the device's jump sum, taken, so the jump
    back at the step's end comes home at once (3); a noise larger than about twice the
    declared σ fails it almost always.  And an only aid with no such mate (GNSS positions
-   alone), held past the longest coast (:data:`COAST_PATIENCES` patiences) with fresh
-   outputs, is taken back the same way: its increments against an estimate that drifts
-   past the model are all jumps, and the patience after the last one never comes (the
-   drive's positions alone under a 1 °/s pitch-gyro step: 126 km).  The fused estimate
-   only (independent locals keep their own rules).
+   alone), held past the longest coast (:data:`COAST_PATIENCES` patiences in which it
+   was not used for its noise) with a fresh output, is taken back the same way: its
+   increments against an estimate that drifts past the model are all jumps, and the
+   patience after the last one never comes (the drive's positions alone under a 1 °/s
+   pitch-gyro step: 126 km).
+   The fused estimate only (independent locals keep their own rules).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
@@ -309,6 +310,9 @@ class GuardState(NamedTuple):
         estimate's drift) over the hold, and (B, m, m) their covariances; a device back
         whole keeps them as its jump sum, taken, so the jump back at a step's end comes
         home at once.
+    coast : epochs a held aid has not been used for its noise (module docstring, 3):
+        the coast the longest-coast rule bounds (module docstring, 7); 0 where not
+        held.
     overruled : the detector's flag is ignored until it clears (an override re-admission).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
@@ -342,6 +346,7 @@ class GuardState(NamedTuple):
     moved: tuple[np.ndarray, ...]
     own_jump: tuple[np.ndarray, ...]
     own_cov: tuple[np.ndarray, ...]
+    coast: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -766,6 +771,7 @@ class Guard:
             tuple(np.zeros((B, self.sizes[g])) for g in self.group_of),
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.zeros((B, m, m)) for m in self.dims),
+            zi.copy(),
         )
 
     @staticmethod
@@ -1131,7 +1137,7 @@ class Guard:
         device |= (
             state.hold
             & only
-            & (state.length >= COAST_PATIENCES * self.patience)
+            & (state.coast >= COAST_PATIENCES * self.patience)
             & usable
             & fresh
             & ~undone
@@ -2357,7 +2363,11 @@ class Guard:
         if age % self.L == 0 and self.rollback:
             close = age == 0 and self.nc > 0  # a coarse block's span is over
             pulls = [sep.rotate(p, self.nc, close) for p in pulls]
+        # a held aid's coast: epochs it was not used for its noise (its increments
+        # informing the rate do not end a coast: the estimate's level still drifts)
+        coast = np.where(after.hold & ~informed, before.coast + 1, 0)
         new = after._replace(
+            coast=coast,
             moved=tuple(moved),
             pulls=tuple(pulls),
             alternative=tuple(alts),
