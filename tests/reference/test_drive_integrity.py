@@ -542,6 +542,24 @@ def test_a_sins_gyro_step_in_an_outage_does_not_lock_the_returning_gnss_out(tmp_
         assert got <= 1.5 * bar, (name, got, bar)
 
 
+def _recovered_as_ckf_or_own_level(path, faults, after_s, **kw):
+    """Every tested method's horizontal RMS from ``after_s`` (s of the reference) within
+    1.5 × ``ckf``'s under ``faults``, or 1.5 × its own level without them where that is
+    higher (the GLR's on the drive, 1.7 × ``ckf``'s: its own expected failure)."""
+    loaded, traces, _ = process(path, faults=faults, **kw)
+    _, clean, _ = process(path, **kw)
+    t_ref, _ = horizontal(loaded, traces["ckf"])
+    after = t_ref >= after_s
+
+    def rms(trace):
+        return float(np.sqrt(np.mean(horizontal(loaded, trace)[1][after] ** 2)))
+
+    bar = rms(traces["ckf"])
+    for name in TESTED:
+        got, own = rms(traces[name]), rms(clean[name])
+        assert got <= 1.5 * max(bar, own), (name, got, bar, own)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("axis", "deg_s"), [(0, 1.0), (2, 2.0), (2, 10.0)], ids=["pitch-1", "heading-2", "heading-10"]
@@ -565,18 +583,7 @@ def test_after_a_large_sins_gyro_step_with_the_gnss_on_the_gnss_is_not_locked_ou
     rate = np.zeros(3)
     rate[axis] = np.radians(deg_s)
     step = Fault(SINS, "gyro-bias", t0 + start, t0 + end, rate)
-    loaded, traces, _ = process(path, faults=[step])
-    _, clean, _ = process(path)
-    t_ref, _ = horizontal(loaded, traces["ckf"])
-    after = t_ref >= end + 30.0
-
-    def rms(trace):
-        return float(np.sqrt(np.mean(horizontal(loaded, trace)[1][after] ** 2)))
-
-    bar = rms(traces["ckf"])
-    for name in TESTED:
-        got, own = rms(traces[name]), rms(clean[name])
-        assert got <= 1.5 * max(bar, own), (name, got, bar, own)
+    _recovered_as_ckf_or_own_level(path, [step], end + 30.0)
 
 
 @pytest.mark.slow
@@ -610,18 +617,7 @@ def test_gnss_alone_after_a_large_sins_gyro_step_the_gnss_is_not_locked_out(tmp_
     t0 = load_recording(path, methods=["ckf"]).recording.t_start
     rate = np.radians([deg_s, 0.0, 0.0] if deg_s == 1.0 else [0.0, 0.0, deg_s])
     step = Fault(SINS, "gyro-bias", t0 + 102.0, t0 + 132.0, rate)
-    loaded, traces, _ = process(path, aids=["gnss"], faults=[step])
-    _, clean, _ = process(path, aids=["gnss"])
-    t_ref, _ = horizontal(loaded, traces["ckf"])
-    after = t_ref >= 162.0
-
-    def rms(trace):
-        return float(np.sqrt(np.mean(horizontal(loaded, trace)[1][after] ** 2)))
-
-    bar = rms(traces["ckf"])
-    for name in TESTED:
-        got, own = rms(traces[name]), rms(clean[name])
-        assert got <= 1.5 * max(bar, own), (name, got, bar, own)
+    _recovered_as_ckf_or_own_level(path, [step], 162.0, aids=["gnss"])
 
 
 @pytest.mark.parametrize("metres", [1.0, 2.0])
