@@ -1101,8 +1101,11 @@ class Guard:
         # and velocities both held, the vehicle constraints gated by the same error, and
         # nothing measured again: 164 km against ckf's 0.03 m).  Back, relaxed, with no
         # jump taken: the whole innovation is the estimate's error
+        # (only an aid with a device mate is ever tested against itself: none else pays)
         moved = tuple(
-            kf.mv(test.F[self.group_of[a]], state.moved[a]) if self.rollback else state.moved[a]
+            kf.mv(test.F[self.group_of[a]], state.moved[a])
+            if self.rollback and self.mates[a]
+            else state.moved[a]
             for a in range(N)
         )
         # (tested from the onset's flag: a step of one half is a jump against itself)
@@ -2343,7 +2346,7 @@ class Guard:
                 # the epoch's corrections of the estimate, for each aid's ``moved``: none
                 # after a used aid's residual, all of them after a held aid's innovation
                 d_all = x - priors[gi][0]
-                for a in grp:
+                for a in (a for a in grp if self.mates[a]):
                     used = (usable[:, a] & ~out.hold[:, a]) | g.rate[:, a] | informed[:, a]
                     held = usable[:, a] & ~used
                     m_a = np.where(held[:, None], d_all, moved[a] + d_all)
