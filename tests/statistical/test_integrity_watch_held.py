@@ -19,7 +19,8 @@ K, M = 900, 2
 
 def _guard(hold: np.ndarray, device: np.ndarray | None = None) -> GuardTrace:
     z = np.zeros_like(hold)
-    return GuardTrace(z.astype(float), hold, z, z, z, z, z, z, z, z if device is None else device)
+    device = z if device is None else device
+    return GuardTrace(z.astype(float), hold, z, z, z, z, z, z, z, device, z)
 
 
 def _watched(faulty: slice, held: slice | None, with_guard: bool = True) -> tuple[str, ...]:
@@ -81,3 +82,24 @@ def test_a_device_taken_back_from_a_drifted_estimate_is_said_once_with_its_time(
         assert len(said) == n, found
         if n:
             assert "'gnss', 'gnss-vel'" in said[0] and "t = 400.0 s" in said[0], said
+
+
+@pytest.mark.parametrize("faded", [False, True])
+def test_a_jump_taken_says_whether_the_covariance_was_widened(faded):
+    """A star tracker held from epoch 300 and taken back with its jump at 340 (the
+    guard's patience): one finding with the time; the widening said only where the
+    guard faded the covariance (docs/integrity.md §1.9)."""
+    times = np.arange(1, K + 1, dtype=float)
+    nis = np.random.default_rng(3).chisquare(M, (1, K, 1))
+    every = np.ones((1, K, 1), bool)
+    hold = np.zeros((1, K, 1), bool)
+    hold[0, 300:339] = True
+    z = np.zeros_like(hold)
+    taken, fade = z.copy(), z.copy()
+    taken[0, 339] = True
+    fade[0, 339] = faded
+    guard = GuardTrace(z.astype(float), hold, z, z, z, z, z, taken, z, z, fade)
+    found = watch("m", times, ["cns"], [M], nis, every, every & ~hold, every, guard).findings
+    said = [f for f in found if "taken back with its jump" in f]
+    assert len(said) == 1 and "t = 340.0 s" in said[0], found
+    assert ("whole covariance widened" in said[0]) == faded, said

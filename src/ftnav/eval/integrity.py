@@ -381,11 +381,18 @@ def watch(
             )
         if taken and guard is not None:
             when = _when(times, guard.taken[..., i])
+            faded = int(guard.faded[..., i].sum())
+            widened = (
+                f"; {faded} of these, or their ends, with the whole covariance widened: the "
+                f"other aids see it only as a bias the estimate learned from its old level"
+                if faded
+                else ""
+            )
             findings.append(
-                f"methods[{name}]: aid {sensor!r}, the only aid measuring, jumped and was "
-                f"taken back with its jump as its new value after the guard's patience "
-                f"(first at {when}; {taken} time(s)): a step of it that "
-                f"lasts is followed from there, as the plain filter follows it"
+                f"methods[{name}]: aid {sensor!r}, where no other aid measuring could judge "
+                f"its jump, jumped and was taken back with its jump as its new value after "
+                f"the guard's patience (first at {when}; {taken} time(s){widened}): a step "
+                f"of it that lasts is followed from there, as the plain filter follows it"
             )
         if noisy and guard is not None:
             when = _when(times, guard.noisy[..., i])

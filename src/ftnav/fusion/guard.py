@@ -90,7 +90,12 @@ and decides the method's isolation from its detector's flags:
    aid measuring can judge: it lies in rows none of them sees, neither the quantity nor
    its rate (a star tracker or an altimeter beside a GNSS that stepped north), and the
    rows they see moved by no more than chance (a noise increase moves them all); the
-   jump is then taken in those rows only, the others' rows left to them.  And a held
+   jump is then taken in those rows only, the others' rows left to them.  Likewise
+   where the others respond to its rows only as a state it does not read would make
+   them respond (:meth:`Guard._confounded`: a star tracker's tilt beside GNSS, whose
+   velocities' rate an accelerometer bias moves as the tilt does) and those rows went
+   unheld (``unobservable``): the jump is taken with the whole covariance scaled to
+   cover the aid (``faded``; the biases were learned from the old level).  And a held
    only aid whose last
    :data:`NOISE_WINDOW` increments show a noise variance above :data:`NOISE_RATIO` times
    its R in some component (from their median absolute deviation about their median:
@@ -370,6 +375,9 @@ class GuardOutput(NamedTuple):
     device : re-admitted with every aid of its device, the device consistent with itself
         while no other sensor measured: the estimate, not the device, had drifted
         (module docstring, 7); a relaxed re-admission as well.
+    faded : re-admitted past its patience where the other aids see its rows only
+        through their rates and those rows went unheld: its jump taken with the whole
+        covariance faded to cover it (module docstring, 3); a relaxed re-admission too.
     """
 
     statistic: np.ndarray
@@ -382,6 +390,7 @@ class GuardOutput(NamedTuple):
     taken: np.ndarray
     noisy: np.ndarray
     device: np.ndarray
+    faded: np.ndarray
 
 
 class _AidTest(NamedTuple):
@@ -479,6 +488,10 @@ COAST_PATIENCES = 3
 #: a device mate measures an aid's rate where its rows fit the aid's one-epoch rate rows
 #: ``H_a(Φ − I)`` but for this share of their weight (each state in its own σ)
 RATE_FIT = 0.05
+
+#: the share of a witness's response to a held aid's move that states the aid does not
+#: read may leave unexplained, and the move still be theirs to it (:meth:`Guard._confounded`)
+CONFOUNDED = 0.1
 
 
 def devices_of(sensors: Sequence[Sensor]) -> tuple[str, ...]:
@@ -1064,7 +1077,20 @@ class Guard:
         # held: 35 m after the fault against ckf's 0.06 m)
         for b in np.flatnonzero((ripe & unwitnessed & only).any(0)).tolist():
             unwitnessed[:, b] &= ~self._offset_seen(b, usable, test, state)
-        expired = ripe & unwitnessed
+        # rows the other aids measuring see through their rates only (a star tracker's
+        # attitude beside GNSS, whose velocities a tilt moves only through their rate,
+        # where an accelerometer bias can take the tilt's part), gone unheld (``unobs``:
+        # their variance grew ``growth`` times since the aid last informed them): the
+        # others cannot judge the jump either, and the coast does not hold what the aid
+        # measures.  Taken after the patience as beside aids that cannot see it, the
+        # whole covariance faded to cover the aid (:meth:`record`): the states through
+        # which the others see the rows (the biases) were learned from the old level.
+        # Sensors only witness here: a vehicle constraint reads a velocity with the
+        # attitude, and a whole receiver held beside it is the device rule's (below)
+        faded = ripe & unobs & ~unwitnessed & usable & self.rollback
+        for a in np.flatnonzero(faded.any(0)).tolist():
+            faded[:, a] &= self._confounded(a, usable & ~self.pseudo, test)
+        expired = ripe & (unwitnessed | faded)
         # an expiry between the aid's measurements would release it with nothing to
         # take (its jump is taken where it measures), and its next measurement, still
         # off, started a new hold whose patience ended between them again: the drive's
@@ -1160,6 +1186,7 @@ class Guard:
         # its jump sum kept for the jump back at the fault's end
         # (independent locals keep no pulls: a hold of theirs takes no jump)
         taken = (settled & ~steady & (state.jumps > 0) & self.rollback & ~device) | lasting
+        faded &= settled & ~device & ~undone
         returned &= ~undone & ~settled
         release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
         relaxed = (release & ~undone & ~strict) | settled | returned
@@ -1192,6 +1219,10 @@ class Guard:
         due = (det_flag | kept) & far & ~state.hold & fresh
         due &= ~self._loud(due & usable, spread, test)[0]
         home = self._home(state, inc, good, due, usable, test)
+        # (home in rows the others see only as a state the aid does not read: that state
+        # was learned from the level the estimate followed, and is faded as at the take)
+        for a in np.flatnonzero((home & ~self.pseudo).any(0)).tolist():
+            faded[:, a] |= home[:, a] & self._confounded(a, usable & ~self.pseudo, test)
         welcome = welcome | home
         overruled = overruled | welcome
         # an overruled detector's aid is watched by the guard's own χ² instead
@@ -1451,7 +1482,17 @@ class Guard:
             spread=spread,
         )
         out = GuardOutput(
-            ratio, flags, alarm, choose, undone, unobs, relaxed | welcome, taken, noisy, device
+            ratio,
+            flags,
+            alarm,
+            choose,
+            undone,
+            unobs,
+            relaxed | welcome,
+            taken,
+            noisy,
+            device,
+            faded,
         )
         # ``rate`` (above): a held only aid's consistent increment (after a step the aid
         # moves as the vehicle does, offset) still tells the estimate's rate, once
@@ -2036,6 +2077,42 @@ class Guard:
         still = _chi2(np.where(seen, J, 0.0), C_s) <= _thresholds(self.pfa, k)
         return np.asarray(only | (moved.any(-1) & still))
 
+    def _confounded(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:
+        """(B,) whether the other aids of ``a``'s group in ``witnesses`` (B, N) that
+        respond to ``a``'s quantity (:meth:`_unseen`'s 1 % rule on ``H_j``, ``H_j D``,
+        ``H_j D²``) respond to the move ``a``'s innovation asks (on its carriers,
+        :func:`_carrier`) only as states ``a`` does not measure could make them: within
+        :data:`CONFOUNDED` of its size in the span of those states' columns, each in its
+        σ.  A star tracker's tilt beside GNSS velocities, whose rate a tilt moves as an
+        accelerometer bias does: at no epoch can they say which of the two moved.  False
+        where no witness responds (:meth:`_unwitnessed` is for that); a position beside
+        its velocities (they read its rate) or velocities beside positions (a velocity
+        offset is all their rate holds) are judged."""
+        g = self.group_of[a]
+        P, Ha, t = test.P[g], test.H[a], test.aids[a]
+        D = np.broadcast_to(test.F[g], P.shape) - np.eye(P.shape[-1])
+        sigma = np.sqrt(np.diagonal(P, axis1=-2, axis2=-1))
+        quantity = _carries(Ha, P).any(1)  # (B, n) the states a reads
+        move = kf.mv(_carrier(Ha, P), t.nu)
+        seen = np.zeros(P.shape[0], bool)
+        judged = np.zeros(P.shape[0], bool)
+        for j in self._peers(a):
+            w = witnesses[:, j]
+            if not w.any():
+                continue
+            Hk = self._on(j, g, test.H[j])
+            for _ in range(3):  # the witness's quantity, its rate, its rate's rate
+                cols = _carries(Hk, P).any(1)
+                sees = w & (cols & quantity).any(-1)
+                other = Hk * np.where(cols & ~quantity, sigma, 0.0)[:, None, :]
+                y = kf.mv(Hk, move)
+                fit = kf.mv(other @ np.linalg.pinv(other), y)
+                left = np.linalg.norm(y - fit, axis=-1) > CONFOUNDED * np.linalg.norm(y, axis=-1)
+                seen |= sees
+                judged |= sees & left
+                Hk = Hk @ D
+        return np.asarray(seen & ~judged)
+
     def _offset_seen(
         self,
         a: int,
@@ -2223,11 +2300,14 @@ class Guard:
             # the attitude's and the biases' that drove the drift with the rest, so the
             # whole covariance is scaled to cover the device's innovation (a fading
             # factor, as a strong tracking filter's) before its relaxed update
-            whole = [a for a in grp if (out.device[:, a] & usable[:, a]).any()]
+            # (an aid taken where the others see its rows through their rates only:
+            # the biases that carried the old level, likewise)
+            fade = out.device | out.faded
+            whole = [a for a in grp if (fade[:, a] & usable[:, a]).any()]
             if whole:
                 on = np.zeros(B, bool)
                 for a in whole:
-                    on |= out.device[:, a] & usable[:, a]
+                    on |= fade[:, a] & usable[:, a]
                 Hs, Rs = self._stacked(whole, H, R, usable, B)
                 nu = np.where(
                     on[:, None],
