@@ -17,6 +17,7 @@ as Page's CUSUM (floored at zero) and back the aid above ``2 ln(1 / pfa)``.
 from __future__ import annotations
 
 import numpy as np
+from guard_models import unit_rows
 
 from ftnav.fusion.config import GuardSettings
 from ftnav.fusion.guard import Guard, GuardTest, _AidTest
@@ -27,17 +28,10 @@ P_TT, P_VV, P_VT = 4e-6, 0.04, 2.0e-4  # tilt rad², east velocity (m/s)², thei
 R_A, R_V = 1e-8, 0.01  # star tracker rad², velocity (m/s)²
 
 
-def _rows(*cols: int) -> np.ndarray:
-    H = np.zeros((len(cols), N_STATES))
-    for i, c in enumerate(cols):
-        H[i, c] = 1.0
-    return H
-
-
 AIDS = {
-    "star tracker": (_rows(6), R_A),
-    "velocity east": (_rows(3), R_V),
-    "altimeter": (_rows(2), 1.0),
+    "star tracker": (unit_rows(N_STATES, 6), R_A),
+    "velocity east": (unit_rows(N_STATES, 3), R_V),
+    "altimeter": (unit_rows(N_STATES, 2), 1.0),
 }
 
 

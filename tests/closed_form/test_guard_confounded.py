@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from guard_models import one_group_guard, unit_rows
 
-from ftnav.fusion.config import GuardSettings
 from ftnav.fusion.guard import Guard, GuardTest, _AidTest
 
 DT = 1.0
@@ -29,31 +29,18 @@ N_STATES = 8  # pE, pN, pU, vE, vN, vU, tilt (east velocity's), accelerometer bi
 G = 9.8
 
 
-def _rows(*cols: int) -> np.ndarray:
-    H = np.zeros((len(cols), N_STATES))
-    for i, c in enumerate(cols):
-        H[i, c] = 1.0
-    return H
-
-
 AIDS = {
-    "gnss": _rows(0, 1, 2),
-    "velocity": _rows(3, 4, 5),
-    "altimeter": _rows(2),
-    "star tracker": _rows(6),
-    "second star tracker": _rows(6),
+    "gnss": unit_rows(N_STATES, 0, 1, 2),
+    "velocity": unit_rows(N_STATES, 3, 4, 5),
+    "altimeter": unit_rows(N_STATES, 2),
+    "star tracker": unit_rows(N_STATES, 6),
+    "second star tracker": unit_rows(N_STATES, 6),
 }
 
 
 def _setup(names: list[str], bias_sigma: float, nu: np.ndarray) -> tuple[Guard, GuardTest]:
     Hs = [AIDS[k] for k in names]
-    guard = Guard(
-        GuardSettings(),
-        [tuple(range(len(names)))],
-        [N_STATES],
-        [h.shape[0] for h in Hs],
-        pseudo=[False] * len(names),
-    )
+    guard = one_group_guard(Hs, N_STATES, [False] * len(names))
     F = np.eye(N_STATES)
     F[:3, 3:6] = DT * np.eye(3)
     F[3, 6] = G * DT

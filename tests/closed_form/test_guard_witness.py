@@ -26,20 +26,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from guard_models import one_group_guard, unit_rows
 
-from ftnav.fusion.config import GuardSettings
 from ftnav.fusion.guard import Guard, GuardTest
 
 DT = 1.0
 N_STATES = 7  # pE, pN, pU, vE, vN, vU, tilt
 G = 9.8
-
-
-def _rows(*cols: int, n: int = N_STATES) -> np.ndarray:
-    H = np.zeros((len(cols), n))
-    for i, c in enumerate(cols):
-        H[i, c] = 1.0
-    return H
 
 
 def _constraints(heading_deg: float) -> np.ndarray:
@@ -53,11 +46,11 @@ def _constraints(heading_deg: float) -> np.ndarray:
 
 
 AIDS = {
-    "gnss": _rows(0, 1, 2),
-    "altimeter": _rows(2),
-    "star tracker": _rows(6),
-    "velocity": _rows(3, 4, 5),
-    "odometer north": _rows(4),
+    "gnss": unit_rows(N_STATES, 0, 1, 2),
+    "altimeter": unit_rows(N_STATES, 2),
+    "star tracker": unit_rows(N_STATES, 6),
+    "velocity": unit_rows(N_STATES, 3, 4, 5),
+    "odometer north": unit_rows(N_STATES, 4),
     "constraints heading 0": _constraints(0.0),
     "constraints heading 45": _constraints(45.0),
     "constraints heading 120": _constraints(120.0),
@@ -66,13 +59,7 @@ AIDS = {
 
 def _setup(names: list[str], B: int = 1) -> tuple[Guard, GuardTest]:
     Hs = [AIDS[k] for k in names]
-    guard = Guard(
-        GuardSettings(),
-        [tuple(range(len(names)))],
-        [N_STATES],
-        [h.shape[0] for h in Hs],
-        pseudo=[k.startswith("constraints") for k in names],
-    )
+    guard = one_group_guard(Hs, N_STATES, [k.startswith("constraints") for k in names])
     F = np.eye(N_STATES)
     F[:3, 3:6] = DT * np.eye(3)
     F[3, 6] = G * DT

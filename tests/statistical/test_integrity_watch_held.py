@@ -55,14 +55,20 @@ def test_the_finding_says_whether_the_aid_was_held(faulty, held, guard, said):
     assert len(found) == 1 and said in found[0], found
 
 
+def _held_from_300(n: int, until: int, seed: int):
+    """The times, χ²_M NIS, availability and holds of ``n`` aids held over [300, until)."""
+    times = np.arange(1, K + 1, dtype=float)
+    nis = np.random.default_rng(seed).chisquare(M, (1, K, n))
+    every = np.ones((1, K, n), bool)
+    hold = np.zeros((1, K, n), bool)
+    hold[0, 300:until] = True
+    return times, nis, every, hold
+
+
 def test_a_device_taken_back_from_a_drifted_estimate_is_said_once_with_its_time():
     """Both halves of a receiver re-admitted together at epoch 400 (the guard's device
     rule): one finding naming both aids and the time; none without it."""
-    times = np.arange(1, K + 1, dtype=float)
-    nis = np.random.default_rng(2).chisquare(M, (1, K, 2))
-    every = np.ones((1, K, 2), bool)
-    hold = np.zeros((1, K, 2), bool)
-    hold[0, 300:399] = True
+    times, nis, every, hold = _held_from_300(2, 399, seed=2)
     device = np.zeros_like(hold)
     for dev, n in ((device, 0), (device.copy(), 1)):
         if n:
@@ -89,11 +95,7 @@ def test_a_jump_taken_says_whether_the_covariance_was_widened(faded):
     """A star tracker held from epoch 300 and taken back with its jump at 340 (the
     guard's patience): one finding with the time; the widening said only where the
     guard faded the covariance (docs/integrity.md §1.9)."""
-    times = np.arange(1, K + 1, dtype=float)
-    nis = np.random.default_rng(3).chisquare(M, (1, K, 1))
-    every = np.ones((1, K, 1), bool)
-    hold = np.zeros((1, K, 1), bool)
-    hold[0, 300:339] = True
+    times, nis, every, hold = _held_from_300(1, 339, seed=3)
     z = np.zeros_like(hold)
     taken, fade = z.copy(), z.copy()
     taken[0, 339] = True
