@@ -275,6 +275,15 @@ def _seconds(strict: bool):
     return parse
 
 
+def _bad_input(e: Exception) -> str:
+    """The one line of a bad input: a scenario file's field named with the file and its
+    line where it can be told (``file.toml:43: faults[0].end: ...``)."""
+    line = _one_line(e)
+    if isinstance(e, ScenarioError) and e.where is not None and not line.startswith(e.origin):
+        return f"{e.where}: {line}"
+    return line
+
+
 @contextmanager
 def _checking() -> Iterator[None]:
     """The validation phase: a ValueError raised here is the input's fault (exit 2).
@@ -1473,7 +1482,7 @@ def main(argv: list[str] | None = None) -> int:
     except (UsageError, ScenarioError, ModelFileError, OutputRefused, Unflyable) as e:
         if debug:
             traceback.print_exception(e)
-        print(f"ftnav: error: {_one_line(e)}", file=sys.stderr)
+        print(f"ftnav: error: {_bad_input(e)}", file=sys.stderr)
         return 2
     except Diverged as e:
         if debug:

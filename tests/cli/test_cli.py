@@ -292,7 +292,8 @@ def test_debug_shows_the_traceback_of_both_kinds(small, tmp_path, capsys, monkey
     assert main(argv(str(bad), "--out", str(tmp_path / "o"), "--quiet")) == 2
     err = capsys.readouterr().err
     assert "Traceback (most recent call last)" in err
-    assert err.splitlines()[-1].startswith("ftnav: error: faults[0].sensor: unknown sensor")
+    assert err.splitlines()[-1].startswith(f"ftnav: error: {bad}:")
+    assert " faults[0].sensor: unknown sensor" in err.splitlines()[-1]
     monkeypatch.setattr(cli, "run_scenario", _crash)
     assert main(argv(str(small), "--runs", "2", "--out", str(tmp_path / "o"), "--quiet")) == 1
     err = capsys.readouterr().err

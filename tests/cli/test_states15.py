@@ -62,5 +62,6 @@ def test_the_18_state_neuron_model_is_refused_by_a_15_state_copy(tmp_path, capsy
     errors = [ln for ln in lines if ln.startswith("ftnav: error: ")]
     assert code == 2 and len(errors) == 1 and errors == lines[-1:]
     assert all(ln.startswith("ftnav: warning: ") for ln in lines[:-1])  # the 15-state note
-    assert re.match(r"ftnav: error: methods\[\d+\]\.model: was trained for states = ", errors[0])
+    pattern = r"ftnav: error: \S+\.toml:\d+: methods\[\d+\]\.model: was trained for states = "
+    assert re.match(pattern, errors[0])
     assert not (tmp_path / "out").exists()

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import re
 import tomllib
 import zipfile
 from collections.abc import Callable
@@ -107,7 +108,9 @@ def test_the_cli_refuses_a_misfit_model_before_running(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["run", str(scenario), "--runs", "1", "--quiet", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("ftnav: error: methods[0].detector.model: ") and err.count("\n") == 1
+    where = re.escape(str(scenario))
+    assert re.match(rf"ftnav: error: {where}:\d+: methods\[0\]\.detector\.model: ", err)
+    assert err.count("\n") == 1
     assert not out.exists()
 
 

@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 
 from ftnav.cli import main
-from ftnav.io.common import MAX_TOML_DEPTH, ScenarioError, read_toml
+from ftnav.io.common import MAX_TOML_DEPTH, ScenarioError, field_line, read_toml
 from ftnav.io.ins_scenario_file import ScenarioWarning, parse_ins_scenario
 from ftnav.io.scenario_file import load_scenario, parse_scenario
 from ftnav.scenarios import builtin_names, builtin_path
@@ -378,8 +378,10 @@ def test_the_cli_refuses_with_one_line(tmp_path, capsys):
     path.write_text(text)
     assert main(["run", str(path), "--runs", "1", "--quiet", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("ftnav: error: aids[0]: ") and err.count("\n") == 1, err
-    assert not (tmp_path / "o").exists()
+    # the file and the line of the aid's table
+    line = 1 + text.splitlines().index("[[aids]]")
+    assert err.startswith(f"ftnav: error: {path}:{line}: aids[0]: "), err
+    assert err.count("\n") == 1 and not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize("name", builtin_names())
@@ -553,3 +555,77 @@ def test_training_the_neuron_centre_on_a_flight_too_short_is_refused(tmp_path, c
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert err.startswith("ftnav: error: filter.duration_s: the flight lasts 60 s;"), err
     assert not out.exists()
+
+
+FIELD_LINES = """# a scenario
+name = "demo"
+kind = "integrated"
+
+[filter]
+dt = 1.0
+
+[[aids]]
+type = "gnss"
+name = "gnss"
+
+[[aids]]
+type = "cns"
+name = "cns"
+  sigma_arcsec = -1.0
+
+[[methods]]
+name = "ckf"
+architecture = "centralized"
+
+[[methods]]
+name = "fkf"
+sharing = "equal"
+detector = { kind = "residual-chi2", false_alarm_probability = 2.0 }
+"""
+
+
+@pytest.mark.parametrize(
+    ("field", "line"),
+    [
+        ("name", 2),
+        ("filter.dt", 6),
+        ("filter", 5),
+        ("aids[1].sigma_arcsec", 15),
+        ("aids[0].name", 10),
+        ("methods[fkf].sharing", 23),
+        ("methods[1].detector.false_alarm_probability", 24),
+        ("aids[2].name", None),
+        ("faults[0].end", None),
+        ("filter.duration_s", None),
+    ],
+)
+def test_the_line_that_sets_a_field_is_found_by_hand(field, line):
+    assert field_line(FIELD_LINES, field) == line
+
+
+INLINE_LINES = """name = "r"
+sensors = [
+    { name = "a", R = [[1.0]] },
+    { name = "b", R = [[-2.0]] },
+]
+"""
+
+
+@pytest.mark.parametrize(
+    ("field", "line"),
+    [("sensors[1].R", 4), ("sensors[b]", 4), ("sensors[a].R", 3), ("sensors", 2), ("name", 1)],
+)
+def test_an_array_of_inline_tables_gives_each_its_line(field, line):
+    assert field_line(INLINE_LINES, field) == line
+
+
+def test_a_field_error_names_the_file_and_its_line(tmp_path, capsys):
+    src = builtin_path("seed002").read_text()
+    bad = src.replace("sigma_arcsec = 10.0", "sigma_arcsec = -10.0", 1)
+    path = tmp_path / "mine.toml"
+    path.write_text(bad)
+    line = 1 + bad.splitlines().index("sigma_arcsec = -10.0")
+    assert main(["run", str(path), "--runs", "1", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"ftnav: error: {path}:{line}: aids[1].sigma_arcsec: "), err
+    assert err.count("\n") == 1 and not (tmp_path / "o").exists()

@@ -68,17 +68,87 @@ class ScenarioError(ValueError):
         problems reading the file.
     reason : what is wrong, one line.
     origin : where the data came from (file name or ``"<scenario>"``).
+    line : the 1-based line of the file that sets the field (:func:`field_line`), or
+        None.
     """
 
-    def __init__(self, path: str, reason: str, origin: str = "<scenario>") -> None:
+    def __init__(
+        self, path: str, reason: str, origin: str = "<scenario>", line: int | None = None
+    ) -> None:
         self.path = one_line(path)
         self.reason = one_line(reason)
         self.origin = origin
+        self.line = line
         super().__init__(f"{self.path}: {self.reason}")
 
-    def __reduce__(self) -> tuple[type[ScenarioError], tuple[str, str, str]]:
+    @property
+    def where(self) -> str | None:
+        """``file:line`` the field is set in; None where the line is not known (the
+        message names the field alone, or the file where the file is the problem)."""
+        if self.origin == "<scenario>" or self.line is None:
+            return None
+        return f"{self.origin}:{self.line}"
+
+    def __reduce__(self) -> tuple[type[ScenarioError], tuple[str, str, str, int | None]]:
         # keep picklable despite the custom signature
-        return (type(self), (self.path, self.reason, self.origin))
+        return (type(self), (self.path, self.reason, self.origin, self.line))
+
+
+_SEGMENT = re.compile(r"([^.\[\]]+)(?:\[([^\]]+)\])?")
+_HEADER = re.compile(r"\s*\[\[?\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
+
+
+def field_line(text: str, field: str) -> int | None:
+    """The 1-based line of a TOML document ``text`` that sets ``field`` (a path of
+    :class:`ScenarioError`: ``faults[0].end``, ``methods[ckf].sharing`` — an index or a
+    ``name`` —, ``filter.dt``, ``name``), or None where it cannot be told (a default
+    not written, an inline table's inner key is given its table's line)."""
+    segments = _SEGMENT.findall(field)
+    if not segments:
+        return None
+    lines = text.splitlines()
+    headers = [(i, m[1]) for i, m in ((i, _HEADER.match(ln)) for i, ln in enumerate(lines)) if m]
+    table, index = segments[0]
+    starts = [i for i, h in headers if h == table]
+    rest = segments[1:]
+    if not starts:  # a top-level key, before the first table
+        first = headers[0][0] if headers else len(lines)
+        at = _key_line(lines, 0, first, table)
+        if at is None or not index:
+            return at
+        # an array of inline tables, one a line: the one at the index, or of that name
+        items = [i for i in range(at - 1, first) if lines[i].lstrip().lstrip("[").startswith("{")]
+        if index.isdigit():
+            return items[int(index)] + 1 if int(index) < len(items) else at
+        named = re.compile(rf"[{{,]\s*name\s*=\s*[\"']{re.escape(index)}[\"']")
+        return next((i + 1 for i in items if named.search(lines[i])), at)
+    block = None
+    for k, start in enumerate(starts):
+        end = next((i for i, _ in headers if i > start), len(lines))
+        if not index or (index.isdigit() and k == int(index)):
+            block = (start, end)
+        elif not index.isdigit() and _key_value(lines, start + 1, end, "name") == index:
+            block = (start, end)
+        if block is not None:
+            break
+    if block is None:
+        return None
+    if not rest:
+        return block[0] + 1
+    return _key_line(lines, block[0] + 1, block[1], rest[0][0])
+
+
+def _key_line(lines: list[str], start: int, end: int, key: str) -> int | None:
+    pattern = re.compile(rf"\s*[\"']?{re.escape(key)}[\"']?\s*=")
+    return next((i + 1 for i in range(start, end) if pattern.match(lines[i])), None)
+
+
+def _key_value(lines: list[str], start: int, end: int, key: str) -> str | None:
+    line = _key_line(lines, start, end, key)
+    if line is None:
+        return None
+    m = re.match(r"[^=]*=\s*[\"']([^\"']*)[\"']", lines[line - 1])
+    return m[1] if m else None
 
 
 def one_line(text: str) -> str:

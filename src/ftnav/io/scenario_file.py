@@ -47,6 +47,7 @@ from ftnav.io.common import (
     Vector,
     covariance_problem,
     fail,
+    field_line,
     number,
     read_toml,
     to_scenario_error,
@@ -556,12 +557,20 @@ def load_scenario(source: str | Path, models: bool = True) -> Scenario | InsScen
     if isinstance(source, str) and source in builtin_names() and not Path(source).exists():
         source = builtin_path(source)
     data = read_toml(source)
-    if data.get("kind") == "integrated":
-        sc: Scenario | InsScenario = parse_ins_scenario(
-            data, str(source), Path(source).parent, models
-        )
-    else:
-        sc = parse_scenario(data, str(source), Path(source).parent, models)
+    try:
+        if data.get("kind") == "integrated":
+            sc: Scenario | InsScenario = parse_ins_scenario(
+                data, str(source), Path(source).parent, models
+            )
+        else:
+            sc = parse_scenario(data, str(source), Path(source).parent, models)
+    except ScenarioError as e:  # the line of the file that sets the field
+        if e.origin == str(source) and e.line is None:
+            try:
+                e.line = field_line(Path(source).read_text("utf-8-sig"), e.path)
+            except (OSError, UnicodeDecodeError):
+                pass
+        raise
     return replace(sc, builtin=builtin_of(Path(source)))
 
 
