@@ -20,6 +20,7 @@ compatibility stamp (:func:`ftnav.io.learned.compatibility`).  Oracles, in close
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -276,7 +277,9 @@ def test_a_model_for_another_sensor_set_is_refused(drive, tmp_path, capsys, meth
 
     # the method's index in the file, whatever --methods chose
     i = [m["name"] for m in tomllib.loads(path.read_text())["methods"]].index(method)
-    assert err.startswith(f"ftnav: error: methods[{i}].{field}: was trained for sensors = "), err
+    # the recording file and its line, then the field
+    assert re.match(rf"ftnav: error: {re.escape(str(path))}:\d+: methods\[{i}\]\.", err), err
+    assert f" methods[{i}].{field}: was trained for sensors = " in err, err
     assert "['gnss', 'nhc', 'zupt'], this scenario has ['gnss']" in err, err
     assert f"method {method!r}" in err and str(path.parent / model) in err, err
     assert not out.exists()

@@ -141,7 +141,10 @@ def _refused(path: Path, capsys) -> str:
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err, err
     assert not out.exists()
-    return err.strip().removeprefix("ftnav: error: ")
+    # a field of the recording file comes after the file and its line
+    line = err.strip().removeprefix("ftnav: error: ")
+    where = re.match(rf"{re.escape(str(path))}:\d+: ", line)
+    return line if where is None else line[where.end() :]
 
 
 def _with(lines: list[str], row: int, column: int, text: str) -> list[str]:

@@ -22,6 +22,7 @@ from recording_runs import drive_copy
 from test_recording_input import _imu_lines, _pos_lines, _refused, _write
 from test_recording_navego_input import NAVEGO
 
+from ftnav.cli import main
 from ftnav.io.common import ScenarioError
 from ftnav.io.recording_file import load_recording
 from ftnav.recordings import recording_path
@@ -617,3 +618,12 @@ def test_a_gnss_velocity_in_km_h_declared_m_s_is_a_warning(tmp_path):
         r"aids\[0\]\.lat\.unit, aids\[0\]\.velocity\.unit: the positions move 0\.2\d+ times",
         moved[0],
     ), moved
+
+
+def test_a_recording_field_is_refused_with_its_file_and_line(tmp_path, capsys):
+    """The recording file's own line that sets the refused field, found by hand."""
+    path = _write(tmp_path, lever_arm="[1e9, 0.0, 0.0]")
+    line = 1 + next(i for i, t in enumerate(path.read_text().splitlines()) if "1e9" in t)
+    assert main(["process", str(path), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"ftnav: error: {path}:{line}: aids[0].lever_arm_m: "), err

@@ -88,7 +88,11 @@ def _refused(argv, capsys) -> str:
     assert main([str(a) for a in argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err, err
-    return err.strip().removeprefix("ftnav: error: ")
+    # a field of the recording file comes after the file and its line
+    line = err.strip().removeprefix("ftnav: error: ")
+    where = re.match(r"(\S+\.toml):\d+: ", line)
+    assert where is None or where[1] in map(str, argv), err
+    return line if where is None else line[where.end() :]
 
 
 def test_the_base_processes_and_writes_the_solution_columns(tmp_path, capsys):

@@ -138,6 +138,17 @@ def field_line(text: str, field: str) -> int | None:
     return _key_line(lines, block[0] + 1, block[1], rest[0][0])
 
 
+def with_line(e: ScenarioError, source: str | Path) -> ScenarioError:
+    """``e`` with the line of the file ``source`` that sets its field
+    (:func:`field_line`), where ``e`` names that file and has no line yet."""
+    if e.origin == str(source) and e.line is None:
+        try:
+            e.line = field_line(Path(source).read_text("utf-8-sig"), e.path)
+        except (OSError, UnicodeDecodeError):
+            pass
+    return e
+
+
 def _key_line(lines: list[str], start: int, end: int, key: str) -> int | None:
     pattern = re.compile(rf"\s*[\"']?{re.escape(key)}[\"']?\s*=")
     return next((i + 1 for i in range(start, end) if pattern.match(lines[i])), None)

@@ -25,7 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from ftnav.eval.resources import available_memory_bytes, format_bytes
 from ftnav.fusion.config import config_error
-from ftnav.io.common import STRICT, ScenarioError, read_toml, to_scenario_error
+from ftnav.io.common import STRICT, ScenarioError, read_toml, to_scenario_error, with_line
 from ftnav.io.ins_scenario_file import (
     DEFAULT_SIGMA_BOUND_M,
     ImuSpec,
@@ -1449,7 +1449,8 @@ def parse_recording(source: str | Path | ParsedRecording) -> ParsedRecording:
     try:
         f = RecordingFile.model_validate(read_toml(source))
     except ValidationError as exc:
-        raise to_scenario_error(exc, str(source), RecordingFile, explain_method_key) from None
+        err = to_scenario_error(exc, str(source), RecordingFile, explain_method_key)
+        raise with_line(err, source) from None
     return ParsedRecording(Path(source), f)
 
 
@@ -1602,6 +1603,21 @@ def load_recording(
         command line issues them after its own checks).
     """
     parsed = parse_recording(source)
+    try:
+        return _load(parsed, outage, faults, methods, aids, warn)
+    except ScenarioError as e:  # the line of the recording file that sets the field
+        raise with_line(e, parsed.path) from None
+
+
+def _load(
+    parsed: ParsedRecording,
+    outage: tuple[float, float, float] | None,
+    faults: Sequence[Fault],
+    methods: Sequence[str] | None,
+    aids: Sequence[str] | None,
+    warn: bool,
+) -> LoadedRecording:
+    """:func:`load_recording` of a parsed file."""
     origin, base = str(parsed.path), parsed.path.parent
     for i, x in enumerate(faults):
         if x.kind not in RECORDING_FAULT_KINDS:

@@ -47,11 +47,11 @@ from ftnav.io.common import (
     Vector,
     covariance_problem,
     fail,
-    field_line,
     number,
     read_toml,
     to_scenario_error,
     unique,
+    with_line,
 )
 from ftnav.io.ins_scenario_file import (
     LARGE_FAULT_SIGMAS,
@@ -565,12 +565,7 @@ def load_scenario(source: str | Path, models: bool = True) -> Scenario | InsScen
         else:
             sc = parse_scenario(data, str(source), Path(source).parent, models)
     except ScenarioError as e:  # the line of the file that sets the field
-        if e.origin == str(source) and e.line is None:
-            try:
-                e.line = field_line(Path(source).read_text("utf-8-sig"), e.path)
-            except (OSError, UnicodeDecodeError):
-                pass
-        raise
+        raise with_line(e, source) from None
     return replace(sc, builtin=builtin_of(Path(source)))
 
 
