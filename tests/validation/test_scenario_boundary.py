@@ -619,6 +619,12 @@ def test_an_array_of_inline_tables_gives_each_its_line(field, line):
     assert field_line(INLINE_LINES, field) == line
 
 
+def test_a_written_matrix_row_is_no_table_header():
+    text = 'name = "x"\n[[sensors]]\nname = "a"\nH = [\n    [1.0, 0.0]\n]\nR = [[-1.0]]\n'
+    assert field_line(text, "sensors[0].R") == 7
+    assert field_line(text, "sensors[a].H") == 4
+
+
 def test_a_field_error_names_the_file_and_its_line(tmp_path, capsys):
     src = builtin_path("seed002").read_text()
     bad = src.replace("sigma_arcsec = 10.0", "sigma_arcsec = -10.0", 1)

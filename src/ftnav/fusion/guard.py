@@ -375,9 +375,10 @@ class GuardOutput(NamedTuple):
     device : re-admitted with every aid of its device, the device consistent with itself
         while no other sensor measured: the estimate, not the device, had drifted
         (module docstring, 7); a relaxed re-admission as well.
-    faded : re-admitted past its patience where the other aids see its rows only
-        through their rates and those rows went unheld: its jump taken with the whole
-        covariance faded to cover it (module docstring, 3); a relaxed re-admission too.
+    faded : re-admitted past its patience where the other sensors respond to its rows
+        only as a state it does not read would make them (:meth:`Guard._confounded`)
+        and those rows went unheld, or come home there: the whole covariance faded to
+        cover it (module docstring, 3); a relaxed re-admission too.
     """
 
     statistic: np.ndarray

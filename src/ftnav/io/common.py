@@ -95,7 +95,8 @@ class ScenarioError(ValueError):
 
 
 _SEGMENT = re.compile(r"([^.\[\]]+)(?:\[([^\]]+)\])?")
-_HEADER = re.compile(r"\s*\[\[?\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
+#: a table header: a key (not a number: an inner line of a written matrix, ``[1.0, 0.0]``)
+_HEADER = re.compile(r"\s*\[\[?\s*([A-Za-z_\"'][\w.\-\"' ]*?)\s*\]\]?\s*(#.*)?$")
 
 
 def field_line(text: str, field: str) -> int | None:
