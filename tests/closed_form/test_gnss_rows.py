@@ -48,19 +48,22 @@ def _receiver_epoch(lever=(0.0, 0.0, 0.0)):
     return q, v, p, raw
 
 
+W_IB = np.array([[0.1, -0.2, 0.3], [0.0, 0.0, 0.0]])  # the gyro's rate (rad/s)
+
+
 def test_a_position_aid_and_a_velocity_aid_are_the_two_halves_of_the_receiver():
     """rows = "position" / "velocity": z, H, R, the Markov states and the simulated
     errors are exactly the rows of the 6-row receiver (one receiver, two local filters)."""
     kw = dict(lever_arm_m=(0.1, -0.3, 0.5), vel_markov_sigma_m_s=(0.05, 0.06, 0.07))
     full = Gnss(**kw)
     q, v, p, raw = _receiver_epoch()
-    whole = full.measure(q, v, p, raw)
-    truth = AidTruth(np.arange(3.0), p[[0, 0, 0]], v[[0, 0, 0]], q[[0, 0, 0]])
+    whole = full.measure(q, v, p, raw, W_IB)
+    truth = AidTruth(np.arange(3.0), p[[0, 0, 0]], v[[0, 0, 0]], q[[0, 0, 0]], W_IB[[0, 0, 0]])
     errs = full.simulate_errors(truth, 7, range(2), 1)
     for rows, r in (("position", slice(0, 3)), ("velocity", slice(3, 6))):
         half = Gnss(rows=rows, **kw)
         assert half.dim == 3 and half.components == full.components[r]
-        lin = half.measure(q, v, p, raw)
+        lin = half.measure(q, v, p, raw, W_IB)
         np.testing.assert_array_equal(lin.z, whole.z[:, r])
         np.testing.assert_array_equal(lin.H, whole.H[:, r])
         np.testing.assert_array_equal(half.R, full.R[r, r])

@@ -17,7 +17,7 @@ import pytest
 from ftnav.model.scenario import Fault
 from ftnav.model.streams import AidStream, ImuStream, InsStream
 from ftnav.nav import attitude
-from ftnav.nav.earth import enu_metres
+from ftnav.nav.earth import enu_metres, omega_ie_n
 from ftnav.nav.mechanization import InsState
 from ftnav.pipeline import parse_fault
 from ftnav.recorded.imu import ImuLog, clean, increments, stationary
@@ -132,27 +132,37 @@ def _perturbed(s: InsState, dx: np.ndarray) -> InsState:
 
 @pytest.mark.parametrize(
     "sensor",
-    [Nhc(), Zupt(), Gnss(lever_arm_m=(0.3, -1.2, 0.8), markov="white")],
-    ids=["nhc", "zupt", "gnss-lever-arm"],
+    [
+        Nhc(),
+        Zupt(),
+        Gnss(lever_arm_m=(0.3, -1.2, 0.8), markov="white"),
+        Nhc(lever_arm_m=(0.1, -1.4, -0.3)),
+    ],
+    ids=["nhc", "zupt", "gnss-lever-arm", "nhc-lever-arm"],
 )
 def test_jacobians_equal_finite_differences(sensor):
     rng = np.random.default_rng(7)
     s = _state(rng)
+    w_ib = rng.uniform(-0.5, 0.5, (4, 3))  # the gyro's rate (rad/s): an input, not a state
     raw = (
         np.concatenate([s.p, s.v], 1) + rng.normal(0, 1e-9, (4, 6))
         if isinstance(sensor, Gnss)
         else np.zeros((4, sensor.dim))
     )
-    base = sensor.measure(s.q, s.v, s.p, raw)
+    base = sensor.measure(s.q, s.v, s.p, raw, w_ib)
     steps = np.r_[[1e-6] * 3, [1e-4] * 3, [1e-9, 1e-9, 1e-3]]
     for j in range(9):
         dx = np.zeros((4, 9))
         dx[:, j] = steps[j]
         up, dn = _perturbed(s, dx), _perturbed(s, -dx)
-        zu = sensor.measure(up.q, up.v, up.p, raw).z
-        zd = sensor.measure(dn.q, dn.v, dn.p, raw).z
+        zu = sensor.measure(up.q, up.v, up.p, raw, w_ib).z
+        zd = sensor.measure(dn.q, dn.v, dn.p, raw, w_ib).z
         fd = (zu - zd) / (2 * steps[j])
-        np.testing.assert_allclose(base.H[:, :, j], fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
+        # the difference's rounding floor, eps |z| / step: the arm's δL column (the Earth's
+        # rate turning with latitude, 1e-4 m/s per rad) sits near it at δL = 1e-9 rad
+        floor = 4 * np.finfo(float).eps * np.abs(zu).max() / steps[j]
+        atol = max(1e-6 * np.abs(fd).max(), floor)
+        np.testing.assert_allclose(base.H[:, :, j], fd, rtol=1e-5, atol=atol)
 
 
 def test_retime_velocity_moves_a_lagging_velocity_onto_the_position_stamps():
@@ -278,3 +288,25 @@ def test_a_velocity_aids_bias_and_ramp_move_its_north_velocity_only():
     np.testing.assert_array_equal(
         parse_fault("gnss:bias:20:60:1.5", aids).magnitude, [0, 1.5, 0, 0, 0, 0]
     )
+
+
+def test_the_constraint_holds_at_its_point_on_a_turning_car():
+    """A car turning at ω about the vertical with its rear axle's centre on a circle of
+    radius r (speed ω r, no sideways slip there) and the IMU d ahead of the axle: the
+    IMU slides sideways at ω d (to the left in a left turn: z_x = −ω d), and with the
+    arm ``l = (0, −d, 0)`` from the IMU to the axle the constraint reads 0."""
+    omega, r, d = 0.3, 20.0, 1.5  # rad/s (left turn), m, m
+    yaw = 0.7
+    q = attitude.euler_to_quat(np.array([[0.0, 0.0, yaw]]))
+    C = attitude.quat_to_dcm(q)[0]
+    # the IMU's velocity: the axle's forward ω r plus ω × (d forward) = ω d to the left
+    v_b = np.array([-omega * d, omega * r, 0.0])
+    v_n = (C @ v_b)[None]
+    p = np.array([[0.0, 0.0, 0.0]])  # on the equator the Earth's rate is along north
+    w_ib = (C.T @ omega_ie_n(p[:, 0])[0] + np.array([0.0, 0.0, omega]))[None]
+    zero = np.zeros((1, 2))
+    np.testing.assert_allclose(Nhc().measure(q, v_n, p, zero, w_ib).z, [[-omega * d, 0.0]])
+    at_axle = Nhc(lever_arm_m=(0.0, -d, 0.0)).measure(q, v_n, p, zero, w_ib).z
+    np.testing.assert_allclose(at_axle, zero, atol=1e-12)
+    with pytest.raises(ValueError, match="needs the rate w_ib"):
+        Nhc(lever_arm_m=(0.0, -d, 0.0)).measure(q, v_n, p, zero)

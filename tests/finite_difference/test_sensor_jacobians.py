@@ -13,6 +13,9 @@ small next to the slope term.  Requirement ``‖Δz − H δx‖ ≤ 1e-3 ‖H �
 ``atol`` the float64 rounding floor of z (``R·eps·|p|`` ≈ 1e-9 m for geodetic positions,
 1e-14 rad for attitudes), so that structurally zero columns are checked too.
 Private-state columns are checked by perturbing the raw output's errors instead.
+The GNSS antenna on a lever arm (``gnss-arm``) reads the gyro's rate ``w_ib`` (a
+measured input, not a state): the truth's rate goes to both its simulated output and
+``measure``, so (a) checks that the two put the antenna at the same place and velocity.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from ftnav.nav.attitude import (
     quat_to_dcm,
     rotvec_to_quat,
 )
+from ftnav.nav.earth import omega_ie_n
 from ftnav.sensors import (
     AidTruth,
     AnalyticTerrain,
@@ -50,6 +54,8 @@ TERRAIN = AnalyticTerrain.random(
 SENSORS = {
     "gnss-white": Gnss(),
     "gnss-augment": Gnss(markov="augment"),
+    # an antenna 2.7 m from the IMU: the arm's rotation in the velocity rows
+    "gnss-arm": Gnss(lever_arm_m=(0.8, 2.6, -0.5)),
     "tan": Tan(TERRAIN),
     "dns-augment": Doppler(),
     "dns-white": Doppler(states="white"),
@@ -90,7 +96,8 @@ def flight_states(seed: int, sensor) -> AidTruth:
         np.stack([rng.uniform(-30, 30, n), rng.uniform(-60, 60, n), rng.uniform(-180, 180, n)], -1)
         * DEG
     )
-    return AidTruth(np.arange(n) * sensor.dt, np.stack([L, lam, h], -1), v, euler_to_quat(a))
+    w = rng.uniform(-0.5, 0.5, (n, 3))  # the gyro's rate (rad/s): a lever arm's rotation
+    return AidTruth(np.arange(n) * sensor.dt, np.stack([L, lam, h], -1), v, euler_to_quat(a), w)
 
 
 def noise_free_raw(sensor, truth: AidTruth, e=None, c=None) -> np.ndarray:
@@ -121,15 +128,16 @@ def atol(sensor) -> float:
 
 @pytest.mark.parametrize("key", list(SENSORS))
 def test_zero_error_gives_zero_innovation(key):
-    """(a) Noise-free aid and INS = truth: z = 0 within 1e-9, every epoch accepted."""
+    """(a) Noise-free aid and INS = truth: z = 0 to rounding, every epoch accepted."""
     sensor = SENSORS[key]
     truth = flight_states(1, sensor)
-    lin = sensor.measure(truth.q, truth.v, truth.p, noise_free_raw(sensor, truth))
+    lin = sensor.measure(truth.q, truth.v, truth.p, noise_free_raw(sensor, truth), truth.w)
     assert lin.z.shape == (N_POINTS, sensor.dim)
     assert lin.H.shape == (N_POINTS, sensor.dim, 18)
     p = 0 if sensor.private is None else len(sensor.private.names)
     assert lin.H_private.shape == (N_POINTS, sensor.dim, p)
-    assert np.max(np.abs(lin.z)) < 1e-9
+    # a few roundings of a geodetic position (R·eps·|L| ≈ 1.4e-9 m each) at most
+    assert np.max(np.abs(lin.z)) < 5e-9
     assert lin.valid.all()
 
 
@@ -143,9 +151,9 @@ def test_jacobian_matches_central_differences(key, groups):
     truth = flight_states(2, sensor)
     raw = noise_free_raw(sensor, truth)
     dx = random_dx(np.random.default_rng(3), groups)
-    z_plus = sensor.measure(*perturbed(truth, dx), raw).z
-    z_minus = sensor.measure(*perturbed(truth, -dx), raw).z
-    H = sensor.measure(truth.q, truth.v, truth.p, raw).H
+    z_plus = sensor.measure(*perturbed(truth, dx), raw, truth.w).z
+    z_minus = sensor.measure(*perturbed(truth, -dx), raw, truth.w).z
+    H = sensor.measure(truth.q, truth.v, truth.p, raw, truth.w).H
     Hdx = np.einsum("bij,bj->bi", H[:, :, :9], dx)
     dz = 0.5 * (z_plus - z_minus)
     err = np.linalg.norm(dz - Hdx, axis=-1)
@@ -162,14 +170,14 @@ def test_jacobian_columns_match_central_differences(key):
     sensor = SENSORS[key]
     truth = flight_states(15, sensor)
     raw = noise_free_raw(sensor, truth)
-    H = sensor.measure(truth.q, truth.v, truth.p, raw).H
+    H = sensor.measure(truth.q, truth.v, truth.p, raw, truth.w).H
     steps = np.concatenate([np.full(3, STEP["phi"]), np.full(3, STEP["dv"]), STEP["dp"]])
     for j in range(9):
         dx = np.zeros((N_POINTS, 9))
         dx[:, j] = steps[j]
         dz = 0.5 * (
-            sensor.measure(*perturbed(truth, dx), raw).z
-            - sensor.measure(*perturbed(truth, -dx), raw).z
+            sensor.measure(*perturbed(truth, dx), raw, truth.w).z
+            - sensor.measure(*perturbed(truth, -dx), raw, truth.w).z
         )
         Hdx = H[:, :, j] * steps[j]
         err = np.linalg.norm(dz - Hdx, axis=-1)
@@ -302,6 +310,26 @@ def test_metric_error_enters_z_with_the_documented_sign(key):
     sensor = SENSORS[key]
     truth = flight_states(14, sensor)
     gamma = np.full((N_POINTS, sensor.dim), 1e-6 if isinstance(sensor, StarTracker) else 0.1)
-    z0 = sensor.measure(truth.q, truth.v, truth.p, noise_free_raw(sensor, truth)).z
-    z1 = sensor.measure(truth.q, truth.v, truth.p, noise_free_raw(sensor, truth, gamma)).z
+    z0 = sensor.measure(truth.q, truth.v, truth.p, noise_free_raw(sensor, truth), truth.w).z
+    z1 = sensor.measure(truth.q, truth.v, truth.p, noise_free_raw(sensor, truth, gamma), truth.w).z
     np.testing.assert_allclose(z1 - z0, sensor.z_per_error * gamma, rtol=1e-4, atol=1e-12)
+
+
+def test_the_arm_rotation_is_in_the_velocity_rows():
+    """The antenna's velocity ``v + C(ω_eb × l)``: with the arm and the rate the
+    innovation is 0 (the test above); measured as if at the IMU (no arm) the velocity
+    rows miss exactly ``C(ω_eb × l)``, and the position rows ``C l``."""
+    arm = SENSORS["gnss-arm"]
+    truth = flight_states(16, arm)
+    raw = noise_free_raw(arm, truth)
+    z = Gnss().measure(truth.q, truth.v, truth.p, raw, truth.w).z
+    C = quat_to_dcm(truth.q)
+    l_b = np.array(arm.lever_arm_m)
+    w_eb = truth.w - np.einsum("kji,kj->ki", C, omega_ie_n(truth.p[:, 0]))
+    np.testing.assert_allclose(
+        z[:, 3:], -np.einsum("kij,kj->ki", C, np.cross(w_eb, l_b)), atol=1e-9
+    )
+    np.testing.assert_allclose(z[:, :3], -C @ l_b, atol=1e-6)
+    assert np.min(np.linalg.norm(z[:, 3:], axis=-1)) > 0.05  # turning: not vacuous
+    with pytest.raises(ValueError, match="need the rate w_ib"):
+        arm.measure(truth.q, truth.v, truth.p, raw)

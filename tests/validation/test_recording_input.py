@@ -52,6 +52,7 @@ lever_arm_m = {lever_arm}
 
 [[aids]]
 type = "nhc"
+lever_arm_m = {nhc_arm}
 
 [[methods]]
 name = "ckf"
@@ -63,6 +64,7 @@ GOOD = {
     "axes": '["+y", "-x", "+z"]',
     "misalignment": "[-6.79, 0.0, -5.35]",
     "lever_arm": "[-0.05, 0.0, 0.0]",
+    "nhc_arm": "[0.0, 0.0, 0.0]",
 }
 
 
@@ -151,6 +153,8 @@ CASES = [
         r"gnss\.pos: aids\[0\]\.file: no '%' header line",
     ),
     ("lever-arm-length", {"lever_arm": "[0.0, 0.1]"}, r"^aids\[0\]\.lever_arm_m: expected"),
+    ("nhc-arm-length", {"nhc_arm": "[0.0, -1.2]"}, r"^aids\[1\]\.lever_arm_m: "),
+    ("nhc-arm-text", {"nhc_arm": '["0", "0", "0"]'}, r"^aids\[1\]\.lever_arm_m\[0\]: "),
     ("mounting-angle", {"misalignment": "[0.0, 0.0, 350.0]"}, r"^imu\.misalignment_deg: "),
     ("axes-left-handed", {"axes": '["+y", "+x", "+z"]'}, r"^imu\.axes: .* not a right-handed"),
     ("axes-unknown", {"axes": '["+y", "-x", "up"]'}, r"^imu\.axes\[2\]: "),

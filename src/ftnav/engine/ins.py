@@ -220,9 +220,12 @@ class InsModel:
         ins, _ = integrate(
             ins, dth, dvel, stream.imu.dt, algorithm=self.algorithm, output_every=self.every
         )
-        z, H, avail, previous = self._measure(state, stream, k, copies, ins, Phi)
+        # the gyro's mean rate over the epoch (a lever arm's rotation: the receiver's
+        # velocity is an average too, and the IMU's vibration averages out)
+        w_ib = dth.sum(1) / self.dt
+        z, H, avail, previous = self._measure(state, stream, k, copies, ins, Phi, w_ib)
         if local_copies is not None and local_copies.rows.any():
-            self._at_local_copies(stream, k, copies, ins, Phi, local_copies, z, H, avail)
+            self._at_local_copies(stream, k, copies, ins, Phi, local_copies, z, H, avail, w_ib)
         rep = np.stack([_tile(r[:, k - 1], copies) for r in state.repeated], 1) & avail
         lin = Linearization(Phi, Q, tuple(H))
         epoch = Epoch(k, tuple(z), avail, stream.labels[k - 1], lin, rep)
@@ -236,15 +239,17 @@ class InsModel:
         copies: int,
         ins: InsState,
         Phi: np.ndarray,
+        w_ib: np.ndarray,
     ) -> tuple[list[np.ndarray], list[np.ndarray], np.ndarray, Previous]:
-        """Each aid's ``z``, ``H`` and availability at the INS solution (module step 3)."""
+        """Each aid's ``z``, ``H`` and availability at the INS solution (module step 3);
+        ``w_ib`` (rows, 3) the gyro's rate at the epoch."""
         n = self.system.n_common
         rows = ins.q.shape[0]
         z, H, avail = [], [], np.zeros((rows, len(self.aids)), bool)
         previous = list(state.previous)
         for i, (sensor, aid) in enumerate(zip(self.aids, stream.aids, strict=True)):
             raw = _tile(aid.raw[:, k - 1], copies)
-            lin = sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw, nan=1.0))
+            lin = sensor.measure(ins.q, ins.v, ins.p, np.nan_to_num(raw, nan=1.0), w_ib)
             ok = _tile(aid.available[:, k - 1], copies) & lin.valid & np.isfinite(lin.z).all(-1)
             zi = lin.z
             Hi = np.nan_to_num(np.concatenate([_common(lin.H, n), lin.H_private], -1))
@@ -276,6 +281,7 @@ class InsModel:
         z: list[np.ndarray],
         H: list[np.ndarray],
         avail: np.ndarray,
+        w_ib: np.ndarray,
     ) -> None:
         """Re-measure every aid of the rows ``local.rows`` at its local's own copy of the
         SINS output (module step 5), in place of ``z``, ``H`` and ``avail``."""
@@ -289,7 +295,7 @@ class InsModel:
             d = np.einsum("bij,bj->bi", Phi_nav, local.estimate[r, i])
             qc, vc, pc = apply_correction(q, v, p, d[:, 0:3], d[:, 3:6], d[:, 6:9])
             raw = _tile(aid.raw[:, k - 1], copies)[r]
-            lin = sensor.measure(qc, vc, pc, np.nan_to_num(raw, nan=1.0))
+            lin = sensor.measure(qc, vc, pc, np.nan_to_num(raw, nan=1.0), w_ib[r])
             ok = _tile(aid.available[:, k - 1], copies)[r] & lin.valid
             zi = lin.z + np.einsum("bij,bj->bi", lin.H[..., :N_NAV], d)
             ok &= np.isfinite(zi).all(-1)

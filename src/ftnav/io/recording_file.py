@@ -25,7 +25,14 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from ftnav.eval.resources import available_memory_bytes, format_bytes
 from ftnav.fusion.config import config_error
-from ftnav.io.common import STRICT, ScenarioError, read_toml, to_scenario_error, with_line
+from ftnav.io.common import (
+    STRICT,
+    ScenarioError,
+    format_loc,
+    read_toml,
+    to_scenario_error,
+    with_line,
+)
 from ftnav.io.ins_scenario_file import (
     DEFAULT_SIGMA_BOUND_M,
     ImuSpec,
@@ -967,8 +974,6 @@ def _gnss_log(a: AidTable, base: Path, field: str, origin: str) -> tuple[GnssLog
 LEVER_ARM_WARN_M = 10.0
 #: and refused beyond this (m: longer than any vehicle; a lever arm in mm?)
 LEVER_ARM_MAX_M = 100.0
-#: the turn rate (deg/s) at which the velocity rows' neglected ω × l is judged
-LEVER_ARM_TURN_DPS = 30.0
 #: a GNSS σ (m, m/s) beyond these aids nothing (a unit slip or a placeholder)
 POS_SIGMA_MAX_M, VEL_SIGMA_MAX_M_S = 1e4, 100.0
 #: a .pos whose median σ exceeds the assumed default by this factor is warned about
@@ -1001,18 +1006,6 @@ def _gnss_checks(
             f"{origin}: {field}.lever_arm_m: the antenna is {arm:.3g} m from the IMU, more "
             f"than {LEVER_ARM_WARN_M:g} m (metres, body frame right, forward, up)"
         )
-    velocity = [i for i, c in enumerate(sensor.components) if c.startswith("vel")]
-    if velocity:  # the velocity rows leave the arm's rotation out (sensors/gnss.py)
-        sigma_v = float(np.sqrt(np.diag(sensor.R)[velocity].min()))
-        swing = arm * np.radians(LEVER_ARM_TURN_DPS)
-        if swing > 0.5 * sigma_v:
-            notes.append(
-                f"{origin}: {field}.lever_arm_m: the velocity rows leave out the arm's "
-                f"rotation C_b^n (ω × l): {swing:.3g} m/s in a {LEVER_ARM_TURN_DPS:g} deg/s "
-                f"turn for this {arm:.3g} m arm, against the velocity σ {sigma_v:.3g} m/s; "
-                "the velocities are biased in turns (a 2.6 m arm made NaveGo's drift 4.6 "
-                "times worse): give the aid rows = 'position', or move the IMU's point"
-            )
     given = set(params)
     for kind, rows, bound, unit in (
         ("pos", slice(0, 3), POS_SIGMA_MAX_M, "m"),
@@ -1423,8 +1416,7 @@ def _plugin_aid(a: AidTable, name: str, field: str, origin: str, ctx: AidContext
         settings = plugin.settings.model_validate(keys)
     except ValidationError as exc:
         err = exc.errors()[0]
-        loc = ".".join(str(x) for x in err["loc"])
-        raise ScenarioError(f"{field}.{loc}", err["msg"], origin) from None
+        raise ScenarioError(f"{field}.{format_loc(err['loc'])}", err["msg"], origin) from None
     try:
         return plugin.prepare(settings, ctx)
     except (TypeError, ValueError) as exc:

@@ -114,6 +114,13 @@ class NhcSettings(BaseModel):
     gate_probability: float = Field(
         default=1e-3, ge=0, lt=1, description="innovation gate (0: none)"
     )
+    lever_arm_m: list[float] = Field(
+        default=[0.0, 0.0, 0.0],
+        min_length=3,
+        max_length=3,
+        description="the point the constraint holds for (a car's rear axle centre) from "
+        "the IMU, m, body frame right, forward, up; 0: the IMU (sensors/vehicle.py)",
+    )
 
 
 class ZuptSettings(BaseModel):
@@ -133,14 +140,18 @@ class ZuptSettings(BaseModel):
 
 
 def _constraint(
-    cls: type[Nhc] | type[Zupt], settings: NhcSettings | ZuptSettings, ctx: AidContext
+    cls: type[Nhc] | type[Zupt],
+    settings: NhcSettings | ZuptSettings,
+    ctx: AidContext,
+    **own: Any,
 ) -> Nhc | Zupt:
-    """A vehicle constraint's sensor model from its settings."""
+    """A vehicle constraint's sensor model from its settings (``own``: its class's own)."""
     return cls(
         name=ctx.name,
         dt=ctx.dt,
         sigma_m_s=settings.sigma_m_s,
         gate_probability=settings.gate_probability,
+        **own,
     )
 
 
@@ -152,7 +163,8 @@ class _NhcAid:
     settings = NhcSettings
 
     def prepare(self, settings: NhcSettings, ctx: AidContext) -> PreparedAid:
-        sensor = _constraint(Nhc, settings, ctx)
+        arm = (settings.lever_arm_m[0], settings.lever_arm_m[1], settings.lever_arm_m[2])
+        sensor = _constraint(Nhc, settings, ctx, lever_arm_m=arm)
         return PreparedAid(sensor, ctx.primary, *_no_readings(sensor, ctx.primary), {})
 
 

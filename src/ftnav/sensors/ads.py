@@ -133,7 +133,14 @@ class Barometer:
         e, _ = check_errors_metric(errors_metric, constants, (None, K, 1), 0)
         return np.asarray(truth.p, dtype=float)[:, 2] + e[..., 0]
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
+    def measure(
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        p: np.ndarray,
+        raw_k: np.ndarray,
+        w_ib: np.ndarray | None = None,
+    ) -> Linearized:
         """``z = h̃ − h_baro`` (B, 1), ``H`` (B, 1, 18) with 1 on δh.
 
         Parameters

@@ -11,8 +11,11 @@ Every sensor of :mod:`ftnav.sensors` follows one contract (:class:`AidingSensor`
    ``white`` only) and calls ``output(truth, errors_metric, constants)`` for the raw
    output a real device would log (geodetic position, body-frame velocity, a
    quaternion, ...);
-3. the filter calls ``measure(q, v, p, raw_k)`` at its INS solution for the nonlinear
-   innovation source ``z = INS − aid`` and the analytic Jacobians (:class:`Linearized`).
+3. the filter calls ``measure(q, v, p, raw_k, w_ib)`` at its INS solution for the
+   nonlinear innovation source ``z = INS − aid`` and the analytic Jacobians
+   (:class:`Linearized`); ``w_ib`` is the gyro's rate at the epoch (its mean over the
+   epoch's increments, the fed-back biases removed), read by a sensor at a lever arm
+   (the GNSS antenna's velocity) and ignored by the others.
 
 Conventions (spec §0, ``docs/conventions.md``): ENU navigation frame, ``p = [L, λ, h]``
 (rad, rad, m), errors computed − true, attitude error φ with
@@ -69,12 +72,15 @@ class AidTruth(NamedTuple):
     p : (K, 3) ``[L, λ, h]`` in rad, rad, m.
     v : (K, 3) m/s, ENU velocity.
     q : (K, 4) scalar-first ``q_b^n``.
+    w : (K, 3) rad/s, the body's rate ``ω_ib^b`` (what an ideal gyro reads), or None
+        where no sensor reads it (a sensor at a lever arm refuses None).
     """
 
     t: np.ndarray
     p: np.ndarray
     v: np.ndarray
     q: np.ndarray
+    w: np.ndarray | None = None
 
 
 class AidErrors(NamedTuple):
@@ -152,7 +158,12 @@ class AidingSensor(Protocol):
     ) -> np.ndarray: ...
 
     def measure(
-        self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        p: np.ndarray,
+        raw_k: np.ndarray,
+        w_ib: np.ndarray | None = None,
     ) -> Linearized: ...
 
 

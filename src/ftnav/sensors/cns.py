@@ -187,7 +187,14 @@ class StarTracker:
             C_cns = dcm_n_to_e(p[:, 0], p[:, 1]) @ C_cns
         return dcm_to_quat(C_cns)
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
+    def measure(
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        p: np.ndarray,
+        raw_k: np.ndarray,
+        w_ib: np.ndarray | None = None,
+    ) -> Linearized:
         """``z`` (B, 3) rad and ``H`` (B, 3, 18) at the INS solution (module docstring).
 
         Parameters

@@ -195,7 +195,14 @@ class Doppler:
         C = quat_to_dcm(truth.q)  # (K, 3, 3) C_b^n
         return np.einsum("kji,bkj->bki", C, vn)
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
+    def measure(
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        p: np.ndarray,
+        raw_k: np.ndarray,
+        w_ib: np.ndarray | None = None,
+    ) -> Linearized:
         """``z = ṽ_h − (C̃_b^n v_D^b)_h`` (B, 2) and ``H`` at the INS solution.
 
         Parameters

@@ -54,7 +54,7 @@ import numpy as np
 
 from ftnav.model.system import PrivateStates
 from ftnav.nav.attitude import quat_to_dcm, skew
-from ftnav.nav.earth import radii
+from ftnav.nav.earth import OMEGA_IE, omega_ie_n, radii
 from ftnav.sensors.base import (
     N_STATES,
     AidErrors,
@@ -109,10 +109,15 @@ class Gnss:
     rows : ``"position-velocity"``, ``"position"`` or ``"velocity"`` (module docstring).
     per_epoch_sigma : bool, the output carries each epoch's σ (module docstring).
     lever_arm_m : (3,) m, the antenna from the IMU in the body frame (x right, y forward,
-        z up); the position rows compare the antenna, ``p̃ + C̃_b^n l``, whose attitude
-        column is ``[(C_b^n l)×]``.  The velocity rows neglect ``C_b^n (ω × l)`` (below
-        1 cm/s for a 5 cm arm turning at 0.2 rad/s).  Simulation ignores it (the
-        simulated antenna is at the IMU).
+        z up).  The position rows compare the antenna, ``p̃ + C̃_b^n l``, whose attitude
+        column is ``[(C_b^n l)×]``; the velocity rows the antenna's velocity
+        ``ṽ + C̃_b^n (ω_ib^b × l) − ω_ie^n × (C̃_b^n l)`` (the body's rate relative to
+        the Earth, ``ω_eb^b``, turning the arm; ``ω_ib^b`` the gyro's rate at the epoch,
+        :meth:`measure`'s ``w_ib``), whose attitude column is
+        ``[(C_b^n (ω_ib^b × l))×] − [ω_ie^n×][(C_b^n l)×]``.  The gyro bias's column
+        (``|l|`` times the bias's error: 0.1 mm/s for 2.6 m and 10 °/h) is left out.
+        Simulation puts the antenna there as well (its rate from the trajectory,
+        :attr:`AidTruth.w`).
 
     Vector fields are stored as tuples of 3 floats.
 
@@ -302,20 +307,44 @@ class Gnss:
         e = np.zeros(e_m.shape[:-1] + (6,))
         e[..., self._rows] = e_m
         d = _metres(np.asarray(truth.p, dtype=float))  # (K, 3) N, E, U per L, λ, h
+        if any(self.lever_arm_m):  # the antenna's position and velocity (class docstring)
+            if truth.w is None:
+                raise ValueError(f"{self.name}.lever_arm_m: the truth carries no body rate w")
+            arm_p, arm_v = self._arm(np.asarray(truth.q), np.asarray(truth.p), truth.w)
+            e = e + np.concatenate([arm_p, arm_v], -1)
         dp = e[..., _EN] / d  # δL = δN/R_Mh, δλ = δE/(R_Nh cos L), δh = δU
         out = np.concatenate([truth.p + dp, truth.v + e[..., 3:]], -1)
         if self.per_epoch_sigma:  # the configured σ of every row
             out = np.concatenate([out, np.broadcast_to(self.sigma_all, out.shape)], -1)
         return out
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
-        """``z = [D_p(p̃)(p̃ − p_GNSS); ṽ − v_GNSS]`` (B, m: the rows measured) and ``H``.
+    def _arm(self, q: np.ndarray, p: np.ndarray, w_ib: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(…, 3) each: the antenna's offset from the IMU ``l_n = C_b^n l`` (E, N, U m)
+        and its velocity relative to the IMU ``C_b^n (ω_eb^b × l)`` (m/s), with
+        ``ω_eb^b = ω_ib^b − C_n^b ω_ie^n`` (class docstring)."""
+        C = quat_to_dcm(q)
+        arm = np.asarray(self.lever_arm_m, dtype=float)
+        w_eb = w_ib - np.einsum("...ji,...j->...i", C, omega_ie_n(p[..., 0]))
+        return C @ arm, np.einsum("...ij,...j->...i", C, np.cross(w_eb, arm))
+
+    def measure(
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        p: np.ndarray,
+        raw_k: np.ndarray,
+        w_ib: np.ndarray | None = None,
+    ) -> Linearized:
+        """``z = [D_p(p̃)(p̃ − p_GNSS); ṽ − v_GNSS]`` (B, m: the rows measured) and ``H``;
+        at a lever arm, of the antenna (class docstring).
 
         Parameters
         ----------
         q : (B, 4) INS ``q_b^n`` (read with a lever arm only).
         v : (B, 3) m/s.  p : (B, 3) ``[L, λ, h]``.
         raw_k : (B, 6) receiver output at this epoch (:meth:`output`).
+        w_ib : (B, 3) rad/s, the gyro's rate at the epoch: needed by velocity rows at a
+            lever arm (a ValueError without it), else unused.
         """
         v = as_batch(v, (3,), "v")
         B = v.shape[0]
@@ -328,11 +357,20 @@ class Gnss:
         H = np.zeros((B, 6, N_STATES))
         H[:, [1, 0, 2], [6, 7, 8]] = d  # row N ← δL, row E ← δλ, row U ← δh
         H[:, [3, 4, 5], [3, 4, 5]] = 1.0
-        if any(self.lever_arm_m):  # the antenna, not the IMU (class docstring)
-            l_n = quat_to_dcm(as_batch(q, (4,), "q", B)) @ np.asarray(self.lever_arm_m)
-            z[:, :3] += l_n
-            H[:, 0:3, 0:3] = skew(l_n)
         r, m = self._rows, self.dim
+        if any(self.lever_arm_m):  # the antenna, not the IMU (class docstring)
+            rate = np.zeros((B, 3)) if w_ib is None else as_batch(w_ib, (3,), "w_ib", B)
+            if w_ib is None and self.rows != "position":
+                raise ValueError(f"{self.name}: velocity rows at a lever arm need the rate w_ib")
+            l_n, arm_v = self._arm(as_batch(q, (4,), "q", B), p, rate)
+            z[:, :3] += l_n
+            z[:, 3:] += arm_v
+            H[:, 0:3, 0:3] = skew(l_n)
+            w_ie = omega_ie_n(p[:, 0])  # C̃(ω_ib × l) − ω_ie × (C̃ l) moves with φ:
+            H[:, 3:6, 0:3] = skew(arm_v + np.cross(w_ie, l_n)) - skew(w_ie) @ skew(l_n)
+            L = p[:, 0]  # and the Earth's rate turns with latitude: ∂(−ω_ie × l_n)/∂L
+            dw = np.stack([np.zeros_like(L), -OMEGA_IE * np.sin(L), OMEGA_IE * np.cos(L)], -1)
+            H[:, 3:6, 6] += np.cross(l_n, dw)
         z, H = z[:, r], H[:, r]
         p_priv = m if self._augmented else 0
         H_private = np.broadcast_to(-np.eye(m)[:, :p_priv], (B, m, p_priv)).copy()

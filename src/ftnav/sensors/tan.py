@@ -141,7 +141,14 @@ class Tan:
         h_T = self.terrain.height_and_gradient(p[:, 0], p[:, 1])[0]
         return (p[:, 2] - h_T) + e[..., 0]
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
+    def measure(
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        p: np.ndarray,
+        raw_k: np.ndarray,
+        w_ib: np.ndarray | None = None,
+    ) -> Linearized:
         """``z = ĉ − c_m`` (B, 1) and ``H`` (B, 1, 18) at the INS solution, with gating.
 
         Parameters

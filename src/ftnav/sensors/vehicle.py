@@ -12,9 +12,15 @@ in the aid's metric space, ``H`` on the 18 error states of spec §8.3, attitude 
 
       z = C̃_n^b ṽ^n  ≈  v^b + C_n^b δv − C_n^b [v^n ×] φ      (v^b_x = v^b_z = 0)
 
-  so ``H_δv = C_n^b`` and ``H_φ = −C_n^b [v^n ×]`` (rows x and z).  The IMU is taken
-  at the point whose velocity the constraint holds for (lever arm and mounting
-  misalignment of the IMU against the vehicle's axes are part of the noise σ).
+  so ``H_δv = C_n^b`` and ``H_φ = −C_n^b [v^n ×]`` (rows x and z).  The constraint
+  holds at a point of the vehicle (the rear axle's centre for a car), ``lever_arm_m``
+  ``l`` from the IMU in the body frame (default 0: the IMU is taken there, and the arm
+  is part of the noise σ: in a turn at ω the IMU ``d`` ahead of the axle slides
+  sideways at ``ω d``).  With an arm the rows are the point's velocity,
+  ``v^b + ω_eb^b × l`` with ``ω_eb^b = ω_ib^b − C_n^b ω_ie^n`` (``ω_ib^b`` the gyro's
+  rate at the epoch, the ``w_ib`` of ``measure``), which adds
+  ``−[l×] C_n^b [ω_ie^n×]`` to ``H_φ``.  Mounting misalignment of the IMU against the
+  vehicle's axes stays part of the noise σ.
 * :class:`Zupt` — a vehicle at rest: ``z = ṽ^n`` (3 rows, E, N, U, m/s), ``H_δv = I``.
   Which epochs are at rest is decided outside the filter, from the IMU alone
   (:func:`ftnav.recorded.imu.stationary`); the aid is available only there.
@@ -37,6 +43,7 @@ import numpy as np
 
 from ftnav.model.system import PrivateStates
 from ftnav.nav.attitude import quat_to_dcm, skew
+from ftnav.nav.earth import OMEGA_IE, omega_ie_n
 from ftnav.sensors.base import (
     N_STATES,
     AidErrors,
@@ -111,31 +118,63 @@ class _Constraint:
         return np.asarray(e, dtype=float)
 
 
+def w_ie_b_dL(C_bn: np.ndarray, L: np.ndarray) -> np.ndarray:
+    """(B, 3) ``∂(C_n^b ω_ie^n)/∂L``: the Earth's rate in the body turns with latitude."""
+    d = np.stack([np.zeros_like(L), -OMEGA_IE * np.sin(L), OMEGA_IE * np.cos(L)], -1)
+    return np.einsum("bij,bj->bi", C_bn, d)
+
+
 @dataclass(frozen=True, slots=True)
 class Nhc(_Constraint):
-    """Non-holonomic constraint (module docstring): rows ``v^b_x, v^b_z`` (m/s)."""
+    """Non-holonomic constraint (module docstring): rows ``v^b_x, v^b_z`` (m/s) of the
+    point ``lever_arm_m`` (3,) m from the IMU, body frame right, forward, up."""
 
     name: str = "nhc"
     sigma_m_s: float = 0.1
+    lever_arm_m: tuple[float, float, float] | float = 0.0
 
     components: ClassVar[tuple[str, ...]] = ("vel_x", "vel_z")
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
-        """``z = (C̃_n^b ṽ)_{x,z} − reading`` (B, 2) and ``H`` (B, 2, 18).
+    def __post_init__(self) -> None:
+        super(Nhc, self).__post_init__()
+        arm = check_float(self.name, "lever_arm_m", self.lever_arm_m, n=3)
+        object.__setattr__(self, "lever_arm_m", arm)
+
+    def measure(
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        p: np.ndarray,
+        raw_k: np.ndarray,
+        w_ib: np.ndarray | None = None,
+    ) -> Linearized:
+        """``z = (C̃_n^b ṽ + ω̃_eb × l)_{x,z} − reading`` (B, 2) and ``H`` (B, 2, 18).
 
         Parameters
         ----------
-        q : (B, 4) INS ``q_b^n``.  v : (B, 3) ENU m/s.  p : (B, 3) (unused).
-        raw_k : (B, 2) the reading (0 for a recording).
+        q : (B, 4) INS ``q_b^n``.  v : (B, 3) ENU m/s.  p : (B, 3) ``[L, λ, h]`` (read
+        with a lever arm only).  raw_k : (B, 2) the reading (0 for a recording).
+        w_ib : (B, 3) rad/s, the gyro's rate at the epoch (needed with a lever arm).
         """
         v = as_batch(v, (3,), "v")
         B = v.shape[0]
-        C_nb = np.swapaxes(quat_to_dcm(as_batch(q, (4,), "q", B)), -1, -2)[:, [0, 2], :]
+        C_bn = np.swapaxes(quat_to_dcm(as_batch(q, (4,), "q", B)), -1, -2)
         raw = as_batch(raw_k, (2,), "raw_k", B)
-        z = np.einsum("bij,bj->bi", C_nb, v) - raw
-        H = np.zeros((B, 2, N_STATES))
-        H[:, :, 3:6] = C_nb
-        H[:, :, 0:3] = -C_nb @ skew(v)
+        v_b = np.einsum("bij,bj->bi", C_bn, v)
+        H = np.zeros((B, 3, N_STATES))
+        H[:, :, 3:6] = C_bn
+        H[:, :, 0:3] = -C_bn @ skew(v)
+        if any(self.lever_arm_m):  # the point the constraint holds for (module docstring)
+            if w_ib is None:
+                raise ValueError(f"{self.name}: a lever arm needs the rate w_ib")
+            arm = np.asarray(self.lever_arm_m, dtype=float)
+            w_ie_b = np.einsum("bij,bj->bi", C_bn, omega_ie_n(as_batch(p, (3,), "p", B)[:, 0]))
+            v_b = v_b + np.cross(as_batch(w_ib, (3,), "w_ib", B) - w_ie_b, arm)
+            L = p[:, 0]
+            H[:, :, 0:3] -= skew(arm) @ C_bn @ skew(omega_ie_n(L))
+            H[:, :, 6] += np.einsum("ij,bj->bi", skew(arm), w_ie_b_dL(C_bn, L))
+        z = v_b[:, [0, 2]] - raw
+        H = H[:, [0, 2]]
         valid = np.all(np.isfinite(z), -1)
         return Linearized(finite_or_zero(z), H, np.zeros((B, 2, 0)), valid)
 
@@ -149,7 +188,14 @@ class Zupt(_Constraint):
 
     components: ClassVar[tuple[str, ...]] = ("vel_E", "vel_N", "vel_U")
 
-    def measure(self, q: np.ndarray, v: np.ndarray, p: np.ndarray, raw_k: np.ndarray) -> Linearized:
+    def measure(
+        self,
+        q: np.ndarray,
+        v: np.ndarray,
+        p: np.ndarray,
+        raw_k: np.ndarray,
+        w_ib: np.ndarray | None = None,
+    ) -> Linearized:
         """``z = ṽ − reading`` (B, 3) and ``H`` (B, 3, 18) with I on δv.
 
         Parameters

@@ -77,7 +77,11 @@ def epoch_truth(traj: Trajectory, every: int, steps: int) -> AidTruth:
     """Truth at the filter epochs ``t_k``, ``k = 1..steps`` (every ``every`` IMU samples)."""
     idx = every * np.arange(1, steps + 1)
     q = attitude.euler_to_quat(traj.euler[idx])
-    return AidTruth(traj.t[idx], traj.p[idx], traj.v[idx], q)
+    # the gyro's rate at t_k: the mean of the increments on either side (the last one
+    # alone at the trajectory's end), a central difference of the ideal attitude
+    after = traj.dtheta[np.minimum(idx, len(traj.dtheta) - 1)]
+    w = 0.5 * (traj.dtheta[idx - 1] + after) / traj.dt
+    return AidTruth(traj.t[idx], traj.p[idx], traj.v[idx], q, w)
 
 
 def initial_solution(traj: Trajectory, init_error: np.ndarray) -> InsState:
