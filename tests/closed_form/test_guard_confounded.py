@@ -1,5 +1,6 @@
 """Which witnesses respond to a held aid's move only as states it does not read could
-(:meth:`ftnav.fusion.guard.Guard._confounded`), in closed form.
+(:meth:`ftnav.fusion.guard.Guard._confounded`), and which departures lie in rows no
+witness sees (:meth:`~ftnav.fusion.guard.Guard._unjudged`), in closed form.
 
 A held aid whose rows the others respond to only as a state the aid does not measure
 could make them respond, and whose rows went unheld, has its jump taken after the
@@ -93,3 +94,27 @@ def test_a_witness_without_a_measurement_is_none():
     guard, test = _setup(["star tracker", "velocity"], 1e-3, np.array([3e-3]))
     assert guard._confounded(0, np.array([[True, True]]), test)[0]
     assert not guard._confounded(0, np.array([[True, False]]), test)[0]
+
+
+@pytest.mark.parametrize(
+    ("witnesses", "nu", "unjudged"),
+    [
+        (["altimeter"], [12.0, 0.0, 0.0], True),  # departs east; the height agrees
+        (["altimeter"], [12.0, 0.0, 10.0], False),  # the height, which it sees, disagrees
+        (["altimeter", "star tracker"], [12.0, -9.0, 1.0], True),
+        (["velocity"], [12.0, 0.0, 0.0], False),  # the velocities read every row's rate
+        (["altimeter"], [0.0, 0.0, 10.0], False),  # departs only where it is seen
+        (["altimeter"], [5.0, 0.0, 0.0], False),  # east and north within chance
+    ],
+)
+def test_a_departure_in_rows_no_witness_sees_is_unjudged(witnesses, nu, unjudged):
+    """:meth:`Guard._unjudged`: the held GNSS's innovation departs from the estimate
+    only in rows no witness responds to (an altimeter sees the height and its rate,
+    not east or north; a star tracker the tilt only), each row's ``A + R`` = 5 m²: the
+    east and north χ² beyond χ²₂'s quantile at the guard's 1e-3 (13.8: 12 m is 28.8,
+    5 m is 5.0), the height's within χ²₁'s (10.8: 10 m is 20).  The others cannot
+    judge the hold, as beside nothing (the longest coast, §1.8).  GNSS velocities
+    respond to every position row's rate: always judged."""
+    guard, test = _setup(["gnss", *witnesses], 1e-3, np.array(nu))
+    usable = np.ones((1, 1 + len(witnesses)), bool)
+    assert guard._unjudged(0, usable, test)[0] == unjudged

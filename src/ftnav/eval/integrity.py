@@ -420,8 +420,9 @@ def watch(
         whole = [s for i, s in enumerate(sensors) if guard.device[..., i].any()]
         findings.append(
             f"methods[{name}]: aids {', '.join(map(repr, whole))}, held with no other "
-            f"sensor measuring, were taken back (a device consistent with itself, or the "
-            f"only aid past the longest coast) while the estimate had drifted from them "
+            f"sensor measuring or none that could judge them, were taken back (a device "
+            f"consistent with itself, or past the longest coast) while the estimate had "
+            f"drifted from them "
             f"(first at {_when(times, guard.device.any(-1))}; "
             f"{int(guard.device.any(-1).sum())} time(s)): the INS or its model, not the "
             f"aid, failed there, and the covariance was widened to re-learn from the aid"

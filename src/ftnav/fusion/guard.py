@@ -205,7 +205,11 @@ and decides the method's isolation from its detector's flags:
    was not used for its noise) with a fresh output, is taken back the same way: its
    increments against an estimate that drifts past the model are all jumps, and the
    patience after the last one never comes (the drive's positions alone under a 1 °/s
-   pitch-gyro step: 126 km).
+   pitch-gyro step: 126 km).  So is an aid held as long beside sensors that cannot
+   judge it (:meth:`Guard._unjudged`: the rows they see agree with the estimate and it
+   departs in rows none of them sees): seed002's GNSS
+   beside its star tracker and altimeter, held on a CUSUM alarm while the estimate
+   re-learned biases, its horizontal coast 74 m off at the run's end.
    The fused estimate only (independent locals keep their own rules).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
@@ -315,6 +319,12 @@ class GuardState(NamedTuple):
         estimate's drift) over the hold, and (B, m, m) their covariances; a device back
         whole keeps them as its jump sum, taken, so the jump back at a step's end comes
         home at once.
+    inner : increments of a held aid whose rows measure a rate of its other rows (a
+        receiver's positions beside its own velocities, one aid) tested against them
+        since the hold began (:meth:`Guard._inner`); 0 where not held.
+    inner_sum, inner_cov : per aid (B, m) and (B, m, m), those rows' disagreement
+        with the trapezoid of their rate summed over the hold, and the rate noise's part
+        of its covariance (the rows' own noise enters once: the increments telescope).
     coast : epochs a held aid has not been used for its noise (module docstring, 3):
         the coast the longest-coast rule bounds (module docstring, 7); 0 where not
         held.
@@ -352,6 +362,9 @@ class GuardState(NamedTuple):
     own_jump: tuple[np.ndarray, ...]
     own_cov: tuple[np.ndarray, ...]
     coast: np.ndarray
+    inner: np.ndarray
+    inner_sum: tuple[np.ndarray, ...]
+    inner_cov: tuple[np.ndarray, ...]
 
 
 class GuardOutput(NamedTuple):
@@ -577,6 +590,34 @@ def _pd_rows(P: np.ndarray) -> np.ndarray:
     return np.asarray(np.linalg.eigvalsh(P).min(-1) > 0)
 
 
+def _rate_map(
+    Ha: np.ndarray,
+    Hb: np.ndarray,
+    P: np.ndarray,
+    F: np.ndarray,
+    where: np.ndarray,
+    own: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rows ``H_b`` that measure the rate of rows ``H_a``: ``G`` (B, m_a, m_b) fitting
+    ``H_a(Φ − I) ≈ G H_b`` by least squares with each state in its own σ, and per row
+    of ``H_a`` the fit's miss and the rate's whole weight (B, m_a), where ``where`` (B,)
+    and the fit is defined (``fine``).  Without ``own`` (``H_b`` is ``H_a``) no row
+    fits itself: ``G``'s diagonal is 0 (a rate by the other rows, not a row's level)."""
+    D = Ha @ (np.broadcast_to(F, P.shape) - np.eye(P.shape[-1]))
+    var = np.maximum(np.diagonal(P, axis1=-2, axis2=-1), 0.0)[:, None, :]
+    HbW = Hb * var
+    Gram = HbW @ kf.mT(Hb)
+    fine = _pd_rows(Gram) & where
+    Gram = np.where(fine[:, None, None], Gram, np.eye(Gram.shape[-1]))
+    G = kf.mT(np.linalg.solve(Gram, HbW @ kf.mT(D)))
+    if not own:
+        G = G * (1.0 - np.eye(G.shape[-1]))
+    sd = np.sqrt(var)
+    miss = (((D - G @ Hb) * sd) ** 2).sum(-1)
+    whole = ((D * sd) ** 2).sum(-1)
+    return G, miss, whole, np.asarray(fine)
+
+
 def _carries(H: np.ndarray, P: np.ndarray) -> np.ndarray:
     """(B, m, n) whether state j carries row i of ``H``: its part of the row's predicted
     variance, ``H_ij² P_jj``, is at least :data:`CARRIER_SHARE` of the row's largest."""
@@ -786,6 +827,9 @@ class Guard:
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.zeros((B, m, m)) for m in self.dims),
             zi.copy(),
+            zi.copy(),
+            tuple(np.zeros((B, m)) for m in self.dims),
+            tuple(np.zeros((B, m, m)) for m in self.dims),
         )
 
     @staticmethod
@@ -1130,9 +1174,7 @@ class Guard:
         # jump taken: the whole innovation is the estimate's error
         # (only an aid with a device mate is ever tested against itself: none else pays)
         moved = tuple(
-            kf.mv(test.F[self.group_of[a]], state.moved[a])
-            if self.rollback and self.mates[a]
-            else state.moved[a]
+            kf.mv(test.F[self.group_of[a]], state.moved[a]) if self.rollback else state.moved[a]
             for a in range(N)
         )
         # (tested from the onset's flag: a step of one half is a jump against itself)
@@ -1164,15 +1206,35 @@ class Guard:
         # along (the drive's GNSS positions alone under a 1 °/s pitch-gyro step: every
         # increment a jump against the drifting INS, the patience never came, 126 km).
         # Back as a device consistent with itself is, the covariance scaled to cover it
-        device |= (
+        coasted = (
             state.hold
-            & only
             & (state.coast >= COAST_PATIENCES * self.patience)
             & usable
             & fresh
             & ~undone
             & self.rollback
         )
+        # (and an aid beside others that cannot judge it: its rows they see agree with the
+        # estimate, and it departs in rows none of them sees (:meth:`_unjudged`; not where
+        # they see it only as a state it does not read, :meth:`_confounded`: a GNSS height
+        # step beside an altimeter with a bias state was taken 30 s in, and the CUSUM
+        # method's error after it went 0.53 -> 1.67 m).  seed002's GNSS beside its star
+        # tracker and altimeter, held on
+        # a CUSUM alarm while the estimate re-learned the accelerometer biases a biased
+        # star tracker had taught it: height and velocities in agreement, the horizontal
+        # coast 15 m off after 30 s and 74 m at the run's end.  Sensors judge here, at
+        # least one measuring: beside the vehicle constraints alone a whole receiver is
+        # the device rule's, above)
+        inner, inner_sum, inner_cov, inner_good = self._inner(state, test, inc, judged, moved)
+        for a in np.flatnonzero((coasted & ~only).any(0)).tolist():
+            judges = usable & ~state.hold & ~self.pseudo
+            blind = self._unjudged(a, judges, test) & judges[:, self._peers(a)].any(-1)
+            # (its own rate rows agreeing with its other rows for n_off increments: a
+            # drift of the estimate, not a ramp of the aid, whose positions leave its
+            # own velocities behind: seed002's GNSS ramping 1 m/s east was taken 30 s in
+            # without this, 26 m after it for the CUSUM method against 0.49 m)
+            coasted[:, a] &= only[:, a] | (blind & inner_good[:, a])
+        device |= coasted
         settled |= device
         # a held aid beside aids of its rate only, at one constant offset from the
         # estimate for ``lasting_s``: that offset is taken (a rollback the rate aids could
@@ -1461,6 +1523,9 @@ class Guard:
             support=support,
             length=length,
             own=agree,
+            inner=inner,
+            inner_sum=inner_sum,
+            inner_cov=inner_cov,
             moved=moved,
             own_jump=own_jump,
             own_cov=own_cov,
@@ -1779,21 +1844,11 @@ class Guard:
                 both &= state.since[:, a] == state.since[:, b]
                 if g != self.group_of[b] or not both.any():
                     continue
-                P = test.P[g]
                 Ha, Hb = test.H[a], test.H[b]
-                D = Ha @ (np.broadcast_to(test.F[g], P.shape) - np.eye(P.shape[-1]))
-                var = np.maximum(np.diagonal(P, axis1=-2, axis2=-1), 0.0)[:, None, :]
-                HbW = Hb * var
-                Gram = HbW @ kf.mT(Hb)
-                fine = _pd_rows(Gram) & both
+                G, miss, whole, fine = _rate_map(Ha, Hb, test.P[g], test.F[g], both)
                 if not fine.any():
                     continue
-                Gram = np.where(fine[:, None, None], Gram, np.eye(Gram.shape[-1]))
-                G = kf.mT(np.linalg.solve(Gram, HbW @ kf.mT(D)))
-                sd = np.sqrt(var)
-                miss = (((D - G @ Hb) * sd) ** 2).sum((-2, -1))
-                whole = ((D * sd) ** 2).sum((-2, -1))
-                fine &= miss <= RATE_FIT * whole
+                fine &= miss.sum(-1) <= RATE_FIT * whole.sum(-1)
                 ta, tb = test.aids[a], test.aids[b]
                 dk = (state.since[:, a] + 1).astype(float)
                 nu_b = tb.nu + kf.mv(Hb, moved[b])
@@ -1809,6 +1864,66 @@ class Guard:
                 es[a] = np.where(fine[:, None], e, es[a])
                 Ss[a] = np.where(fine[:, None, None], S, Ss[a])
         return tested, tested & ~bad, es, Ss
+
+    def _inner(
+        self,
+        state: GuardState,
+        test: GuardTest,
+        inc: Sequence[tuple[np.ndarray, np.ndarray]],
+        judged: np.ndarray,
+        moved: Sequence[np.ndarray],
+    ) -> tuple[np.ndarray, tuple[np.ndarray, ...], tuple[np.ndarray, ...], np.ndarray]:
+        """Each held aid's rows that measure the rate of its other rows, against them
+        over the hold (:meth:`_own` within one aid: a receiver's positions beside its
+        own velocities).
+
+        Rows ``r`` of ``H_a`` whose rate ``H_r(Φ − I)`` the aid's other rows fit,
+        ``≈ G_r H_a`` but for :data:`RATE_FIT` of their weight (each state in its own
+        σ), measured now and ``Δk`` epochs before: their increment less the trapezoid of
+        the aid's own, ``e = (Δν + H_a m)_r − Δk G_r (ν + H_a m + r)/2``, summed over the
+        hold, with covariance ``2R_r + Σ Δk² G (R/2) Gᵀ`` (the increments telescope: the
+        rows' own noise enters once).  The estimate's drift enters both alike; a ramp
+        of the rows that their rate rows do not share adds up (seed002's GNSS positions
+        ramping 1 m/s east beside its healthy velocities: 30 m in 30 s against a σ of
+        1.4 m, where each increment's 1 m is inside its own 1.4 m).  Returns the count
+        of increments summed, the sums, their covariances, and ``consistent`` (B, N):
+        at least ``n_off`` increments, the sum's χ² within the guard's false-alarm
+        probability.
+        """
+        B, N = judged.shape
+        count = np.where(state.hold, state.inner, 0)
+        sums, covs = list(state.inner_sum), list(state.inner_cov)
+        good = np.zeros((B, N), bool)
+        for a in range(N):
+            held = state.hold[:, a]
+            sums[a] = np.where(held[:, None], sums[a], 0.0)
+            covs[a] = np.where(held[:, None, None], covs[a], 0.0)
+            now = judged[:, a] & (state.since[:, a] >= 0)
+            if not now.any():
+                continue
+            g = self.group_of[a]
+            Ha, t = test.H[a], test.aids[a]
+            # (a rate by the other rows, not a row's own level)
+            G, miss, whole, fine = _rate_map(Ha, Ha, test.P[g], test.F[g], now, own=False)
+            rows = (miss <= RATE_FIT * whole) & (whole > 0) & fine[:, None]
+            on = rows.any(-1)
+            if not on.any():
+                continue
+            dk = (state.since[:, a] + 1).astype(float)
+            m_a = kf.mv(Ha, moved[a])
+            e = inc[a][0] + m_a - dk[:, None] * kf.mv(G, 0.5 * (t.nu + m_a + state.last[a]))
+            add = (dk**2)[:, None, None] * (G @ (0.5 * t.R) @ kf.mT(G))
+            sums[a] = np.where(on[:, None], sums[a] + np.where(rows, e, 0.0), sums[a])
+            covs[a] = np.where(on[:, None, None], covs[a] + add, covs[a])
+            count[:, a] = np.where(on, count[:, a] + 1, count[:, a])
+            eye = np.eye(self.dims[a])
+            S = kf.symmetrize(2.0 * t.R + covs[a])
+            S_r = np.where(rows[:, :, None] & rows[:, None, :], S, eye)
+            S_r = np.where(_pd_rows(S_r)[:, None, None], S_r, eye)
+            q = _chi2(np.where(rows, sums[a], 0.0), S_r)
+            k = rows.sum(-1)
+            good[:, a] = on & (count[:, a] >= self.n_off) & (q <= _thresholds(self.pfa, k))
+        return count, tuple(sums), tuple(covs), good
 
     def _jumps(
         self, state: GuardState, inc: Sequence[tuple[np.ndarray, np.ndarray]], fail: np.ndarray
@@ -2077,6 +2192,25 @@ class Guard:
         k = seen.sum(-1)
         still = _chi2(np.where(seen, J, 0.0), C_s) <= _thresholds(self.pfa, k)
         return np.asarray(only | (moved.any(-1) & still))
+
+    def _unjudged(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:
+        """(B,) whether aid ``a``'s innovation departs from the estimate only in rows no
+        other aid of its group in ``witnesses`` (B, N) responds to (:meth:`_unseen`): its
+        χ² over the unseen rows beyond, and over the seen rows within, the guard's
+        false-alarm probability (each against its part of ``S = A + R``).  What the
+        others can judge of the aid, they find right; what it disagrees in, they cannot
+        see (seed002's GNSS: its height and velocities beside the altimeter and the star
+        tracker, its horizontal position beside nothing)."""
+        t = test.aids[a]
+        unseen = self._unseen(a, witnesses, test)
+        S = t.A + t.R
+        eye = np.eye(self.dims[a])
+        q = []
+        for rows in (unseen, ~unseen):
+            S_r = np.where(rows[:, :, None] & rows[:, None, :], S, eye)
+            S_r = np.where(_pd_rows(S_r)[:, None, None], S_r, eye)
+            q.append(_chi2(np.where(rows, t.nu, 0.0), S_r) - _thresholds(self.pfa, rows.sum(-1)))
+        return np.asarray((q[0] > 0) & (q[1] <= 0))
 
     def _confounded(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:
         """(B,) whether the other aids of ``a``'s group in ``witnesses`` (B, N) that
@@ -2427,7 +2561,7 @@ class Guard:
                 # the epoch's corrections of the estimate, for each aid's ``moved``: none
                 # after a used aid's residual, all of them after a held aid's innovation
                 d_all = x - priors[gi][0]
-                for a in (a for a in grp if self.mates[a]):
+                for a in grp:
                     used = (usable[:, a] & ~out.hold[:, a]) | g.rate[:, a] | informed[:, a]
                     held = usable[:, a] & ~used
                     m_a = np.where(held[:, None], d_all, moved[a] + d_all)
