@@ -1172,7 +1172,8 @@ class Guard:
         # and velocities both held, the vehicle constraints gated by the same error, and
         # nothing measured again: 164 km against ckf's 0.03 m).  Back, relaxed, with no
         # jump taken: the whole innovation is the estimate's error
-        # (only an aid with a device mate is ever tested against itself: none else pays)
+        # (the other aids' corrections since each aid's last measurement, carried on:
+        # its test against its device mate's rate, and against its own, :meth:`_inner`)
         moved = tuple(
             kf.mv(test.F[self.group_of[a]], state.moved[a]) if self.rollback else state.moved[a]
             for a in range(N)
@@ -1219,12 +1220,13 @@ class Guard:
         # they see it only as a state it does not read, :meth:`_confounded`: a GNSS height
         # step beside an altimeter with a bias state was taken 30 s in, and the CUSUM
         # method's error after it went 0.53 -> 1.67 m).  seed002's GNSS beside its star
-        # tracker and altimeter, held on
-        # a CUSUM alarm while the estimate re-learned the accelerometer biases a biased
-        # star tracker had taught it: height and velocities in agreement, the horizontal
-        # coast 15 m off after 30 s and 74 m at the run's end.  Sensors judge here, at
-        # least one measuring: beside the vehicle constraints alone a whole receiver is
-        # the device rule's, above)
+        # tracker and altimeter, held on a CUSUM alarm while the estimate re-learned the
+        # accelerometer biases a biased star tracker had taught it: height and
+        # velocities in agreement, the horizontal coast 15 m off after 30 s and 74 m at
+        # the run's end.  Sensors judge here, at least one measuring: beside the vehicle
+        # constraints alone a whole receiver is the device rule's, above.  An aid with
+        # no rows measuring its other rows' rate (a star tracker, positions alone) is
+        # never taken by it: nothing tells its ramp from the estimate's drift)
         inner, inner_sum, inner_cov, inner_good = self._inner(state, test, inc, judged, moved)
         for a in np.flatnonzero((coasted & ~only).any(0)).tolist():
             judges = usable & ~state.hold & ~self.pseudo
