@@ -114,11 +114,15 @@ def test_the_receiver_as_two_aids_equals_the_receiver_as_one_for_the_centralized
     tmp_path,
 ):
     """Equivalence: independent rows (diagonal R) updated one aid after the other give
-    the joint update, so ``rows = "position"`` + ``rows = "velocity"`` is the 6-row aid."""
+    the joint update, so ``rows = "position"`` + ``rows = "velocity"`` is the 6-row aid.
+    Both halves at the antenna: the drive file leaves the velocities' 5 cm arm off
+    (``rtklib-drive.toml``), and the one aid carries the positions' arm to its
+    velocity rows (their rotation ``C(ω × l)``, 1 cm apart over the 60 s if not)."""
 
     def short(doc):
         doc["filter"]["duration_s"] = 60.0
         doc["methods"] = [m for m in doc["methods"] if m["name"] == "ckf"]
+        doc["aids"][1]["lever_arm_m"] = doc["aids"][0]["lever_arm_m"]
 
     def one_aid(doc):
         short(doc)
