@@ -202,7 +202,11 @@ class InsModel:
                 dth = dth / (1.0 + b[:, None, 6:9])
                 dvel = dvel / (1.0 + b[:, None, 9:12])
         f_b = dvel.sum(1) / self.dt
-        w_b = dth.sum(1) / self.dt if self.error_model.n == 21 else None
+        # the gyro's mean rate over the epoch: the scale factors' columns, and a lever
+        # arm's rotation (the receiver's velocity is an average too, and the IMU's
+        # vibration averages out)
+        w_ib = dth.sum(1) / self.dt
+        w_b = w_ib if self.error_model.n == 21 else None
         C_bn = attitude.quat_to_dcm(ins.q)
         Phi, Q = discrete_model(
             ins.p[:, 0],
@@ -220,9 +224,6 @@ class InsModel:
         ins, _ = integrate(
             ins, dth, dvel, stream.imu.dt, algorithm=self.algorithm, output_every=self.every
         )
-        # the gyro's mean rate over the epoch (a lever arm's rotation: the receiver's
-        # velocity is an average too, and the IMU's vibration averages out)
-        w_ib = dth.sum(1) / self.dt
         z, H, avail, previous = self._measure(state, stream, k, copies, ins, Phi, w_ib)
         if local_copies is not None and local_copies.rows.any():
             self._at_local_copies(stream, k, copies, ins, Phi, local_copies, z, H, avail, w_ib)

@@ -567,6 +567,16 @@ def _chi2(nu: np.ndarray, S: np.ndarray) -> np.ndarray:
     return out
 
 
+def _chi2_rows(nu: np.ndarray, S: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """(B,) ``νᵀ S⁻¹ ν`` over the rows ``rows`` (B, m) only: the others' rows and columns
+    of ``S`` replaced by the identity's, ``S`` by the identity where that block is not
+    positive definite (0 where no row is kept)."""
+    eye = np.eye(S.shape[-1])
+    S_r = np.where(rows[:, :, None] & rows[:, None, :], S, eye)
+    S_r = np.where(_pd_rows(S_r)[:, None, None], S_r, eye)
+    return _chi2(np.where(rows, nu, 0.0), S_r)
+
+
 def _psd(A: np.ndarray) -> np.ndarray:
     """The positive part of symmetric matrices (negative eigenvalues set to 0)."""
     w, V = np.linalg.eigh(A)
@@ -1228,8 +1238,8 @@ class Guard:
         # no rows measuring its other rows' rate (a star tracker, positions alone) is
         # never taken by it: nothing tells its ramp from the estimate's drift)
         inner, inner_sum, inner_cov, inner_good = self._inner(state, test, inc, judged, moved)
+        judges = usable & ~state.hold & ~self.pseudo
         for a in np.flatnonzero((coasted & ~only).any(0)).tolist():
-            judges = usable & ~state.hold & ~self.pseudo
             blind = self._unjudged(a, judges, test) & judges[:, self._peers(a)].any(-1)
             # (its own rate rows agreeing with its other rows for n_off increments: a
             # drift of the estimate, not a ramp of the aid, whose positions leave its
@@ -1918,11 +1928,7 @@ class Guard:
             sums[a] = np.where(on[:, None], sums[a] + np.where(rows, e, 0.0), sums[a])
             covs[a] = np.where(on[:, None, None], covs[a] + add, covs[a])
             count[:, a] = np.where(on, count[:, a] + 1, count[:, a])
-            eye = np.eye(self.dims[a])
-            S = kf.symmetrize(2.0 * t.R + covs[a])
-            S_r = np.where(rows[:, :, None] & rows[:, None, :], S, eye)
-            S_r = np.where(_pd_rows(S_r)[:, None, None], S_r, eye)
-            q = _chi2(np.where(rows, sums[a], 0.0), S_r)
+            q = _chi2_rows(sums[a], kf.symmetrize(2.0 * t.R + covs[a]), rows)
             k = rows.sum(-1)
             good[:, a] = on & (count[:, a] >= self.n_off) & (q <= _thresholds(self.pfa, k))
         return count, tuple(sums), tuple(covs), good
@@ -2188,11 +2194,7 @@ class Guard:
         z2 = np.maximum(J**2, state.taken[a] ** 2) / np.where(var > 0, var, np.inf)
         moved = (z2 > _threshold(self.pfa, 1)) & unseen
         seen = ~unseen
-        eye = np.eye(self.dims[a])
-        C_s = np.where(seen[:, :, None] & seen[:, None, :], C, eye)
-        C_s = np.where(_pd_rows(C_s)[:, None, None], C_s, eye)
-        k = seen.sum(-1)
-        still = _chi2(np.where(seen, J, 0.0), C_s) <= _thresholds(self.pfa, k)
+        still = _chi2_rows(J, C, seen) <= _thresholds(self.pfa, seen.sum(-1))
         return np.asarray(only | (moved.any(-1) & still))
 
     def _unjudged(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:
@@ -2205,13 +2207,10 @@ class Guard:
         tracker, its horizontal position beside nothing)."""
         t = test.aids[a]
         unseen = self._unseen(a, witnesses, test)
-        S = t.A + t.R
-        eye = np.eye(self.dims[a])
-        q = []
-        for rows in (unseen, ~unseen):
-            S_r = np.where(rows[:, :, None] & rows[:, None, :], S, eye)
-            S_r = np.where(_pd_rows(S_r)[:, None, None], S_r, eye)
-            q.append(_chi2(np.where(rows, t.nu, 0.0), S_r) - _thresholds(self.pfa, rows.sum(-1)))
+        q = [
+            _chi2_rows(t.nu, t.A + t.R, rows) - _thresholds(self.pfa, rows.sum(-1))
+            for rows in (unseen, ~unseen)
+        ]
         return np.asarray((q[0] > 0) & (q[1] <= 0))
 
     def _confounded(self, a: int, witnesses: np.ndarray, test: GuardTest) -> np.ndarray:

@@ -28,6 +28,7 @@ __all__ = [
     "gravity",
     "gravity_gradient",
     "omega_ie_n",
+    "omega_ie_n_dL",
     "omega_en_n",
     "enu_metres",
 ]
@@ -102,6 +103,12 @@ def omega_ie_n(L: ArrayLike) -> BatchVector:
     """Earth rate in n, ``[0, ω_ie cos L, ω_ie sin L]`` (rad/s), shape ``L.shape + (3,)``."""
     L = np.asarray(L, dtype=float)
     return np.stack([np.zeros_like(L), OMEGA_IE * np.cos(L), OMEGA_IE * np.sin(L)], -1)
+
+
+def omega_ie_n_dL(L: ArrayLike) -> BatchVector:
+    """``∂ω_ie^n/∂L = [0, −ω_ie sin L, ω_ie cos L]`` (rad/s per rad), ``L.shape + (3,)``."""
+    L = np.asarray(L, dtype=float)
+    return np.stack([np.zeros_like(L), -OMEGA_IE * np.sin(L), OMEGA_IE * np.cos(L)], -1)
 
 
 def omega_en_n(L: BatchScalar, h: float | BatchScalar, v: BatchVector) -> BatchVector:

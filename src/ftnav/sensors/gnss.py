@@ -54,7 +54,7 @@ import numpy as np
 
 from ftnav.model.system import PrivateStates
 from ftnav.nav.attitude import quat_to_dcm, skew
-from ftnav.nav.earth import OMEGA_IE, omega_ie_n, radii
+from ftnav.nav.earth import omega_ie_n, omega_ie_n_dL, radii
 from ftnav.sensors.base import (
     N_STATES,
     AidErrors,
@@ -368,9 +368,8 @@ class Gnss:
             H[:, 0:3, 0:3] = skew(l_n)
             w_ie = omega_ie_n(p[:, 0])  # C̃(ω_ib × l) − ω_ie × (C̃ l) moves with φ:
             H[:, 3:6, 0:3] = skew(arm_v + np.cross(w_ie, l_n)) - skew(w_ie) @ skew(l_n)
-            L = p[:, 0]  # and the Earth's rate turns with latitude: ∂(−ω_ie × l_n)/∂L
-            dw = np.stack([np.zeros_like(L), -OMEGA_IE * np.sin(L), OMEGA_IE * np.cos(L)], -1)
-            H[:, 3:6, 6] += np.cross(l_n, dw)
+            # and the Earth's rate turns with latitude: ∂(−ω_ie × l_n)/∂L
+            H[:, 3:6, 6] += np.cross(l_n, omega_ie_n_dL(p[:, 0]))
         z, H = z[:, r], H[:, r]
         p_priv = m if self._augmented else 0
         H_private = np.broadcast_to(-np.eye(m)[:, :p_priv], (B, m, p_priv)).copy()

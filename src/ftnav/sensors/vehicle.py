@@ -43,7 +43,7 @@ import numpy as np
 
 from ftnav.model.system import PrivateStates
 from ftnav.nav.attitude import quat_to_dcm, skew
-from ftnav.nav.earth import OMEGA_IE, omega_ie_n
+from ftnav.nav.earth import omega_ie_n, omega_ie_n_dL
 from ftnav.sensors.base import (
     N_STATES,
     AidErrors,
@@ -118,12 +118,6 @@ class _Constraint:
         return np.asarray(e, dtype=float)
 
 
-def w_ie_b_dL(C_bn: np.ndarray, L: np.ndarray) -> np.ndarray:
-    """(B, 3) ``∂(C_n^b ω_ie^n)/∂L``: the Earth's rate in the body turns with latitude."""
-    d = np.stack([np.zeros_like(L), -OMEGA_IE * np.sin(L), OMEGA_IE * np.cos(L)], -1)
-    return np.einsum("bij,bj->bi", C_bn, d)
-
-
 @dataclass(frozen=True, slots=True)
 class Nhc(_Constraint):
     """Non-holonomic constraint (module docstring): rows ``v^b_x, v^b_z`` (m/s) of the
@@ -168,11 +162,14 @@ class Nhc(_Constraint):
             if w_ib is None:
                 raise ValueError(f"{self.name}: a lever arm needs the rate w_ib")
             arm = np.asarray(self.lever_arm_m, dtype=float)
-            w_ie_b = np.einsum("bij,bj->bi", C_bn, omega_ie_n(as_batch(p, (3,), "p", B)[:, 0]))
+            L = as_batch(p, (3,), "p", B)[:, 0]
+            w_ie = omega_ie_n(L)
+            w_ie_b = np.einsum("bij,bj->bi", C_bn, w_ie)
             v_b = v_b + np.cross(as_batch(w_ib, (3,), "w_ib", B) - w_ie_b, arm)
-            L = p[:, 0]
-            H[:, :, 0:3] -= skew(arm) @ C_bn @ skew(omega_ie_n(L))
-            H[:, :, 6] += np.einsum("ij,bj->bi", skew(arm), w_ie_b_dL(C_bn, L))
+            H[:, :, 0:3] -= skew(arm) @ C_bn @ skew(w_ie)
+            # the Earth's rate in the body turns with latitude
+            w_ie_b_dL = np.einsum("bij,bj->bi", C_bn, omega_ie_n_dL(L))
+            H[:, :, 6] += np.einsum("ij,bj->bi", skew(arm), w_ie_b_dL)
         z = v_b[:, [0, 2]] - raw
         H = H[:, [0, 2]]
         valid = np.all(np.isfinite(z), -1)
