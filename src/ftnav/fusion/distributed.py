@@ -248,8 +248,10 @@ class DistributedFilter:
             )
             xg = select(amend.where, xg - amend.dx, xg)
             Pg = select(amend.where, Pg + amend.dP, Pg)
+            out_g = guarded.output
             for i in range(N):  # a rolled-back local restarts from the amended centre
-                back = guarded.output.rollback[:, i]
+                # (a deferred rollback: when the aid's agreement applies it)
+                back = out_g.rollback[:, i] | (out_g.undone[:, i] & guarded.before.deferred[:, i])
                 xs[i], Ps[i] = select(back, xg, xs[i]), select(back, Pg, Ps[i])
         if test is not None:
             prop = tuple(

@@ -31,6 +31,12 @@ and decides the method's isolation from its detector's flags:
    pull merely too large for its covariance was removed in rows no other aid responds
    to (:meth:`Guard._unseen`): nothing but the aid's own pull speaks for it (a false
    alarm 500 s after a SINS fault found the corrections the aid made then "too large").
+   Such a rollback is *deferred* while the flagged measurement agrees with the
+   estimate as it is: the estimate stays and the rolled-back one is the alternative,
+   applied once the aid disagrees with the estimate and agrees with it (a drag over:
+   the measurement jumped back), an ordinary doubtful rollback from then on
+   (``seed002``'s receiver after a 1 °/h gyro step: a CUSUM false alarm at a fix that
+   agreed rolled the estimate 332 m back for the 20 s until it was undone).
 2. **Re-admission.**  After ``n_off`` consecutive tests whose innovation passes its χ²
    against the estimate, with the method's detector quiet (the aid was faulty and its
    fault ended); or after ``confirm`` consecutive tests against the alternative, the
@@ -365,6 +371,8 @@ class GuardState(NamedTuple):
     inner: np.ndarray
     inner_sum: tuple[np.ndarray, ...]
     inner_cov: tuple[np.ndarray, ...]
+    deferred: np.ndarray
+    applied: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -840,6 +848,8 @@ class Guard:
             zi.copy(),
             tuple(np.zeros((B, m)) for m in self.dims),
             tuple(np.zeros((B, m, m)) for m in self.dims),
+            zb.copy(),
+            zb.copy(),
         )
 
     @staticmethod
@@ -1013,7 +1023,12 @@ class Guard:
         override = tested & ok & ~quiet & (state.passes + 1 >= c.override)
         passes = np.where(override, self.n_off, passes)
         overruled = overruled | override
-        undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off)
+        # a deferred rollback is applied once the aid disagrees with the estimate as it
+        # is and agrees with the rolled-back one (a drag over: its fix jumped back), and
+        # is then an ordinary doubtful one, undone on the aid's agreement without it
+        applied = tested & state.pending & state.deferred & ~ok & ok_alt
+        passes_alt = np.where(applied, 0, passes_alt)
+        undone = state.hold & (passes_alt >= c.confirm) & (passes < self.n_off) & ~applied
         # each aid's innovation beyond the guard's own χ² now
         far = np.stack([t.nis > self.T1[a] for a, t in enumerate(test.aids)], 1)
         # where an aid's kind (a sole source or not) matters: held, or may be isolated
@@ -1330,6 +1345,7 @@ class Guard:
         flags = hold_before | rising | welcome  # re-admitted aids: used from the next epoch
         choose = np.zeros((B, N), bool)
         doubt = np.zeros((B, N), bool)  # a rollback on the separation alone: undoable
+        defer = np.zeros((B, N), bool)  # a doubtful rollback kept as the alternative
         ended = np.zeros((B, N), bool)  # a rollback that explains a jump: the fault ended
         windows = np.zeros((B, N), int)
         for a, t in enumerate(test.aids):
@@ -1405,6 +1421,12 @@ class Guard:
             if drag.any():
                 drag &= self._unseen(a, usable & ~state.hold, test).any(-1)
             doubt[:, a] = fired | drag
+            # and while the flagged measurement agrees with the estimate as it is, that
+            # doubtful rollback is not applied but kept as the alternative: the estimate
+            # stays, and the aid's agreement with the rolled-back one applies it (the
+            # seed002 receiver after a 1 deg/h gyro step: a CUSUM false alarm at a fix
+            # that agreed rolled the estimate 332 m back for the 20 s until it was undone)
+            defer[:, a] = drag & (t.nis <= self.T1[a])
             ended[:, a] = explain & fits.any(1)
             windows[:, a] = np.where(fired, t.window, w)
         hold = (hold_before & ~release) | rising
@@ -1522,6 +1544,7 @@ class Guard:
         own_jump = tuple(np.where(on[:, a, None], own_jump[a], 0.0) for a in range(N))
         own_cov = tuple(np.where(on[:, a, None, None], own_cov[a], 0.0) for a in range(N))
         pending = np.where(reset, doubt, state.pending)
+        deferred = np.where(reset, defer, state.deferred & ~applied)
         support = np.where(reset, 0.0, support)
         length = np.where(hold & ~rising, state.length + 1, 0)
         agree = np.where(hold & ~rising, agree, 0)
@@ -1538,6 +1561,8 @@ class Guard:
             inner=inner,
             inner_sum=inner_sum,
             inner_cov=inner_cov,
+            deferred=deferred,
+            applied=applied,
             moved=moved,
             own_jump=own_jump,
             own_cov=own_cov,
@@ -1563,7 +1588,7 @@ class Guard:
             ratio,
             flags,
             alarm,
-            choose,
+            (choose & ~defer) | applied,
             undone,
             unobs,
             relaxed | welcome,
@@ -2007,7 +2032,10 @@ class Guard:
         alt = test.alternative[g]
         c_alt, G_alt = alt.c[:, self.slot[a], 0], alt.G[:, self.slot[a], 0]
         Ha = test.H[a]
-        S_b = S - _psd(kf.symmetrize(Ha @ G_alt @ kf.mT(Ha)))
+        HGH = kf.symmetrize(Ha @ G_alt @ kf.mT(Ha))
+        # a deferred rollback's alternative adds its covariance (its G is negated)
+        later = state.deferred[:, a, None, None]
+        S_b = np.where(later, S + _psd(-HGH), S - _psd(HGH))
         S_b = np.where(_pd_rows(S_b)[:, None, None], S_b, S)
         ok = np.asarray(_chi2(t.nu - kf.mv(Ha, c_alt), S_b) <= self.T1[a])
         for j in self.groups[g]:
@@ -2407,14 +2435,28 @@ class Guard:
             where = np.zeros(B, bool)
             c_alt, G_alt = alt.c, alt.G
             for s, a in enumerate(grp):
-                back = out.rollback[:, a]
-                if back.any():  # the rollback of a newly isolated aid
+                now = after.applied[:, a]
+                if now.any():  # a deferred rollback applied: an ordinary one from now
+                    dx -= np.where(now[:, None], c_alt[:, s, 0], 0.0)
+                    dP -= np.where(now[:, None, None], G_alt[:, s, 0], 0.0)
+                    c_alt[:, s, 0] = np.where(now[:, None], -c_alt[:, s, 0], c_alt[:, s, 0])
+                    G_alt[:, s, 0] = np.where(now[:, None, None], -G_alt[:, s, 0], G_alt[:, s, 0])
+                    where |= now
+                back = out.rollback[:, a] & ~now
+                # a deferred rollback: not applied, its negative the alternative (so
+                # that undoing it applies it, with its covariance)
+                later = rising[:, a] & after.deferred[:, a]
+                if back.any() or later.any():  # the rollback of a newly isolated aid
                     cw, Gw = sep.windows(p, s)
                     w = g.windows[:, a]
-                    dx += np.where(back[:, None], cw[idx, w], 0.0)
-                    dP += np.where(back[:, None, None], Gw[idx, w], 0.0)
-                    c_alt[:, s, 0] = np.where(back[:, None], cw[idx, w], c_alt[:, s, 0])
-                    G_alt[:, s, 0] = np.where(back[:, None, None], Gw[idx, w], G_alt[:, s, 0])
+                    cw, Gw = cw[idx, w], Gw[idx, w]
+                    dx += np.where(back[:, None], cw, 0.0)
+                    dP += np.where(back[:, None, None], Gw, 0.0)
+                    cw = np.where(later[:, None], -cw, cw)
+                    Gw = np.where(later[:, None, None], -Gw, Gw)
+                    now = (back | later)[:, None]
+                    c_alt[:, s, 0] = np.where(now, cw, c_alt[:, s, 0])
+                    G_alt[:, s, 0] = np.where(now[..., None], Gw, G_alt[:, s, 0])
                     where |= back
                 undo = out.undone[:, a]
                 if undo.any():  # the aid was right: its rollback comes back
@@ -2422,8 +2464,8 @@ class Guard:
                     dP_undo += np.where(undo[:, None, None], G_alt[:, s, 0], 0.0)
                     where |= undo
                 if self.rollback:  # a rollback's pulls are gone (the older ones stay)
-                    p = sep.clear(p, s, back, g.windows[:, a])
-                    gone = released[:, a] | (rising[:, a] & ~back)
+                    p = sep.clear(p, s, back | later, g.windows[:, a])
+                    gone = released[:, a] | (rising[:, a] & ~back & ~later)
                     c_alt[gone, s, 0] = 0.0
                     G_alt[gone, s, 0] = 0.0
             alt = sep.Pulls(c_alt, G_alt)
