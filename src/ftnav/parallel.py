@@ -40,9 +40,12 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any, TypeVar
 
+from threadpoolctl import threadpool_info, threadpool_limits
+
 __all__ = [
     "ClusterError",
     "available_cpus",
+    "blas_threads",
     "check_scheduler_address",
     "default_workers",
     "run_on_cluster",
@@ -141,8 +144,19 @@ def end_with_parent() -> None:
     _watching = True
 
 
-def _init_worker(q) -> None:
-    global _progress_queue
+def blas_threads() -> int | None:
+    """The BLAS threads of this process (the most of its loaded BLAS libraries), or
+    None where none is loaded."""
+    counts = [int(i["num_threads"]) for i in threadpool_info() if i["user_api"] == "blas"]
+    return max(counts) if counts else None
+
+
+#: the workers' BLAS thread limit (kept: the limit lasts while it is referenced)
+_blas_limit: Any = None
+
+
+def _init_worker(q, blas: int | None = None) -> None:
+    global _progress_queue, _blas_limit
     _progress_queue = q
     os.environ["FTNAV_WORKERS"] = "1"
     # Ctrl-C reaches the whole process group: the parent alone decides, and ends the
@@ -153,6 +167,12 @@ def _init_worker(q) -> None:
     import numpy
 
     numpy.seterr(all="ignore")
+    # the parent's BLAS thread count, whatever this process's environment says: a sum's
+    # order depends on it (Dask's ``LocalCluster`` sets ``OPENBLAS_NUM_THREADS=1`` in
+    # the process that starts it, and workers spawned after that, with one thread
+    # beside a parent with two, differed from it in the last bits)
+    if blas is not None:
+        _blas_limit = threadpool_limits(limits=blas, user_api="blas")
     end_with_parent()  # done already by `import ftnav`; here in case it was not
 
 
@@ -258,7 +278,7 @@ def run_tasks(
                 min(workers, len(tasks)),
                 mp_context=ctx,
                 initializer=_init_worker,
-                initargs=(q,),
+                initargs=(q, blas_threads()),
             )
             futures = [pool.submit(_call, fn, t) for t in tasks]
         with pool:
