@@ -149,3 +149,47 @@ def test_a_ramp_its_own_velocities_do_not_share_is_not_taken_after_the_coast(fas
     plain = _horizontal(fast_ramp.results["ckf"], keep)
     got = _horizontal(fast_ramp.results[name], keep)
     assert got <= plain, (name, got, plain)
+
+
+@pytest.fixture(scope="module")
+def frozen():
+    fault = {"sensor": "gnss", "kind": "stuck", "start": 300.0, "end": 400.0, "magnitude": [0]}
+    return run_seed002(fault, 430.0, 4, ("ckf", *GUARDED), "the receiver frozen 100 s")
+
+
+@pytest.mark.parametrize("name", GUARDED)
+def test_a_frozen_receiver_is_held_without_a_rollback(frozen, name):
+    """The whole receiver frozen over [300, 400) s: its repeated output is its own fault,
+    with nothing to roll back.  A rollback at the freeze's onset had "explained" the
+    stale fix by a window of the receiver's pulls and moved the estimate 78 m in one
+    run of four (CUSUM; 151 m by the freeze's end, 160 m when the receiver came back
+    16 s after it, against 3-5 m in the other runs).  Oracle: the coast without the
+    receiver (the other runs, and the plain filter's 30 m after its first 10 s of
+    following the frozen fix)."""
+    res = frozen.results[name]
+    t = np.arange(res.error.shape[1]) * 1.0
+    assert not res.guard.rollback[:, (t >= 299.0) & (t < 400.0), 0].any()
+    h = np.hypot(res.error[..., 0], res.error[..., 1])
+    assert h[:, (t >= 300.0) & (t < 400.0)].max() < 20.0, h[:, (t >= 300.0) & (t < 400.0)].max(1)
+    assert res.used[:, t >= 410.0, 0].all(), res.used[:, t >= 410.0, 0].mean(1)
+
+
+@pytest.fixture(scope="module")
+def frozen_vb():
+    fault = {"sensor": "gnss", "kind": "stuck", "start": 300.0, "end": 400.0, "magnitude": [0]}
+    return run_seed002(fault, 700.0, RUNS, ("dkf-vb-chi2",), "the receiver frozen 100 s")
+
+
+def test_a_frozen_receiver_teaches_the_vb_noise_nothing(frozen_vb):
+    """The distributed VB method's held local keeps adapting its noise on its own
+    measurements (so that a noise increase can be re-admitted), but a frozen output has
+    no noise to learn: its east σ̂ grew from 1.5 m to 7.8 km over the 100 s freeze, and
+    the receiver, back at 404 s, was barely used in that row for 1000 s (3-14 m after
+    the fault against its fault-free twin's 0.1-1 m).  Oracles: the nominal σ and the
+    fault-free twin."""
+    res, twin = frozen_vb.results["dkf-vb-chi2"], frozen_vb.fault_free["dkf-vb-chi2"]
+    t = np.arange(res.error.shape[1]) * 1.0
+    sigma = np.sqrt(res.R_hat[0][:, t >= 300.0])  # the receiver's six rows
+    assert sigma.max() < 10.0, sigma.max((0, 1))
+    after = t >= 420.0
+    assert _horizontal(res, after) <= 1.5 * _horizontal(twin, after)

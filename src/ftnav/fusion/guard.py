@@ -50,7 +50,8 @@ and decides the method's isolation from its detector's flags:
    with the covariance inflated along its measurement (``P + γ P Hᵀ (H P Hᵀ)⁻¹ H P``, γ
    giving its innovation a χ² equal to its dimension) and its update at once
    (``relaxed``).  An output repeated bit for bit passes no re-admission test (a frozen
-   receiver's stale fix passes as the allowance grows past the distance moved since).
+   receiver's stale fix passes as the allowance grows past the distance moved since),
+   and its isolation rolls nothing back (the freeze is the aid's own fault).
    A detector that still alarms after ``override`` consecutive passes
    of the guard's tests is overruled until its own flag clears; the guard watches that
    aid with its own χ² meanwhile.  (The passes it counts are those with the detector
@@ -1349,7 +1350,10 @@ class Guard:
         ended = np.zeros((B, N), bool)  # a rollback that explains a jump: the fault ended
         windows = np.zeros((B, N), int)
         for a, t in enumerate(test.aids):
-            new = rising[:, a] & ~others_held[:, a] & usable[:, a]
+            # (an output repeated bit for bit is the aid's own fault, a freeze: nothing
+            # to roll back; seed002's receiver frozen at 299 s, one run of four: a
+            # window's removal "explained" the stale fix and moved the estimate 78 m)
+            new = rising[:, a] & ~others_held[:, a] & usable[:, a] & fresh[:, a]
             if not new.any() or not self.rollback:
                 continue
             # the window of the aid's applied pull that explains the flag: the one whose
