@@ -2439,14 +2439,16 @@ class Guard:
             where = np.zeros(B, bool)
             c_alt, G_alt = alt.c, alt.G
             for s, a in enumerate(grp):
-                now = after.applied[:, a]
-                if now.any():  # a deferred rollback applied: an ordinary one from now
-                    dx -= np.where(now[:, None], c_alt[:, s, 0], 0.0)
-                    dP -= np.where(now[:, None, None], G_alt[:, s, 0], 0.0)
-                    c_alt[:, s, 0] = np.where(now[:, None], -c_alt[:, s, 0], c_alt[:, s, 0])
-                    G_alt[:, s, 0] = np.where(now[:, None, None], -G_alt[:, s, 0], G_alt[:, s, 0])
-                    where |= now
-                back = out.rollback[:, a] & ~now
+                applied = after.applied[:, a]
+                if applied.any():  # a deferred rollback applied: an ordinary one from now
+                    dx -= np.where(applied[:, None], c_alt[:, s, 0], 0.0)
+                    dP -= np.where(applied[:, None, None], G_alt[:, s, 0], 0.0)
+                    c_alt[:, s, 0] = np.where(applied[:, None], -c_alt[:, s, 0], c_alt[:, s, 0])
+                    G_alt[:, s, 0] = np.where(
+                        applied[:, None, None], -G_alt[:, s, 0], G_alt[:, s, 0]
+                    )
+                    where |= applied
+                back = out.rollback[:, a] & ~applied
                 # a deferred rollback: not applied, its negative the alternative (so
                 # that undoing it applies it, with its covariance)
                 later = rising[:, a] & after.deferred[:, a]
@@ -2458,9 +2460,9 @@ class Guard:
                     dP += np.where(back[:, None, None], Gw, 0.0)
                     cw = np.where(later[:, None], -cw, cw)
                     Gw = np.where(later[:, None, None], -Gw, Gw)
-                    now = (back | later)[:, None]
-                    c_alt[:, s, 0] = np.where(now, cw, c_alt[:, s, 0])
-                    G_alt[:, s, 0] = np.where(now[..., None], Gw, G_alt[:, s, 0])
+                    kept = (back | later)[:, None]
+                    c_alt[:, s, 0] = np.where(kept, cw, c_alt[:, s, 0])
+                    G_alt[:, s, 0] = np.where(kept[..., None], Gw, G_alt[:, s, 0])
                     where |= back
                 undo = out.undone[:, a]
                 if undo.any():  # the aid was right: its rollback comes back
