@@ -24,6 +24,11 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
 SLOW = (
     "tests/cli/test_seed000.py::test_seed000_story",
     "tests/equivalence/test_builtin_baseline.py::test_builtin_metrics_are_unchanged[seed002]",
+    "tests/equivalence/test_builtin_baseline.py::test_builtin_metrics_are_unchanged[seed001]",
+    "tests/reference/test_drive_integrity.py::test_after_a_slow_ramp_elsewhere_on_the_drive_the_"
+    "rollback_finds_it[150.0]",
+    "tests/reference/test_drive_integrity.py::test_after_a_slow_ramp_elsewhere_on_the_drive_the_"
+    "rollback_finds_it[184.0]",
     "tests/reference/test_memory_estimate.py",
     "tests/cli/test_paper_claims.py::test_seed002",
     "tests/validation/test_integrated_faults.py",
