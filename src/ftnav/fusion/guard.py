@@ -637,6 +637,23 @@ def _rate_map(
     return G, miss, whole, np.asarray(fine)
 
 
+def _less_trapezoid(
+    inc: np.ndarray,
+    m_a: np.ndarray,
+    G: np.ndarray,
+    rate_now: np.ndarray,
+    rate_last: np.ndarray,
+    dk: np.ndarray,
+    R_rate: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """An aid's increment ``inc + m_a`` (B, m) less the trapezoid ``Δk G (now + last)/2``
+    of the rows that measure its rate, and that trapezoid's covariance
+    ``Δk² G (R/2) Gᵀ`` (:meth:`Guard._own`, :meth:`Guard._inner`)."""
+    e = inc + m_a - dk[:, None] * kf.mv(G, 0.5 * (rate_now + rate_last))
+    add = (dk**2)[:, None, None] * (G @ (0.5 * R_rate) @ kf.mT(G))
+    return e, add
+
+
 def _carries(H: np.ndarray, P: np.ndarray) -> np.ndarray:
     """(B, m, n) whether state j carries row i of ``H``: its part of the row's predicted
     variance, ``H_ij² P_jj``, is at least :data:`CARRIER_SHARE` of the row's largest."""
@@ -1893,13 +1910,10 @@ class Guard:
                 ta, tb = test.aids[a], test.aids[b]
                 dk = (state.since[:, a] + 1).astype(float)
                 nu_b = tb.nu + kf.mv(Hb, moved[b])
-                e = (
-                    inc[a][0]
-                    + kf.mv(Ha, moved[a])
-                    - dk[:, None] * kf.mv(G, 0.5 * (nu_b + state.last[b]))
+                e, add = _less_trapezoid(
+                    inc[a][0], kf.mv(Ha, moved[a]), G, nu_b, state.last[b], dk, tb.R
                 )
-                S = 2.0 * ta.R + (dk**2)[:, None, None] * (G @ (0.5 * tb.R) @ kf.mT(G))
-                S = kf.symmetrize(S)
+                S = kf.symmetrize(2.0 * ta.R + add)
                 tested[:, a] |= fine
                 bad[:, a] |= fine & (_chi2(e, S) > self.T1[a])
                 es[a] = np.where(fine[:, None], e, es[a])
@@ -1952,8 +1966,7 @@ class Guard:
                 continue
             dk = (state.since[:, a] + 1).astype(float)
             m_a = kf.mv(Ha, moved[a])
-            e = inc[a][0] + m_a - dk[:, None] * kf.mv(G, 0.5 * (t.nu + m_a + state.last[a]))
-            add = (dk**2)[:, None, None] * (G @ (0.5 * t.R) @ kf.mT(G))
+            e, add = _less_trapezoid(inc[a][0], m_a, G, t.nu + m_a, state.last[a], dk, t.R)
             sums[a] = np.where(on[:, None], sums[a] + np.where(rows, e, 0.0), sums[a])
             covs[a] = np.where(on[:, None, None], covs[a] + add, covs[a])
             count[:, a] = np.where(on, count[:, a] + 1, count[:, a])
