@@ -74,6 +74,14 @@ Recorded again for issue 20 (independent locals keep their jump sums, and an aid
 back that undoes the one it was re-admitted with comes home at once): only seed001
 ``fkf-nr-chi2-keep``'s second flight changed (horizontal RMSE 20.65 → 21.44 m, ``ckf``
 23.6 m); every other method unchanged to 1e-9.
+
+Recorded again for issue 20 (a held VB local learns only a noise the guard sees, a local
+let back in restarts from the centre, and a home needs the kept jump sum to be a jump
+beyond chance: docs/integrity.md §1.12): only seed002 ``dkf-vb-chi2`` changed (89
+numbers; horizontal RMSE 1.2057 → 1.2047 m, its largest error 10.17 → 4.49 m — the home
+on a pile of noisy increments under the noise ramp —, ANEES 9.012 → 9.146, NEES in band
+0.882 → 0.876, GNSS detection rate 0.1031 → 0.1169; fault-free twin 0.4833 → 0.4828 m);
+every other method of every built-in unchanged to 1e-9.
 """
 
 from __future__ import annotations

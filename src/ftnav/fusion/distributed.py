@@ -232,6 +232,18 @@ class DistributedFilter:
         # bit, which has no noise to learn (seed002's receiver frozen 100 s: its R̂ grew
         # to a 7.8 km σ, and the receiver back was barely used for 1000 s)
         adapt = meas.usable if epoch.repeated is None else use | (meas.usable & ~epoch.repeated)
+        back = np.zeros_like(use)
+        if guarded is not None:
+            # with the guard, a held local learns only what the guard calls a noise (its
+            # increments show one: output.noisy), not an offset: seed002's 20 m GNSS step
+            # held for the patience taught it a 9 m σ, kept for 300 s after the step
+            # (2.51 m after it against ckf's 1.45); and not at the epoch it is let back,
+            # where its prior is the coast's (docs/integrity.md §1.12)
+            back = (guarded.before.hold | guarded.flags) & ~guarded.after.hold
+            learn = meas.usable & guarded.output.noisy
+            if epoch.repeated is not None:
+                learn &= ~epoch.repeated
+            adapt = (use & ~back) | learn
         updates = [
             bank.update(i, priors[i], epoch.z[i], use[:, i], Hs[i], state.noise[i], adapt[:, i])
             for i in range(N)
@@ -250,10 +262,14 @@ class DistributedFilter:
             xg = select(amend.where, xg - amend.dx, xg)
             Pg = select(amend.where, Pg + amend.dP, Pg)
             out_g = guarded.output
-            for i in range(N):  # a rolled-back local restarts from the amended centre
-                # (a deferred rollback: when the aid's agreement applies it)
-                back = out_g.rollback[:, i] | (out_g.undone[:, i] & guarded.before.deferred[:, i])
-                xs[i], Ps[i] = select(back, xg, xs[i]), select(back, Pg, Ps[i])
+            # a rolled-back local restarts from the amended centre (a deferred rollback:
+            # when the aid's agreement applies it), and so does a local let back in: its
+            # state only time-updated while held, so its residual, what its VB learns
+            # from, would carry the whole hold's offset (the estimate took the jump, the
+            # local did not)
+            back |= out_g.rollback | (out_g.undone & guarded.before.deferred)
+            for i in range(N):
+                xs[i], Ps[i] = select(back[:, i], xg, xs[i]), select(back[:, i], Pg, Ps[i])
         if test is not None:
             prop = tuple(
                 kf.Gaussian(*test.restart(epoch.k, xs[i], Ps[i], *props[i])) for i in range(N)

@@ -1839,8 +1839,9 @@ class Guard:
     ) -> np.ndarray:
         """(B, N) the aids (not held, flagged, ``candidate``) whose increment now is a
         jump that undoes the jump sum kept from a hold they were re-admitted with: in
-        every row the jump moves (beyond chance), the sum plus the jump is zero within
-        their covariance, and no other aid measuring now reads those rows
+        every row the jump moves (beyond chance), the sum is a jump (beyond chance in
+        its own covariance) and the sum plus the jump is zero within their covariance,
+        and no other aid measuring now reads those rows
         (:meth:`_unseen` without rates: a position beside velocities and constraints).
         The aid is back where it was before its fault (module docstring, 3).  Only the
         moved rows are compared: the sum's other rows may hold what the estimate's own
@@ -1863,6 +1864,12 @@ class Guard:
             var_s = np.diagonal(C, axis1=-2, axis2=-1) + var_d
             moved = d**2 / np.where(var_d > 0, var_d, np.inf) > t1
             undone = (J + d) ** 2 / np.where(var_s > 0, var_s, np.inf) <= t1
+            # and the sum there must be a jump itself, beyond chance: a sum within its
+            # own covariance is a pile of noisy increments that any jump "undoes"
+            # (seed002's noise ramp under VB, whose R̂ hid the noise from the noise
+            # rules: home on such a sum moved the velocity 4.3 m/s)
+            var_j = np.diagonal(C, axis1=-2, axis2=-1)
+            undone &= J**2 / np.where(var_j > 0, var_j, np.inf) > t1
             back = cand & moved.any(-1) & (undone | ~moved).all(-1)
             read = ~self._unseen(a, usable & ~state.hold, test, rates=False)
             out[:, a] = back & ~(moved & read).any(-1)
