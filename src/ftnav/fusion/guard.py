@@ -36,7 +36,10 @@ and decides the method's isolation from its detector's flags:
    applied once the aid disagrees with the estimate and agrees with it (a drag over:
    the measurement jumped back), an ordinary doubtful rollback from then on
    (``seed002``'s receiver after a 1 °/h gyro step: a CUSUM false alarm at a fix that
-   agreed rolled the estimate 332 m back for the 20 s until it was undone).
+   agreed rolled the estimate 332 m back for the 20 s until it was undone).  So is any
+   rollback of the aid's pulls (too large, or a separation alarm's) over the fine window
+   after its relaxed re-admission, where it agrees: those pulls are the re-convergence
+   of a model the re-admission found wrong, not a drag (``GuardState.settling``).
 2. **Re-admission.**  After ``n_off`` consecutive tests whose innovation passes its χ²
    against the estimate, with the method's detector quiet (the aid was faulty and its
    fault ended); or after ``confirm`` consecutive tests against the alternative, the
@@ -336,6 +339,8 @@ class GuardState(NamedTuple):
         the coast the longest-coast rule bounds (module docstring, 7); 0 where not
         held.
     overruled : the detector's flag is ignored until it clears (an override re-admission).
+    settling : epochs since the aid's last relaxed re-admission (-1: none): its pulls over
+        the fine window after it are the re-convergence (module docstring, 1).
     age : epochs into the current coarse block (the fine one: modulo its length).
     """
 
@@ -374,6 +379,7 @@ class GuardState(NamedTuple):
     inner_cov: tuple[np.ndarray, ...]
     deferred: np.ndarray
     applied: np.ndarray
+    settling: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -868,6 +874,7 @@ class Guard:
             tuple(np.zeros((B, m, m)) for m in self.dims),
             zb.copy(),
             zb.copy(),
+            zi.copy() - 1,
         )
 
     @staticmethod
@@ -1439,15 +1446,23 @@ class Guard:
             # "too large" and rolled 576 m back.  Kept as a hypothesis, as a separation
             # alarm's: undone when the aid keeps agreeing with the estimate without it
             drag = explain & ~fits.any(1)
+            # so is any rollback of a pull too large (or a separation alarm's) in the
+            # aid's first fine window after its relaxed re-admission: its pulls then are
+            # the re-convergence of a model the re-admission found wrong (its covariance
+            # was inflated along the aid's rows only), not a drag (slowramp's odometer
+            # ramp: the fix taken back 96 m off, a CUSUM alarm 45 s later rolled 3.5 m of
+            # its re-convergence back and the fix was held 100 s)
+            recent = (state.settling[:, a] >= 0) & (state.settling[:, a] < self.nb * self.L)
+            quiet = (drag | fired) & recent & (t.nis <= self.T1[a])
             if drag.any():
                 drag &= self._unseen(a, usable & ~state.hold, test).any(-1)
-            doubt[:, a] = fired | drag
+            doubt[:, a] = fired | drag | quiet
             # and while the flagged measurement agrees with the estimate as it is, that
             # doubtful rollback is not applied but kept as the alternative: the estimate
             # stays, and the aid's agreement with the rolled-back one applies it (the
             # seed002 receiver after a 1 deg/h gyro step: a CUSUM false alarm at a fix
             # that agreed rolled the estimate 332 m back for the 20 s until it was undone)
-            defer[:, a] = drag & (t.nis <= self.T1[a])
+            defer[:, a] = (drag & (t.nis <= self.T1[a])) | quiet
             ended[:, a] = explain & fits.any(1)
             windows[:, a] = np.where(fired, t.window, w)
         hold = (hold_before & ~release) | rising
@@ -1604,6 +1619,9 @@ class Guard:
             calm=calm,
             taken=taken_sum,
             spread=spread,
+            settling=np.where(
+                relaxed | welcome, 0, np.where(state.settling >= 0, state.settling + 1, -1)
+            ),
         )
         out = GuardOutput(
             ratio,
