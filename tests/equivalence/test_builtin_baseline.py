@@ -82,6 +82,13 @@ numbers; horizontal RMSE 1.2057 → 1.2047 m, its largest error 10.17 → 4.49 m
 on a pile of noisy increments under the noise ramp —, ANEES 9.012 → 9.146, NEES in band
 0.882 → 0.876, GNSS detection rate 0.1031 → 0.1169; fault-free twin 0.4833 → 0.4828 m);
 every other method of every built-in unchanged to 1e-9.
+
+Recorded again for issue 20 (a held VB local learns as before where its hold keeps no
+jump, docs/integrity.md §1.12: learning only a noise the guard saw had held the real
+drive's GNSS 6.9 % of the time): only seed002 ``dkf-vb-chi2`` changed, by under 1e-4
+relative but its fault-free twin (horizontal RMSE 1.20470 → 1.20471 m, ANEES 9.146 →
+9.144; fault-free twin 0.48285 → 0.48305 m, ANEES 9.300 → 9.268); every other method
+unchanged to 1e-9.
 """
 
 from __future__ import annotations
