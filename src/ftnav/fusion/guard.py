@@ -1879,14 +1879,14 @@ class Guard:
             J, C = state.jump[a], state.jump_cov[a]
             t1 = _threshold(self.pfa, 1)
             var_d = np.diagonal(Cd, axis1=-2, axis2=-1)
-            var_s = np.diagonal(C, axis1=-2, axis2=-1) + var_d
+            var_j = np.diagonal(C, axis1=-2, axis2=-1)
+            var_s = var_j + var_d
             moved = d**2 / np.where(var_d > 0, var_d, np.inf) > t1
             undone = (J + d) ** 2 / np.where(var_s > 0, var_s, np.inf) <= t1
             # and the sum there must be a jump itself, beyond chance: a sum within its
             # own covariance is a pile of noisy increments that any jump "undoes"
             # (seed002's noise ramp under VB, whose R̂ hid the noise from the noise
             # rules: home on such a sum moved the velocity 4.3 m/s)
-            var_j = np.diagonal(C, axis1=-2, axis2=-1)
             undone &= J**2 / np.where(var_j > 0, var_j, np.inf) > t1
             back = cand & moved.any(-1) & (undone | ~moved).all(-1)
             read = ~self._unseen(a, usable & ~state.hold, test, rates=False)
