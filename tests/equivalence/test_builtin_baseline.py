@@ -89,6 +89,15 @@ drive's GNSS 6.9 % of the time): only seed002 ``dkf-vb-chi2`` changed, by under 
 relative but its fault-free twin (horizontal RMSE 1.20470 → 1.20471 m, ANEES 9.146 →
 9.144; fault-free twin 0.48285 → 0.48305 m, ANEES 9.300 → 9.268); every other method
 unchanged to 1e-9.
+
+Recorded again for issue 20 (an independent local let back in far from the reference its
+aid passed against restarts from it, docs/integrity.md §1.14): seed000 ``neural-chi2``
+(position RMSE 1.698 → 1.700) and seed001's neural and no-reset federated methods with a
+detector changed (horizontal RMSE ``neural-chi2`` 386.5 → 316.8 m, its fault-free twin
+322.0 → 243.4 m; ``neural-chi2-converged`` 114.2 → 118.0 m; ``fkf-nr-chi2`` 19.29 →
+18.82 m; second flight ``fkf-nr-chi2-keep`` 21.44 → 26.24 m, inside the SINS fault that
+lasts to the end); the federated methods' fault-free twins, seed001's feedback neural
+method and every seed002 number unchanged to 1e-9.
 """
 
 from __future__ import annotations

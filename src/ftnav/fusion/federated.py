@@ -58,6 +58,7 @@ from ftnav.fusion.locals import (
     NoiseState,
     gated,
     measurements,
+    restart_apart,
 )
 from ftnav.fusion.protocol import StepOutput, minus, select, with_common
 from ftnav.model.system import Epoch, LinearSystem
@@ -402,6 +403,7 @@ class FederatedFilter:
             )
         det_state, det_out, flag = self._detect(state, epoch, meas, loc, prior_g, feats)
         guarded = guard_state = gin = None
+        fusing = state  # the locals fused this epoch: state.active (below)
         if self.guard is not None:
             assert state.guard is not None
             gin = self._guard_inputs(state, epoch, loc, prior_g, F)
@@ -417,7 +419,36 @@ class FederatedFilter:
             if self.local_guard:  # each local takes its own aid's rollback
                 guard_state, amends = self.guard.finish(guarded, *_without_F(gin), meas.usable)
                 loc = _amended(loc, amends, gin[0], state.share, self.nc)
-        xg, Pg, master = self._fuse(state, loc, flag, prior_g, F, Q)
+                # a local let back in restarts from the reference its aid passed against
+                # where its own estimate is far from it (locals.restart_apart): a local
+                # that kept measuring a frozen aid was let back in 4 km off and every aid
+                # failed against the fused output it pulled (docs/integrity.md §1.14)
+                back = guarded.before.hold & ~guarded.after.hold
+                priors, updates = list(loc.priors), list(loc.updates)
+                for i, a in enumerate(amends):
+                    priors[i], updates[i] = restart_apart(
+                        self.bank,
+                        i,
+                        priors[i],
+                        updates[i],
+                        _shared_base(gin[0][i], state.share[:, i], self.nc),
+                        self.nc,
+                        back[:, i] & ~a.where,
+                        self.guard.config.false_alarm_probability,
+                        epoch.z[i],
+                        meas.usable[:, i],
+                        loc.Hs[i],
+                        state.noise[i],
+                    )
+                loc = loc._replace(priors=priors, updates=updates)
+                # a local re-admitted relaxed is fused at once: with every aid held the
+                # fused estimate only coasts, and an aid let back in is tested again
+                # next epoch against that coast (seed000, its dominant sensor frozen:
+                # every aid held for 350 s while the locals agreed; §1.14)
+                relaxed = np.stack([a.where for a in amends], 1)
+                if relaxed.any():
+                    fusing = state._replace(active=state.active | relaxed)
+        xg, Pg, master = self._fuse(fusing, loc, flag, prior_g, F, Q)
         if guarded is not None and not self.local_guard:  # the fused estimate takes it
             assert self.guard is not None and gin is not None
             guard_state, (amend,) = self.guard.finish(guarded, *_without_F(gin), meas.usable)
@@ -724,6 +755,17 @@ def _without_F(
     return priors, z, H, R
 
 
+def _shared_base(base: Gaussian, share: np.ndarray, nc: int) -> Gaussian:
+    """A local's restart from ``base``: its common block's covariance divided by its share
+    β_i (``share``, (B,); 1 where not sharing), as a fusion reset restarts every local (spec
+    §1.5), so that the fused estimate does not count the reference's information once
+    more for each local restarted from it."""
+    beta = np.where(share > 0, share, 1.0)
+    scale = np.ones(base.P.shape[:2])
+    scale[:, :nc] = 1.0 / np.sqrt(beta)[:, None]
+    return Gaussian(base.x, scale[:, :, None] * base.P * scale[:, None, :])
+
+
 def _amended(
     loc: _Locals,
     amends: tuple[Amend, ...],
@@ -739,20 +781,21 @@ def _amended(
     (B, N)), so that the fused estimate does not count the reference's information once
     more for each local restarted from it.  Its own coast may lie far from where the
     aid's innovation was measured (an isolated aid beside another one's fault: the
-    reference followed that fault)."""
+    reference followed that fault).  The amend (``x − dx``, ``P + dP`` of the reference)
+    is the relaxed update itself: the local's prior and its posterior are both that
+    (docs/integrity.md §1.14)."""
     priors, updates = list(loc.priors), list(loc.updates)
     for i, a in enumerate(amends):
         if not a.where.any():
             continue
         x, P = priors[i]
-        xb, Pb = bases[i]
-        beta = np.where(share[:, i] > 0, share[:, i], 1.0)
-        scale = np.ones(P.shape[:2])
-        scale[:, :nc] = 1.0 / np.sqrt(beta)[:, None]
-        P_new = scale[:, :, None] * (Pb + a.dP) * scale[:, None, :]
+        xb, P_new = _shared_base(Gaussian(bases[i].x, bases[i].P + a.dP), share[:, i], nc)
         priors[i] = Gaussian(select(a.where, xb - a.dx, x), select(a.where, P_new, P))
+        # the amend is the relaxed update of the reference (its prior), not of the
+        # local's own update, which with standalone isolation has taken the aid once
+        # already (the two together left a covariance with a negative variance)
         u = updates[i]
         updates[i] = u._replace(
-            x=select(a.where, u.x - a.dx, u.x), P=select(a.where, u.P + a.dP, u.P)
+            x=select(a.where, priors[i].x, u.x), P=select(a.where, priors[i].P, u.P)
         )
     return loc._replace(priors=priors, updates=updates)

@@ -38,6 +38,7 @@ __all__ = [
     "measurements",
     "predicted_noise",
     "residual_statistic",
+    "restart_apart",
 ]
 
 
@@ -154,6 +155,51 @@ def predicted_noise(noise: NoiseState | None, R: np.ndarray, rho: float) -> np.n
     if noise is None:
         return R
     return vbk.noise_estimate(rho * noise.alpha + 0.5, rho * noise.beta)
+
+
+def restart_apart(
+    bank: LocalBank,
+    i: int,
+    prior: Gaussian,
+    update: LocalUpdate,
+    base: Gaussian,
+    nc: int,
+    where: np.ndarray,
+    probability: float,
+    z: np.ndarray,
+    use: np.ndarray,
+    H: np.ndarray,
+    noise: NoiseState | None,
+) -> tuple[Gaussian, LocalUpdate]:
+    """An independent local let back in (``where``, (B,)), restarted from ``base`` where
+    its common states are far from it: its prior and update, else as they were.
+
+    ``base`` is the local's prior with its common block (its first ``nc`` states) the
+    reference its aid was just re-admitted against
+    (:func:`ftnav.fusion.protocol.with_common`); "far" is ``dᵀ(P_c + P_c,base)⁻¹d`` on
+    the common states beyond the χ²(``nc``) quantile of false-alarm ``probability`` (the
+    guard's).  The aid's measurements
+    passed against the reference; a local that kept measuring a frozen aid, or coasted
+    while held, may not have: it would carry the fault's offset into the fusion
+    (docs/integrity.md §1.14).  The restarted rows are updated from ``base`` with the
+    epoch's measurement (the noise state, VB's, is the local's own).
+    """
+    if not where.any():
+        return prior, update
+    d = prior.x[:, :nc] - base.x[:, :nc]
+    S = prior.P[:, :nc, :nc] + base.P[:, :nc, :nc]
+    far = where & (
+        np.einsum("bi,bi->b", d, np.linalg.solve(S, d[..., None])[..., 0])
+        > chi2.isf(probability, nc)
+    )
+    if not far.any():
+        return prior, update
+    again = bank.update(i, base, z, use, H, noise)
+    return Gaussian(select(far, base.x, prior.x), select(far, base.P, prior.P)), update._replace(
+        x=select(far, again.x, update.x),
+        P=select(far, again.P, update.P),
+        nis=np.where(far, again.nis, update.nis),
+    )
 
 
 def residual_statistic(

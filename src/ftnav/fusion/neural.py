@@ -60,7 +60,7 @@ from ftnav.fusion.config import NOTHING_LEARNED, Learned, MethodBase, config_err
 from ftnav.fusion.detection import Detection
 from ftnav.fusion.guard import Guard, GuardState
 from ftnav.fusion.isolation import IsolationPolicy
-from ftnav.fusion.locals import LocalBank, LocalUpdate, gated, measurements
+from ftnav.fusion.locals import LocalBank, LocalUpdate, gated, measurements, restart_apart
 from ftnav.fusion.neural_model import NeuronModel, select_weights
 from ftnav.fusion.protocol import StepOutput, minus, select, with_common
 from ftnav.model.system import Epoch, LinearSystem
@@ -291,10 +291,32 @@ class NeuralFusion:
                         select(a.where, bases[i].x - a.dx, priors[i].x),
                         select(a.where, bases[i].P + a.dP, priors[i].P),
                     )
+                    # the amend is the relaxed update of the reference: the posterior
+                    # too (the local's own update has taken the aid once already)
                     posts[i] = Gaussian(
-                        select(a.where, posts[i].x - a.dx, posts[i].x),
-                        select(a.where, posts[i].P + a.dP, posts[i].P),
+                        select(a.where, priors[i].x, posts[i].x),
+                        select(a.where, priors[i].P, posts[i].P),
                     )
+            # a local let back in restarts from the reference its aid passed against
+            # where its own estimate is far from it (locals.restart_apart)
+            back = guarded.before.hold & ~guarded.after.hold
+            for i, a in enumerate(amends):
+                lu = LocalUpdate(posts[i].x, posts[i].P, updates[i].nis, updates[i].R, None)
+                priors[i], lu = restart_apart(
+                    bank,
+                    i,
+                    priors[i],
+                    lu,
+                    bases[i],
+                    self.nc,
+                    back[:, i] & ~a.where,
+                    self.guard.config.false_alarm_probability,
+                    epoch.z[i],
+                    meas.usable[:, i],
+                    Hs[i],
+                    None,
+                )
+                posts[i] = Gaussian(lu.x, lu.P)
         flags = np.zeros((stat.shape[0], N), dtype=bool) if det_out is None else det_out.flag
         xs, Ps = self.policy.discard(flags, priors, posts)
         free = kf.Gaussian(*kf.predict(state.free.x, state.free.P, F, Q))
