@@ -178,11 +178,11 @@ def restart_apart(
     reference its aid was just re-admitted against
     (:func:`ftnav.fusion.protocol.with_common`); "far" is ``dᵀ(P_c + P_c,base)⁻¹d`` on
     the common states beyond the χ²(``nc``) quantile of false-alarm ``probability`` (the
-    guard's).  The aid's measurements
-    passed against the reference; a local that kept measuring a frozen aid, or coasted
-    while held, may not have: it would carry the fault's offset into the fusion
-    (docs/integrity.md §1.14).  The restarted rows are updated from ``base`` with the
-    epoch's measurement (the noise state, VB's, is the local's own).
+    guard's).  The aid's measurements passed against the reference; a local that kept
+    measuring a frozen aid, or coasted while held, may not have: it would carry the
+    fault's offset into the fusion (docs/integrity.md §1.14).  The restarted rows are
+    updated from ``base`` with the epoch's measurement (the noise state, VB's, is the
+    local's own).
     """
     if not where.any():
         return prior, update
