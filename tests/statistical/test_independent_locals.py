@@ -54,15 +54,23 @@ NO_RESET = {
 }
 
 
-@pytest.fixture(scope="module")
-def frozen():
+def _seed000_with(fault: dict, methods: tuple[str, ...], no_reset: bool, twin: bool = True):
+    """``seed000`` with ``fault`` instead of its own (and the user's no-reset method), the
+    named methods only, 4 runs of seed 1."""
     path = builtin_path("seed000")
     doc = read_toml(path)
-    doc["faults"] = [{"sensor": "pos3", "kind": "stuck", "start": START, "end": END}]
-    doc["methods"].append(NO_RESET)
-    sc = parse_scenario(doc, "seed000, pos3 frozen", path.parent)
-    keep = [m for m in sc.methods if m.name in ("ckf", "neural-chi2", "fkf-nr-chi2")]
-    return sc, run_scenario(sc, RUNS, 1, methods=keep)
+    doc["faults"] = [fault]
+    if no_reset:
+        doc["methods"].append(NO_RESET)
+    sc = parse_scenario(doc, f"seed000, {fault['sensor']} {fault['kind']}", path.parent)
+    keep = [m for m in sc.methods if m.name in methods]
+    return sc, run_scenario(sc, RUNS, 1, methods=keep, fault_free=twin)
+
+
+@pytest.fixture(scope="module")
+def frozen():
+    fault = {"sensor": "pos3", "kind": "stuck", "start": START, "end": END}
+    return _seed000_with(fault, ("ckf", "neural-chi2", "fkf-nr-chi2"), True)
 
 
 def _rms(res, keep: np.ndarray) -> float:
@@ -85,13 +93,8 @@ def test_after_a_frozen_aid_the_fused_estimate_is_as_without_the_fault(frozen, n
 
 @pytest.fixture(scope="module")
 def dominant_frozen():
-    path = builtin_path("seed000")
-    doc = read_toml(path)
-    doc["faults"] = [{"sensor": "pos2", "kind": "stuck", "start": 200.0, "end": 300.0}]
-    doc["methods"].append(NO_RESET)
-    sc = parse_scenario(doc, "seed000, pos2 frozen", path.parent)
-    keep = [m for m in sc.methods if m.name in ("ckf", "fkf-nr-chi2")]
-    return sc, run_scenario(sc, RUNS, 1, methods=keep)
+    fault = {"sensor": "pos2", "kind": "stuck", "start": 200.0, "end": 300.0}
+    return _seed000_with(fault, ("ckf", "fkf-nr-chi2"), True)
 
 
 def test_after_the_dominant_aid_froze_no_reset_fusion_comes_back(dominant_frozen):
@@ -106,12 +109,8 @@ def test_after_the_dominant_aid_froze_no_reset_fusion_comes_back(dominant_frozen
 
 @pytest.fixture(scope="module")
 def dominant_out():
-    path = builtin_path("seed000")
-    doc = read_toml(path)
-    doc["faults"] = [{"sensor": "pos2", "kind": "outage", "start": 600.0, "end": 700.0}]
-    sc = parse_scenario(doc, "seed000, pos2 out", path.parent)
-    keep = [m for m in sc.methods if m.name in ("ckf", "neural-chi2")]
-    return sc, run_scenario(sc, RUNS, 1, methods=keep, fault_free=False)
+    fault = {"sensor": "pos2", "kind": "outage", "start": 600.0, "end": 700.0}
+    return _seed000_with(fault, ("ckf", "neural-chi2"), False, twin=False)
 
 
 def test_an_aid_without_measurements_leaves_the_neuron_bank(dominant_out):
