@@ -98,8 +98,7 @@ detector changed (horizontal RMSE ``neural-chi2`` 386.5 → 316.8 m, its fault-f
 18.82 m; second flight ``fkf-nr-chi2-keep`` 21.44 → 26.24 m, inside the SINS fault that
 lasts to the end, 27.34 m once a local re-admitted relaxed is fused at once); the
 federated methods' fault-free twins, seed001's feedback neural method and every seed002
-number unchanged to 1e-9.  An aid without measurements leaving the neuron centre's bank
-moved seed001 ``neural-chi2`` by 5e-6 relative (316.7921 → 316.7877 m).
+number unchanged to 1e-9.
 """
 
 from __future__ import annotations

@@ -113,6 +113,18 @@ class NeuralConfig(MethodBase):
         ),
     )
 
+    absent_after: int | None = Field(
+        default=None,
+        ge=1,
+        description=(
+            "epochs: an aid without a usable measurement for longer, once it has "
+            "measured, picks the bank as a flagged one does (its local only coasts: an "
+            "outage of a sensor that always measures).  Off by default: banks trained "
+            "with aids silent by design (ZUPT when moving, a terrain aid off its map) "
+            "already weigh those silences (docs/integrity.md §1.14)"
+        ),
+    )
+
     @model_validator(mode="after")
     def _check(self) -> NeuralConfig:
         self.check_pieces()
@@ -164,13 +176,6 @@ class NeuralState(NamedTuple):
     #: (B, N) epochs since each aid's last usable measurement (0: this epoch; -1: none
     #: yet)
     since: np.ndarray | None = None
-
-
-#: an aid without a usable measurement for more than this many epochs, once it has
-#: measured, is left out of the bank's configuration like a flagged one: its local only
-#: coasts (docs/integrity.md §1.14).  Before its first measurement the bank is the one
-#: trained on that start (seed001's TAN and DNS start 50-80 s in)
-ABSENT_EPOCHS = 3
 
 
 class NeuralFusion:
@@ -331,12 +336,16 @@ class NeuralFusion:
         flags = np.zeros((stat.shape[0], N), dtype=bool) if det_out is None else det_out.flag
         xs, Ps = self.policy.discard(flags, priors, posts)
         free = kf.Gaussian(*kf.predict(state.free.x, state.free.P, F, Q))
-        # the bank of the aids whose locals are informed: a flagged aid, or one without a
-        # measurement for a while (an outage of the dominant sensor put the healthy bank's
-        # output 78 m off, against 3 m for every other method; §1.14)
+        # with absent_after, the bank of the aids whose locals are informed: a flagged
+        # aid, or one silent for a while once it has measured (an outage of seed000's
+        # dominant sensor put the healthy bank's output 78 m off, against 3 m for every
+        # other method; before an aid's first measurement the bank is the one trained on
+        # that start: seed001's TAN and DNS start 50-80 s in; §1.14)
         last = np.full(meas.usable.shape, -1) if state.since is None else state.since
         since = np.where(meas.usable, 0, np.where(last < 0, -1, last + 1))
-        xf, Pf, u = self._fuse(xs, Ps, free, flags | (since > ABSENT_EPOCHS))
+        after = self.config.absent_after
+        absent = flags if after is None else flags | (since > after)
+        xf, Pf, u = self._fuse(xs, Ps, free, absent)
         feats = np.swapaxes(u, 1, 2).reshape(u.shape[0], -1) if self.collect else None
         B = stat.shape[0]
         R_hat = tuple(np.broadcast_to(np.diag(s.R), (B, s.dim)) for s in self.system.sensors)
