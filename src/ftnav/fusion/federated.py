@@ -426,6 +426,9 @@ class FederatedFilter:
                 back = guarded.before.hold & ~guarded.after.hold
                 priors, updates = list(loc.priors), list(loc.updates)
                 for i, a in enumerate(amends):
+                    again = back[:, i] & ~a.where
+                    if not again.any():
+                        continue
                     priors[i], updates[i] = restart_apart(
                         self.bank,
                         i,
@@ -433,7 +436,7 @@ class FederatedFilter:
                         updates[i],
                         _shared_base(gin[0][i], state.share[:, i], self.nc),
                         self.nc,
-                        back[:, i] & ~a.where,
+                        again,
                         self.guard.config.false_alarm_probability,
                         epoch.z[i],
                         meas.usable[:, i],

@@ -1452,8 +1452,9 @@ class Guard:
             # was inflated along the aid's rows only), not a drag (slowramp's odometer
             # ramp: the fix taken back 96 m off, a CUSUM alarm 45 s later rolled 3.5 m of
             # its re-convergence back and the fix was held 100 s)
+            agrees = t.nis <= self.T1[a]
             recent = (state.settling[:, a] >= 0) & (state.settling[:, a] < self.nb * self.L)
-            quiet = (drag | fired) & recent & (t.nis <= self.T1[a])
+            quiet = (drag | fired) & recent & agrees
             if drag.any():
                 drag &= self._unseen(a, usable & ~state.hold, test).any(-1)
             doubt[:, a] = fired | drag | quiet
@@ -1462,7 +1463,7 @@ class Guard:
             # stays, and the aid's agreement with the rolled-back one applies it (the
             # seed002 receiver after a 1 deg/h gyro step: a CUSUM false alarm at a fix
             # that agreed rolled the estimate 332 m back for the 20 s until it was undone)
-            defer[:, a] = (drag & (t.nis <= self.T1[a])) | quiet
+            defer[:, a] = (drag & agrees) | quiet
             ended[:, a] = explain & fits.any(1)
             windows[:, a] = np.where(fired, t.window, w)
         hold = (hold_before & ~release) | rising

@@ -174,7 +174,7 @@ class NeuralState(NamedTuple):
     detector: DetectorState | None
     guard: GuardState | None = None
     #: (B, N) epochs since each aid's last usable measurement (0: this epoch; -1: none
-    #: yet)
+    #: yet), kept with ``absent_after`` only
     since: np.ndarray | None = None
 
 
@@ -252,7 +252,7 @@ class NeuralFusion:
             free.P.copy(),
             self.detection.init(B, self.N),
             None if self.guard is None else self.guard.init(B),
-            np.full((B, self.N), -1),
+            None if self.config.absent_after is None else np.full((B, self.N), -1),
         )
 
     def step(self, state: NeuralState, epoch: Epoch) -> tuple[NeuralState, StepOutput]:
@@ -317,6 +317,9 @@ class NeuralFusion:
             # where its own estimate is far from it (locals.restart_apart)
             back = guarded.before.hold & ~guarded.after.hold
             for i, a in enumerate(amends):
+                again = back[:, i] & ~a.where
+                if not again.any():
+                    continue
                 lu = LocalUpdate(posts[i].x, posts[i].P, updates[i].nis, updates[i].R, None)
                 priors[i], lu = restart_apart(
                     bank,
@@ -325,7 +328,7 @@ class NeuralFusion:
                     lu,
                     bases[i],
                     self.nc,
-                    back[:, i] & ~a.where,
+                    again,
                     self.guard.config.false_alarm_probability,
                     epoch.z[i],
                     meas.usable[:, i],
@@ -341,10 +344,11 @@ class NeuralFusion:
         # dominant sensor put the healthy bank's output 78 m off, against 3 m for every
         # other method; before an aid's first measurement the bank is the one trained on
         # that start: seed001's TAN and DNS start 50-80 s in; §1.14)
-        last = np.full(meas.usable.shape, -1) if state.since is None else state.since
-        since = np.where(meas.usable, 0, np.where(last < 0, -1, last + 1))
-        after = self.config.absent_after
-        absent = flags if after is None else flags | (since > after)
+        after, since, absent = self.config.absent_after, state.since, flags
+        if after is not None:
+            last = np.full(flags.shape, -1) if since is None else since
+            since = np.where(meas.usable, 0, np.where(last < 0, -1, last + 1))
+            absent = flags | (since > after)
         xf, Pf, u = self._fuse(xs, Ps, free, absent)
         feats = np.swapaxes(u, 1, 2).reshape(u.shape[0], -1) if self.collect else None
         B = stat.shape[0]
