@@ -99,6 +99,12 @@ detector changed (horizontal RMSE ``neural-chi2`` 386.5 → 316.8 m, its fault-f
 lasts to the end, 27.34 m once a local re-admitted relaxed is fused at once); the
 federated methods' fault-free twins, seed001's feedback neural method and every seed002
 number unchanged to 1e-9.
+
+Recorded again for issue 20 (a VB local takes its measurement with its predicted noise,
+learning nothing, while another aid that measures is held, docs/integrity.md §1.15):
+only seed002 ``dkf-vb-chi2`` changed (89 numbers; horizontal RMSE 1.2047 → 1.2118 m,
+ANEES 9.144 → 9.152, GNSS detection rate 0.1169 → 0.1175; fault-free twin 0.48305 →
+0.48294 m); every other method of every built-in unchanged to 1e-9.
 """
 
 from __future__ import annotations

@@ -244,9 +244,12 @@ class DistributedFilter:
             # (docs/integrity.md §1.12)
             back = (guarded.before.hold | guarded.flags) & ~guarded.after.hold
             learn = meas.usable & (guarded.output.noisy | (guarded.after.jumps == 0))
+            out = meas.usable & ~use
+            elsewhere = (out.sum(axis=1, keepdims=True) - out) > 0
+            learn &= ~elsewhere
             if epoch.repeated is not None:
                 learn &= ~epoch.repeated
-            adapt = (use & ~back) | learn
+            adapt = (use & ~back & ~elsewhere) | learn
         updates = [
             bank.update(i, priors[i], epoch.z[i], use[:, i], Hs[i], state.noise[i], adapt[:, i])
             for i in range(N)

@@ -127,11 +127,13 @@ def local_update(
     noise : VB state, or None for a fixed-R filter.
     vb : the VB settings when this filter adapts R.
     adapt : (B,) bool, runs whose VB noise estimate learns from the measurement
-        (default ``use``; a superset of it: an isolated filter whose state only
-        time-updates can still adapt its R̂).
+        (default ``use``).  An isolated filter whose state only time-updates can
+        still adapt its R̂ (``adapt`` without ``use``); a run with ``use`` and not
+        ``adapt`` takes the measurement with the predicted R̂ (``ρβ/ρα``), as a plain
+        Kalman update, and its noise posterior is only forgotten.
     """
     adapt = use if adapt is None else adapt
-    z0 = np.where(adapt[:, None], z, 0.0)
+    z0 = np.where((use | adapt)[:, None], z, 0.0)
     if vb is None or noise is None:
         up = kf.update(x, P, z0, H, R)
         Rused = np.broadcast_to(R, (x.shape[0],) + R.shape)
@@ -143,8 +145,15 @@ def local_update(
         )
         # no measurement: the noise posterior is only forgotten (spec §7.2 predict)
         new_noise = NoiseState(select(adapt, a_post, a), select(adapt, b_post, b))
+        R_prior = vbk.noise_estimate(a, b)
+        fixed = use & ~adapt
+        if fixed.any():
+            # used but not learned from: the plain update with the predicted R̂
+            plain = kf.update(x, P, z0, H, R_prior)
+            up = kf.Update(*(select(fixed, p, u) for p, u in zip(plain, up, strict=True)))
+            R_post = select(fixed, R_prior, R_post)
         # the noise the posterior was computed with (what a CKF needs to reproduce it)
-        Rused = select(use, R_post, vbk.noise_estimate(a, b))
+        Rused = select(use, R_post, R_prior)
     return LocalUpdate(
         select(use, up.x, x), select(use, up.P, P), np.where(use, up.nis, 0.0), Rused, new_noise
     )
