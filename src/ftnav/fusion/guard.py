@@ -221,6 +221,13 @@ and decides the method's isolation from its detector's flags:
    beside its star tracker and altimeter, held on a CUSUM alarm while the estimate
    re-learned biases, its horizontal coast 74 m off at the run's end.
    The fused estimate only (independent locals keep their own rules).
+8. **A first measurement.**  An aid's first measurement is never held on the fused
+   estimate: it has nothing to have jumped from (no increment, no anchor), and the
+   estimate's own start (its alignment, or a user's initial position) may be what is
+   off.  Held, the drive's GNSS alone, whose first 30 s were 5 m off the alignment,
+   coasted an INS no aid had informed for the patience and took the jump with the
+   velocity it had coasted: 56 m over the drive against ``ckf``'s 0.14 m.  Independent
+   locals keep the hold (``seed001``'s neuron centre fared worse without it).
 
 The guard works on one or several tracked estimates ("groups"): the fused estimate with
 every aid (centralized, distributed centre, fusion-reset federated, zero-reset), or, for
@@ -1355,6 +1362,12 @@ class Guard:
             coast &= (state.hold[:, None, :] & self.mate).any(-1)
             coast &= (usable[:, None, :] & self.apart).any(-1)
         triggered = alarm | (det_flag & ~overruled & ~coast) | own
+        # an aid's first measurement is the estimate's first word from it: nothing it
+        # could have jumped from (no increment, no anchor), and the estimate's own
+        # start (its alignment) may be what is off.  Holding it coasted an INS that no
+        # aid had informed (module docstring, 8; the fused estimate only)
+        if self.rollback:
+            triggered &= ~(usable & (state.since < 0))
         hold_before = state.hold
         if keep is not None:
             # the common-mode rule sees every aid isolated or flagged now: when a quorum
