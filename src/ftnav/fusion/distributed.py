@@ -39,6 +39,7 @@ from ftnav.fusion.locals import (
     Measurements,
     NoiseState,
     gated,
+    learned_beside,
     measurements,
 )
 from ftnav.fusion.protocol import StepOutput, minus, select
@@ -254,6 +255,12 @@ class DistributedFilter:
             bank.update(i, priors[i], epoch.z[i], use[:, i], Hs[i], state.noise[i], adapt[:, i])
             for i in range(N)
         ]
+        for i in range(N):
+            if bank.vb_on[i]:  # where its own prior is no reference for its noise (integrity §1.17)
+                updates[i] = learned_beside(
+                    bank, i, priors[i], prior_g, epoch.z[i], use[:, i], Hs[i],
+                    state.noise[i], adapt[:, i], updates[i],
+                )  # fmt: skip
         xg, Pg = self._fuse(prior_g, priors, updates, use, epoch.z, Hs)
         prop = None
         test = self.detection.state_test

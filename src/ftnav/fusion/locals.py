@@ -22,6 +22,7 @@ from scipy.stats import chi2
 from ftnav.core import kalman as kf
 from ftnav.core import vb as vbk
 from ftnav.core.kalman import Gaussian
+from ftnav.core.linalg import spd_solve
 from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.config import Noise, VbNoise
 from ftnav.fusion.protocol import select
@@ -39,6 +40,7 @@ __all__ = [
     "predicted_noise",
     "residual_statistic",
     "restart_apart",
+    "learned_beside",
 ]
 
 
@@ -164,6 +166,77 @@ def predicted_noise(noise: NoiseState | None, R: np.ndarray, rho: float) -> np.n
     if noise is None:
         return R
     return vbk.noise_estimate(rho * noise.alpha + 0.5, rho * noise.beta)
+
+
+#: a VB local's prediction departs from the centre's beyond chance at this probability
+#: (χ²_m in its aid's rows against its own predicted covariance): :func:`learned_beside`
+DEPART_PROBABILITY = 1e-3
+
+
+def learned_beside(
+    bank: LocalBank,
+    i: int,
+    prior: Gaussian,
+    centre: Gaussian,
+    z: np.ndarray,
+    use: np.ndarray,
+    H: np.ndarray,
+    noise: NoiseState | None,
+    adapt: np.ndarray,
+    update: LocalUpdate,
+) -> LocalUpdate:
+    """A VB local's ``update`` where its own prior is no reference for its noise: its
+    prediction of its aid departs from the fusion centre's beyond chance
+    (:data:`DEPART_PROBABILITY`, against its own predicted covariance) while the aid
+    agrees with the centre's at its declared noise.  There the local learns its R̂
+    against the centre's prior and takes its measurement with that R̂ as a plain Kalman
+    update (:func:`local_update`), so the centre is still the CKF with the R̂ used (spec
+    §6.4).
+
+    Why (docs/integrity.md §1.17): paper 002's local filter sees only its aid (spec
+    §6.1), and the VB (spec §7) assumes its prior is right.  A fault the local cannot
+    model (``seed002``'s GNSS local under a 10 °/h pitch-gyro step) grows its residuals;
+    its VB learns them as noise, which lets its state drift further: σ̂ 1.5 m → 7 km,
+    the centre 150–245 m off.  Learning against the centre instead always taught the
+    GNSS a frozen star tracker's error (4 km); the agreement of the aid with the centre
+    at its declared noise tells the two apart.  A noise increase moves neither the
+    local's prediction nor the centre's, and is learned from the local's prior as the
+    paper does (``seed002``'s built-in run is unchanged).
+
+    Parameters
+    ----------
+    bank, i : the local filters and the VB local's index.
+    prior, centre : the local's and the centre's predictions.
+    z, use, H, noise, adapt : as :meth:`LocalBank.update`.
+    update : the local's own update (:meth:`LocalBank.update` from ``prior``).
+    """
+    m = z.shape[-1]
+    Hb = np.broadcast_to(H, prior.x.shape[:1] + H.shape[-2:])
+    d = np.einsum("bmn,bn->bm", Hb, prior.x - centre.x)
+    C = Hb @ prior.P @ np.swapaxes(Hb, -1, -2)
+    q_d = np.einsum("bm,bm->b", d, spd_solve(C, d[..., None])[..., 0])
+    limit = float(chi2.ppf(1.0 - DEPART_PROBABILITY, m))
+    beside = adapt & (q_d > limit)
+    if beside.any():
+        beside &= bank.residual(i, centre, z, adapt, H, None) <= limit
+    if not beside.any() or noise is None:
+        return update
+    learned = bank.update(i, centre, z, adapt, H, noise, adapt).noise
+    assert learned is not None
+    rho = bank.rho
+    fixed = NoiseState(learned.alpha / rho, learned.beta / rho)
+    alt = bank.update(i, prior, z, use, H, fixed, np.zeros_like(use))
+    assert alt.noise is not None and update.noise is not None
+    return LocalUpdate(
+        select(beside, alt.x, update.x),
+        select(beside, alt.P, update.P),
+        np.where(beside, alt.nis, update.nis),
+        select(beside, alt.R, update.R),
+        NoiseState(
+            select(beside, alt.noise.alpha, update.noise.alpha),
+            select(beside, alt.noise.beta, update.noise.beta),
+        ),
+    )
 
 
 def restart_apart(
