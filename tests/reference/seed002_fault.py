@@ -27,3 +27,15 @@ def run_seed002(
     sc = parse_ins_scenario(doc, f"seed002, {label}", Path(path).parent)
     keep = tuple(m for m in sc.methods if m.name in methods)
     return run_scenario(sc, runs, 1, methods=keep)
+
+
+def gyro_step(start: float, end: float, deg_h: Sequence[float]) -> dict[str, Any]:
+    """A step of the SINS's gyro biases over [start, end) s, deg/h about x, y, z (a
+    scenario file's fault table)."""
+    return {
+        "sensor": "sins",
+        "kind": "gyro-bias",
+        "start": start,
+        "end": end,
+        "magnitude_deg_h": [float(v) for v in deg_h],
+    }

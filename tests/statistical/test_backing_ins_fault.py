@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from seed002_fault import run_seed002
+from seed002_fault import gyro_step, run_seed002
 
 RUNS = 8
 START, END, DURATION = 300.0, 500.0, 1500.0
@@ -32,13 +32,7 @@ GUARDED = ("fkf-chi2", "fkf-cusum")
 
 @pytest.fixture(scope="module")
 def drifted():
-    fault = {
-        "sensor": "sins",
-        "kind": "gyro-bias",
-        "start": START,
-        "end": END,
-        "magnitude_deg_h": [1.0, 0.0, 0.0],
-    }
+    fault = gyro_step(START, END, [1.0, 0.0, 0.0])
     return run_seed002(fault, DURATION, RUNS, ("ckf", *GUARDED), "a 1 deg/h gyro bias step")
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from seed002_fault import run_seed002
+from seed002_fault import gyro_step, run_seed002
 
 RUNS = 2
 START, END, DURATION = 300.0, 500.0, 800.0
@@ -225,13 +225,7 @@ def test_a_step_held_teaches_the_vb_noise_nothing(stepped_vb):
 
 @pytest.fixture(scope="module")
 def heading_vb():
-    fault = {
-        "sensor": "sins",
-        "kind": "gyro-bias",
-        "start": START,
-        "end": END,
-        "magnitude_deg_h": [0.0, 0.0, 10.0],
-    }
+    fault = gyro_step(START, END, [0.0, 0.0, 10.0])
     return run_seed002(fault, 600.0, RUNS, ("dkf-vb-chi2",), "a 10 deg/h heading-gyro step")
 
 
@@ -257,13 +251,7 @@ def test_a_vb_local_learns_nothing_while_another_aid_is_held(heading_vb):
 
 @pytest.fixture(scope="module")
 def pitch_vb():
-    fault = {
-        "sensor": "sins",
-        "kind": "gyro-bias",
-        "start": START,
-        "end": END,
-        "magnitude_deg_h": [10.0, 0.0, 0.0],
-    }
+    fault = gyro_step(START, END, [10.0, 0.0, 0.0])
     return run_seed002(fault, DURATION, RUNS, ("ckf", "dkf-vb"), "a 10 deg/h pitch-gyro step")
 
 
