@@ -5,7 +5,8 @@ scored at the RTK fixes (Q = 1) at the antenna.  Faults are injected into the re
 GNSS positions 100 s after the start for 60 s (the frozen receiver for 30 and 120 s),
 north: a 0.05 and a 0.2 m/s ramp, a 5 m step, a frozen output, the noise 10 times its σ
 (a ``noise-scale`` fault: white noise added to the recording), bursts of 3 m for 1 s
-every 2 s (an intermittent fault); plus 15 s GNSS outages every 60 s from 40 s, and with
+every 2 s (an intermittent fault), the fixes 5 m north of the alignment from the first one
+for 30 s (a start off); plus 15 s GNSS outages every 60 s from 40 s, and with
 them a fault of the INS itself (a 0.5 deg/s heading-gyro bias step starting 1.5 s into an
 outage, ``sins:gyro-bias``); each case with every aid of the file (GNSS positions and
 velocities, NHC, ZUPT) and with the GNSS positions alone (``--aids gnss``: the only
@@ -66,6 +67,8 @@ CASES: list[tuple[str, Fault | list[Fault] | None, tuple[float, float, float] | 
     # the INS's own fault where no aid sees it: a heading-gyro bias step 1.5 s into the
     # fifth outage (0.5 deg/s for 48 s); "after" from its end, "back" from the outage's
     ("gyro z 0.5 deg/s in an outage", ("gyro-z", 242.0, 290.0, 0.5), (15.0, 60.0, 40.0)),
+    # the fixes 5 m off the alignment from the first one (docs/integrity.md §1.16)
+    ("5 m from the first fix, 30 s", ("bias", 0.0, 30.0, 5.0), None),
     # the receiver's velocities (every aid only): a 1 m/s north step, and a fault of the
     # whole receiver that stays consistent (its positions ramp at 0.1 m/s while its
     # velocities are 0.1 m/s off: what a slowly drifting solution looks like)
