@@ -197,9 +197,9 @@ def learned_beside(
     §6.1), and the VB (spec §7) assumes its prior is right.  A fault the local cannot
     model (``seed002``'s GNSS local under a 10 °/h pitch-gyro step) grows its residuals;
     its VB learns them as noise, which lets its state drift further: σ̂ 1.5 m → 7 km,
-    the centre 150–245 m off.  Learning against the centre instead always taught the
-    GNSS a frozen star tracker's error (4 km); the agreement of the aid with the centre
-    at its declared noise tells the two apart.  A noise increase moves neither the
+    the centre 150–245 m off.  Learning against the centre at every epoch instead taught
+    the GNSS a frozen star tracker's error (4 km); the agreement of the aid with the
+    centre at its declared noise tells the two apart.  A noise increase moves neither the
     local's prediction nor the centre's, and is learned from the local's prior as the
     paper does (``seed002``'s built-in run is unchanged).
 
