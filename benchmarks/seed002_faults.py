@@ -4,8 +4,8 @@
 anomalies replaced by one fault at a time over [300, 500) s (the 0.02 m/s ramp to
 800 s, the 1 m/s ramp to 360 s; the SINS's gyro steps are faults of the INS itself), then
 two of them at once on different aids, 4 runs of 1500 s from seed 1.  Its GNSS
-(positions and velocities, one aid) is the only horizontal source; the star tracker and the altimeter
-measure at every fix, and see none of the GNSS's horizontal rows (docs/integrity.md
+(positions and velocities, one aid) is the only horizontal source; the star tracker and
+the altimeter measure at every fix, and see none of the GNSS's horizontal rows (docs/integrity.md
 §1.3, the patience beside aids that cannot judge the jump).  Printed per case and
 method: the horizontal RMS from 10 s after the fault's end to the end of the run (m;
 issue 20: within 1.5x ``ckf``'s), and the fault-free twin's from 60 s.
