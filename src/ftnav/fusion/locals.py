@@ -22,7 +22,6 @@ from scipy.stats import chi2
 from ftnav.core import kalman as kf
 from ftnav.core import vb as vbk
 from ftnav.core.kalman import Gaussian
-from ftnav.core.linalg import spd_solve
 from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.config import Noise, VbNoise
 from ftnav.fusion.protocol import select
@@ -211,10 +210,8 @@ def learned_beside(
     update : the local's own update (:meth:`LocalBank.update` from ``prior``).
     """
     m = z.shape[-1]
-    Hb = np.broadcast_to(H, prior.x.shape[:1] + H.shape[-2:])
-    d = np.einsum("bmn,bn->bm", Hb, prior.x - centre.x)
-    C = Hb @ prior.P @ np.swapaxes(Hb, -1, -2)
-    q_d = np.einsum("bm,bm->b", d, spd_solve(C, d[..., None])[..., 0])
+    # the centre's prediction of the aid as a noiseless measurement of the local's prior
+    q_d = kf.prior_nis(prior.x, prior.P, (H @ centre.x[..., None])[..., 0], H, np.zeros((m, m)))
     limit = float(chi2.ppf(1.0 - DEPART_PROBABILITY, m))
     beside = adapt & (q_d > limit)
     if beside.any():

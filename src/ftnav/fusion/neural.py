@@ -346,8 +346,8 @@ class NeuralFusion:
         # that start: seed001's TAN and DNS start 50-80 s in; §1.14)
         after, since, absent = self.config.absent_after, state.since, flags
         if after is not None:
-            last = np.full(flags.shape, -1) if since is None else since
-            since = np.where(meas.usable, 0, np.where(last < 0, -1, last + 1))
+            assert since is not None  # kept from init with the option
+            since = np.where(meas.usable, 0, np.where(since < 0, -1, since + 1))
             absent = flags | (since > after)
         xf, Pf, u = self._fuse(xs, Ps, free, absent)
         feats = np.swapaxes(u, 1, 2).reshape(u.shape[0], -1) if self.collect else None
