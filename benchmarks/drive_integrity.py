@@ -69,6 +69,13 @@ CASES: list[tuple[str, Fault | list[Fault] | None, tuple[float, float, float] | 
     ("gyro z 0.5 deg/s in an outage", ("gyro-z", 242.0, 290.0, 0.5), (15.0, 60.0, 40.0)),
     # the fixes 5 m off the alignment from the first one (docs/integrity.md §1.16)
     ("5 m from the first fix, 30 s", ("bias", 0.0, 30.0, 5.0), None),
+    # a wrong fix after re-acquisition: back 5 m off after a 60 s outage, for 30 s
+    # (docs/integrity.md §1.19)
+    (
+        "5 m off after a 60 s outage, 30 s",
+        [("outage", START, START + 60.0, 0.0), ("bias", START + 60.0, START + 90.0, 5.0)],
+        None,
+    ),
     # the receiver's velocities (every aid only): a 1 m/s north step, and a fault of the
     # whole receiver that stays consistent (its positions ramp at 0.1 m/s while its
     # velocities are 0.1 m/s off: what a slowly drifting solution looks like)
@@ -107,7 +114,7 @@ def main() -> None:
                     faults.append(f"gnss-vel:{kind[4:]}:{t0 + a}:{t0 + b}:{metres}")
                     continue
                 spec = f"gnss:{kind}:{t0 + a}:{t0 + b}"
-                faults.append(spec if kind == "stuck" else f"{spec}:{metres}")
+                faults.append(spec if kind in ("stuck", "outage") else f"{spec}:{metres}")
             res = process_recording(
                 "rtklib-drive", methods=METHODS, aids=aids, faults=faults, outages=outages
             )

@@ -58,6 +58,7 @@ CASES = {
     # found by probing (docs/integrity.md §1.15, §1.17, §5)
     "heading gyro 10 deg/h": _fault("sins", "gyro-bias", 300, 500, [0, 0, 10]),
     "pitch gyro 10 deg/h": _fault("sins", "gyro-bias", 300, 500, [10, 0, 0]),
+    "roll gyro 10 deg/h": _fault("sins", "gyro-bias", 300, 500, [0, 10, 0]),
     "gnss height ramp 0.1 m/s": _fault("gnss", "ramp", 300, 500, [0, 0, 20, 0, 0, 0]),
 }
 #: two aids faulty at once (independent faults: no common mode)

@@ -124,7 +124,13 @@ and decides the method's isolation from its detector's flags:
    that sum in every row it moves, rows no other measuring aid reads directly, is
    *home* (:meth:`Guard._home`): the estimate follows the jump back in the measured
    quantity and takes the aid, relaxed (the drive's 2 m GNSS step for 60 s: its end was
-   held 40 s, 0.93 m after the fault against ``ckf``'s 0.10 m; now 0.06 m).  And a held
+   held 40 s, 0.93 m after the fault against ``ckf``'s 0.10 m; now 0.06 m).  A hold with
+   no jump that ends relaxed with its innovation beyond chance keeps that innovation,
+   the offset the relaxed update takes, as its sum, taken, for the same jump back: the
+   hold of an aid's first fixes after an outage has no jump (the coast's drift allowance
+   covers the increment over the gap), whatever offset they came back with (the
+   drive's fixes back 5 m off after a 60 s outage: the jump back was held for the
+   patience).  And a held
    aid beside aids of its rate only (a position beside velocities, an odometer, the
    vehicle constraints) that keeps one constant offset from the estimate for
    ``lasting_s`` has its offset taken (:meth:`Guard._lasting`): its innovation compared
@@ -170,7 +176,16 @@ and decides the method's isolation from its detector's flags:
    the held aid's measurement) and under "the estimate is right".  The log-likelihood
    ratios are summed over the hold as Page's CUSUM; past ``ln(1/pfa)`` (the guard's
    false-alarm probability), once the hold has lasted the patience, the other aids back
-   the held one, and it is re-admitted, relaxed.  A faulty aid's update moves the
+   the held one, and it is re-admitted, relaxed.  Backed by aids not held, the whole
+   covariance of the fused estimate is first faded to cover its innovation (as 7's
+   device: the estimate drifted, and the biases that drove the drift must be learned,
+   not only the quantity the aid measures; covered along the aid's rows only,
+   ``seed002``'s star tracker under a 10 °/h pitch-gyro step was flagged again within
+   10 s of each backing, five holds over the step, 0.85 and 1.36 m after it against
+   ``ckf``'s 0.55 and 0.64).  Not where two held aids back each other: the other may be
+   the faulty one, and a faded estimate follows it when it is let back (``slowramp``'s
+   odometer 1 m/s off for 400 s held the healthy fix to the end).  A faulty aid's update
+   moves the
    estimate away from what they measure (the sum stays at zero); an aid they cannot
    judge gets no backing (``seed002``'s GNSS beside its star tracker).  Where two
    aids of different devices are held at once (a SINS fault flags one after the other),
@@ -349,6 +364,8 @@ class GuardState(NamedTuple):
     settling : epochs since the aid's last relaxed re-admission (-1: none): its pulls over
         the fine window after it are the re-convergence (module docstring, 1).
     age : epochs into the current coarse block (the fine one: modulo its length).
+    gap : the hold began at the aid's first measurement after a gap of at least the
+        patience (an outage); kept while it holds.
     """
 
     pulls: tuple[sep.Pulls, ...]
@@ -387,6 +404,7 @@ class GuardState(NamedTuple):
     deferred: np.ndarray
     applied: np.ndarray
     settling: np.ndarray
+    gap: np.ndarray
 
 
 class GuardOutput(NamedTuple):
@@ -412,8 +430,9 @@ class GuardOutput(NamedTuple):
         (module docstring, 7); a relaxed re-admission as well.
     faded : re-admitted past its patience where the other sensors respond to its rows
         only as a state it does not read would make them (:meth:`Guard._confounded`)
-        and those rows went unheld, or come home there: the whole covariance faded to
-        cover it (module docstring, 3); a relaxed re-admission too.
+        and those rows went unheld, or come home there, or backed by aids not held
+        (module docstring, 6): the whole covariance faded to cover it (module
+        docstring, 3); a relaxed re-admission too.
     """
 
     statistic: np.ndarray
@@ -536,6 +555,14 @@ def devices_of(sensors: Sequence[Sensor]) -> tuple[str, ...]:
     aids are one device, and so are two sensors of one model), else the aid itself.
     Aids of one device may fail together, so they do not back each other."""
     return tuple(s.device if s.device is not None else f"aid:{s.name}" for s in sensors)
+
+
+def _put(
+    arrays: tuple[np.ndarray, ...], a: int, where: np.ndarray, value: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """``arrays`` with aid ``a``'s (B, …) replaced by ``value`` where ``where`` (B,)."""
+    w = where.reshape(where.shape + (1,) * (value.ndim - 1))
+    return tuple(np.where(w, value, x) if i == a else x for i, x in enumerate(arrays))
 
 
 @lru_cache(maxsize=1024)
@@ -882,6 +909,7 @@ class Guard:
             zb.copy(),
             zb.copy(),
             zi.copy() - 1,
+            zb.copy(),
         )
 
     @staticmethod
@@ -1309,6 +1337,16 @@ class Guard:
         # (independent locals keep no pulls: a hold of theirs takes no jump)
         taken = (settled & ~steady & (state.jumps > 0) & self.rollback & ~device) | lasting
         faded &= settled & ~device & ~undone
+        # a backed aid: the estimate drifted, so the whole covariance is faded to cover
+        # the aid's innovation (:meth:`record`), as a device back whole's.  The fused
+        # estimate only (a no-reset local faded so lost its weight in the fusion:
+        # seed001's no-reset federated methods moved both ways, 18.8 -> 21.0 m and
+        # 17.7 -> 15.0 m), and only an aid backed by aids not held: where two held aids
+        # back each other, the other may be the faulty one, and the faded estimate then
+        # followed it when it was let back (slowramp's odometer 1 m/s off for 400 s: the
+        # CUSUM method held its healthy fix to the end, 77.8 m against 0.30)
+        lone = (state.hold.sum(1, keepdims=True) - state.hold) == 0
+        faded |= backed & lone & ~undone & ~device & self.rollback
         returned &= ~undone & ~settled
         release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
         relaxed = (release & ~undone & ~strict) | settled | returned
@@ -1588,6 +1626,25 @@ class Guard:
             kept_own = np.stack([(own_jump[a] != 0).any(-1) for a in range(N)], 1)
             jumps = np.where(device, kept_own.astype(jumps.dtype), jumps)
             taken_sum = tuple(np.where(d3[:, a], own_jump[a], taken_sum[a]) for a in range(N))
+        # a hold begun at an aid's first measurement after an outage has no jump (the
+        # coast's drift allowance covers the increment over the gap), whatever offset it
+        # came back with.  Ended relaxed, its innovation beyond chance, the relaxed update
+        # takes that offset as the aid's level: it is kept as the sum, taken, as a jump's
+        # hold keeps its jump, and the jump back at the fault's end comes home at once
+        # (the drive's fixes back 5 m off after a 60 s outage were taken after the
+        # patience, and the step's end was then held for the patience again: 0.20 m
+        # after it against ckf's 0.03).  Only there: after any hold without a jump, the
+        # slowramp odometer's step held the separation method's fixes to the end
+        offset_taken = relaxed & release & state.gap & (state.jumps == 0) & (jumps == 0)
+        offset_taken &= usable & fresh & ~device & ~undone & self.rollback
+        for a in np.flatnonzero(offset_taken.any(0)).tolist():
+            t = test.aids[a]
+            on = offset_taken[:, a] & (t.nis > self.T1[a])
+            S = kf.symmetrize(t.A + t.R)
+            jump = _put(jump, a, on, t.nu)
+            jump_cov = _put(jump_cov, a, on, S)
+            taken_sum = _put(taken_sum, a, on, t.nu)
+            jumps[:, a] = np.where(on, 1, jumps[:, a])
         # (kept from the flag's onset, which may come before the hold's, through a
         # release and a new hold, until the aid is used again unflagged or back whole)
         on = ~(usable & ~hold & ~det_flag) & ~device
@@ -1636,6 +1693,7 @@ class Guard:
             settling=np.where(
                 relaxed | welcome, 0, np.where(state.settling >= 0, state.settling + 1, -1)
             ),
+            gap=np.where(rising, state.since >= self.patience, state.gap) & hold,
         )
         out = GuardOutput(
             ratio,
