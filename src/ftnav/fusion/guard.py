@@ -124,13 +124,13 @@ and decides the method's isolation from its detector's flags:
    that sum in every row it moves, rows no other measuring aid reads directly, is
    *home* (:meth:`Guard._home`): the estimate follows the jump back in the measured
    quantity and takes the aid, relaxed (the drive's 2 m GNSS step for 60 s: its end was
-   held 40 s, 0.93 m after the fault against ``ckf``'s 0.10 m; now 0.06 m).  A hold with
-   no jump that ends relaxed with its innovation beyond chance keeps that innovation,
-   the offset the relaxed update takes, as its sum, taken, for the same jump back: the
-   hold of an aid's first fixes after an outage has no jump (the coast's drift allowance
-   covers the increment over the gap), whatever offset they came back with (the
-   drive's fixes back 5 m off after a 60 s outage: the jump back was held for the
-   patience).  And a held
+   held 40 s, 0.93 m after the fault against ``ckf``'s 0.10 m; now 0.06 m).  A hold
+   begun at an aid's first measurement after a gap of at least the patience (an outage)
+   has no jump, whatever offset the aid came back with (the coast's drift allowance
+   covers the increment over the gap); ended relaxed with its innovation beyond chance,
+   it keeps that innovation, the offset the relaxed update takes, as its sum, taken, for
+   the same jump back (the drive's fixes back 5 m off after a 60 s outage: the jump back
+   was held for the patience).  And a held
    aid beside aids of its rate only (a position beside velocities, an odometer, the
    vehicle constraints) that keeps one constant offset from the estimate for
    ``lasting_s`` has its offset taken (:meth:`Guard._lasting`): its innovation compared
