@@ -557,12 +557,25 @@ def devices_of(sensors: Sequence[Sensor]) -> tuple[str, ...]:
     return tuple(s.device if s.device is not None else f"aid:{s.name}" for s in sensors)
 
 
-def _put(
-    arrays: tuple[np.ndarray, ...], a: int, where: np.ndarray, value: np.ndarray
-) -> tuple[np.ndarray, ...]:
-    """``arrays`` with aid ``a``'s (B, …) replaced by ``value`` where ``where`` (B,)."""
-    w = where.reshape(where.shape + (1,) * (value.ndim - 1))
-    return tuple(np.where(w, value, x) if i == a else x for i, x in enumerate(arrays))
+def _kept_as_taken(
+    where: np.ndarray,
+    J: Sequence[np.ndarray],
+    C: Sequence[np.ndarray],
+    count: np.ndarray | int,
+    jump: tuple[np.ndarray, ...],
+    jump_cov: tuple[np.ndarray, ...],
+    jumps: np.ndarray,
+    taken: tuple[np.ndarray, ...],
+) -> tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...], np.ndarray, tuple[np.ndarray, ...]]:
+    """The hold's sums where ``where`` (B, N): each aid's jump sum ``J[a]`` (B, m) with its
+    covariance ``C[a]`` (B, m, m) and ``count`` jumps, all of it taken (the estimate
+    moved by it), so the jump back that undoes it comes home (module docstring, 3)."""
+    N = where.shape[1]
+    w = where[:, :, None]
+    jump = tuple(np.where(w[:, a], J[a], jump[a]) for a in range(N))
+    jump_cov = tuple(np.where(w[:, a, :, None], C[a], jump_cov[a]) for a in range(N))
+    taken = tuple(np.where(w[:, a], J[a], taken[a]) for a in range(N))
+    return jump, jump_cov, np.where(where, count, jumps), taken
 
 
 @lru_cache(maxsize=1024)
@@ -1345,15 +1358,15 @@ class Guard:
         # back each other, the other may be the faulty one, and the faded estimate then
         # followed it when it was let back (slowramp's odometer 1 m/s off for 400 s: the
         # CUSUM method held its healthy fix to the end, 77.8 m against 0.30)
-        lone = (state.hold.sum(1, keepdims=True) - state.hold) == 0
-        faded |= backed & lone & ~undone & ~device & self.rollback
+        # (another aid held: also the single-fault rule of the alarms, below)
+        others_held = (state.hold.sum(1, keepdims=True) - state.hold) > 0
+        faded |= backed & ~others_held & ~undone & ~device & self.rollback
         returned &= ~undone & ~settled
         release = state.hold & ((passes >= self.n_off) | undone | settled | returned)
         relaxed = (release & ~undone & ~strict) | settled | returned
         # a re-admission the detector does not agree with yet overrules it until it clears
         overruled = overruled | (release & det_flag)
         # single fault at a time (module docstring, 1 and 4)
-        others_held = (state.hold.sum(1, keepdims=True) - state.hold) > 0
         alarm = np.zeros((B, N), bool)
         if self.detector is not None:
             over = (ratio > 1.0) & ~state.hold & ~others_held
@@ -1620,12 +1633,11 @@ class Guard:
         # 5 m beside noisy velocities: taken with the device, its end then held for the
         # patience, 0.94 m after it against ckf's 0.17)
         if device.any():
-            d3 = device[:, :, None]
-            jump = tuple(np.where(d3[:, a], own_jump[a], jump[a]) for a in range(N))
-            jump_cov = tuple(np.where(d3[:, a, :, None], own_cov[a], jump_cov[a]) for a in range(N))
             kept_own = np.stack([(own_jump[a] != 0).any(-1) for a in range(N)], 1)
-            jumps = np.where(device, kept_own.astype(jumps.dtype), jumps)
-            taken_sum = tuple(np.where(d3[:, a], own_jump[a], taken_sum[a]) for a in range(N))
+            jump, jump_cov, jumps, taken_sum = _kept_as_taken(
+                device, own_jump, own_cov, kept_own.astype(jumps.dtype), jump, jump_cov, jumps,
+                taken_sum,
+            )  # fmt: skip
         # a hold begun at an aid's first measurement after an outage has no jump (the
         # coast's drift allowance covers the increment over the gap), whatever offset it
         # came back with.  Ended relaxed, its innovation beyond chance, the relaxed update
@@ -1637,14 +1649,13 @@ class Guard:
         # slowramp odometer's step held the separation method's fixes to the end
         offset_taken = relaxed & release & state.gap & (state.jumps == 0) & (jumps == 0)
         offset_taken &= usable & fresh & ~device & ~undone & self.rollback
-        for a in np.flatnonzero(offset_taken.any(0)).tolist():
-            t = test.aids[a]
-            on = offset_taken[:, a] & (t.nis > self.T1[a])
-            S = kf.symmetrize(t.A + t.R)
-            jump = _put(jump, a, on, t.nu)
-            jump_cov = _put(jump_cov, a, on, S)
-            taken_sum = _put(taken_sum, a, on, t.nu)
-            jumps[:, a] = np.where(on, 1, jumps[:, a])
+        if offset_taken.any():
+            offset_taken &= np.stack([t.nis for t in test.aids], 1) > self.T1
+            nu = [t.nu for t in test.aids]
+            S = [kf.symmetrize(t.A + t.R) for t in test.aids]
+            jump, jump_cov, jumps, taken_sum = _kept_as_taken(
+                offset_taken, nu, S, 1, jump, jump_cov, jumps, taken_sum
+            )
         # (kept from the flag's onset, which may come before the hold's, through a
         # release and a new hold, until the aid is used again unflagged or back whole)
         on = ~(usable & ~hold & ~det_flag) & ~device

@@ -22,6 +22,7 @@ from scipy.stats import chi2
 from ftnav.core import kalman as kf
 from ftnav.core import vb as vbk
 from ftnav.core.kalman import Gaussian
+from ftnav.fdi.chi2 import chi2_threshold
 from ftnav.fdi.features import whitened_innovation
 from ftnav.fusion.config import Noise, VbNoise
 from ftnav.fusion.protocol import select
@@ -212,7 +213,7 @@ def learned_beside(
     m = z.shape[-1]
     # the centre's prediction of the aid as a noiseless measurement of the local's prior
     q_d = kf.prior_nis(prior.x, prior.P, (H @ centre.x[..., None])[..., 0], H, np.zeros((m, m)))
-    limit = float(chi2.ppf(1.0 - DEPART_PROBABILITY, m))
+    limit = float(chi2_threshold(m, DEPART_PROBABILITY))  # cached: a call per epoch
     beside = adapt & (q_d > limit)
     if beside.any():
         beside &= bank.residual(i, centre, z, adapt, H, None) <= limit
