@@ -49,6 +49,15 @@ SLOW = (
     "tests/reference/test_drive_integrity.py::test_the_end_of_a_fault_too_long_to_roll_back",
     "tests/reference/test_drive_integrity.py::test_positions_with_the_constraints_alone",
     "tests/reference/test_drive_integrity.py::test_beside_the_constraints_alone",
+    # the heaviest whole-drive runs (40-55 s of CPU each), for make test's time on CI
+    "tests/reference/test_drive_integrity.py::test_every_aid_after_the_15_s_outages_no_method_"
+    "is_worse_than_the_plain_filter",
+    "tests/reference/test_drive_integrity.py::test_with_its_velocities_alone_a_ramp_of_the_"
+    "fixes_is_rolled_back_past_a_refusal",
+    "tests/reference/test_drive_integrity.py::test_after_a_slow_ramp_elsewhere_on_the_drive_the_"
+    "rollback_finds_it[250.0]",
+    "tests/reference/test_drive_integrity.py::test_a_fault_of_the_receiver_velocities_never_"
+    "costs_their_positions[ramp-velocity1]",
 )
 
 

@@ -40,6 +40,9 @@ and decides the method's isolation from its detector's flags:
    rollback of the aid's pulls (too large, or a separation alarm's) over the fine window
    after its relaxed re-admission, where it agrees: those pulls are the re-convergence
    of a model the re-admission found wrong, not a drag (``GuardState.settling``).
+   The rollback's move is the estimate's: a held aid's last innovation is taken
+   against the estimate as the rollback left it, so its next increment (rule 3) holds
+   the aid's own move only and the hold's jump sum keeps the jump the aid made.
 2. **Re-admission.**  After ``n_off`` consecutive tests whose innovation passes its χ²
    against the estimate, with the method's detector quiet (the aid was faulty and its
    fault ended); or after ``confirm`` consecutive tests against the alternative, the
@@ -2557,6 +2560,7 @@ class Guard:
                 alt = sep.map_others(alt, s, K, Ha, use, copy=False)
                 x, P = x + d, kf.symmetrize(P - D)
             dx, dP, dP_undo = np.zeros((B, n)), np.zeros((B, n, n)), np.zeros((B, n, n))
+            rolled = np.zeros((B, n))  # the estimate's move by this epoch's rollbacks
             where = np.zeros(B, bool)
             c_alt, G_alt = alt.c, alt.G
             for s, a in enumerate(grp):
@@ -2578,6 +2582,7 @@ class Guard:
                     w = g.windows[:, a]
                     cw, Gw = cw[idx, w], Gw[idx, w]
                     dx += np.where(back[:, None], cw, 0.0)
+                    rolled += np.where(back[:, None], cw, 0.0)
                     dP += np.where(back[:, None, None], Gw, 0.0)
                     cw = np.where(later[:, None], -cw, cw)
                     Gw = np.where(later[:, None, None], -Gw, Gw)
@@ -2728,6 +2733,15 @@ class Guard:
                         Ha = self._matrices(H[a], R[a], B)[0]
                         r = np.nan_to_num(z[a]) - kf.mv(Ha, x)
                         last[a] = np.where(used[:, None], r, last[a])
+                    # a held aid's innovation, against the estimate as the rollback left
+                    # it: the rollback's move is the estimate's, not a jump of the aid's
+                    # (the drive's fixes stepped 3 m east: a healthy window's 1.9 m pull,
+                    # removed at the onset, entered the step's sum as a jump back; the
+                    # sum no longer undid the step, whose end was held for the patience)
+                    held = usable[:, a] & ~used & (rolled != 0.0).any(-1)
+                    if held.any():
+                        Ha = self._matrices(H[a], R[a], B)[0]
+                        last[a] = np.where(held[:, None], last[a] + kf.mv(Ha, rolled), last[a])
                 # the epoch's corrections of the estimate, for each aid's ``moved``: none
                 # after a used aid's residual, all of them after a held aid's innovation
                 d_all = x - priors[gi][0]
