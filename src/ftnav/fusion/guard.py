@@ -40,9 +40,11 @@ and decides the method's isolation from its detector's flags:
    rollback of the aid's pulls (too large, or a separation alarm's) over the fine window
    after its relaxed re-admission, where it agrees: those pulls are the re-convergence
    of a model the re-admission found wrong, not a drag (``GuardState.settling``).
-   The rollback's move is the estimate's: a held aid's last innovation is taken
-   against the estimate as the rollback left it, so its next increment (rule 3) holds
-   the aid's own move only and the hold's jump sum keeps the jump the aid made.
+   The rollback's move is the estimate's: where the hold began at a jump of the aid,
+   its last innovation is taken against the estimate as the rollback left it, so its
+   next increment (rule 3) holds the aid's own move only and the hold's jump sum keeps
+   the jump the aid made (an alarm without a jump keeps the move in its sum, which the
+   patience's taken jump then undoes).
 2. **Re-admission.**  After ``n_off`` consecutive tests whose innovation passes its χ²
    against the estimate, with the method's detector quiet (the aid was faulty and its
    fault ended); or after ``confirm`` consecutive tests against the alternative, the
@@ -2538,6 +2540,7 @@ class Guard:
         amends = []
         rising = out.hold & ~before.hold
         released = before.hold & ~after.hold
+        jumped_now = rising & (after.jumps > before.jumps)  # a hold begun at a jump
         informed = np.zeros(usable.shape, bool)  # held aids used for their noise
         for gi, grp in enumerate(self.groups):
             x, P = priors[gi]
@@ -2733,12 +2736,16 @@ class Guard:
                         Ha = self._matrices(H[a], R[a], B)[0]
                         r = np.nan_to_num(z[a]) - kf.mv(Ha, x)
                         last[a] = np.where(used[:, None], r, last[a])
-                    # a held aid's innovation, against the estimate as the rollback left
-                    # it: the rollback's move is the estimate's, not a jump of the aid's
-                    # (the drive's fixes stepped 3 m east: a healthy window's 1.9 m pull,
-                    # removed at the onset, entered the step's sum as a jump back; the
-                    # sum no longer undid the step, whose end was held for the patience)
-                    held = usable[:, a] & ~used & (rolled != 0.0).any(-1)
+                    # a hold begun at a jump of the aid: its innovation against the
+                    # estimate as the rollback left it, the rollback's move being the
+                    # estimate's, not a second jump of the aid's (the drive's fixes 3 m
+                    # east: a healthy window's 1.9 m pull, removed at the onset, entered
+                    # the step's sum as a jump back; the sum no longer undid the step,
+                    # whose end was held for the patience).  An alarm without a jump
+                    # keeps it in the sum: the jump taken after the patience then undoes
+                    # a rollback the aid never agreed with (the drive's GLR in a turn,
+                    # a false alarm that rolled 1.7 m back: 11 s held, not 17)
+                    held = usable[:, a] & ~used & (rolled != 0.0).any(-1) & jumped_now[:, a]
                     if held.any():
                         Ha = self._matrices(H[a], R[a], B)[0]
                         last[a] = np.where(held[:, None], last[a] + kf.mv(Ha, rolled), last[a])
