@@ -2745,7 +2745,7 @@ class Guard:
                     # keeps it in the sum: the jump taken after the patience then undoes
                     # a rollback the aid never agreed with (the drive's GLR in a turn,
                     # a false alarm that rolled 1.7 m back: 11 s held, not 17)
-                    held = usable[:, a] & ~used & (rolled != 0.0).any(-1) & jumped_now[:, a]
+                    held = usable[:, a] & ~used & jumped_now[:, a]  # (no rollback: + 0)
                     if held.any():
                         Ha = self._matrices(H[a], R[a], B)[0]
                         last[a] = np.where(held[:, None], last[a] + kf.mv(Ha, rolled), last[a])
